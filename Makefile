@@ -1,0 +1,40 @@
+# The two commands of the README:
+#   make serve   set everything up (local .venv) and start contactnet on the default terrain
+#   make test    set everything up and run the whole test suite
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+# Reinstall whenever pyproject.toml changes.
+STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+
+.PHONY: setup serve test test-fast bench clean
+
+$(STAMP): pyproject.toml
+	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "contactnet needs Python >= 3.11"'
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --upgrade --quiet pip
+	$(BIN)/python -m pip install --quiet -e ".[dev]"
+	rm -f $(VENV)/.installed-*
+	touch $@
+
+setup: $(STAMP)
+
+# Until the web server lands (issue 5), `make serve` runs the best demo the package has:
+# validate and draw the default terrain, then stand Solo12 in PyBullet and time it.
+serve: setup
+	$(BIN)/contactnet terrain check stepping_stones
+	$(BIN)/contactnet terrain render stepping_stones --out stepping_stones.png
+	$(BIN)/contactnet bench sim
+
+test: setup
+	$(BIN)/python -m pytest -q
+
+test-fast: setup
+	$(BIN)/python -m pytest -q -m "not slow"
+
+bench: setup
+	$(BIN)/contactnet bench terrain
+	$(BIN)/contactnet bench sim
+
+clean:
+	rm -rf $(VENV) .pytest_cache build *.egg-info

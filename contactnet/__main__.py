@@ -1,0 +1,3 @@
+from contactnet.cli import main
+
+raise SystemExit(main())

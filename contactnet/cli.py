@@ -1,0 +1,202 @@
+"""`contactnet ...`: the command line. Every subcommand of the design is here; user mistakes end in
+one line on stderr and exit code 2, never a traceback."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+EXIT_USER_ERROR = 2
+EXIT_NOT_BUILT = 3
+
+
+class UserError(Exception):
+    """A mistake in what the user asked for: printed as one line, exit code 2."""
+
+
+class NotBuiltError(Exception):
+    """A subcommand whose capability does not exist yet: printed as one line, exit code 3."""
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    from contactnet.robot import RobotDataError
+    from contactnet.terrain import TerrainError
+
+    return (UserError, TerrainError, RobotDataError)
+
+
+# ---- argument types ----------------------------------------------------------------------------
+def _bounded_float(name: str, low: float, high: float):
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (low <= value <= high):  # also rejects nan
+            raise argparse.ArgumentTypeError(f"{name} must be in [{low}, {high}], got {text}")
+        return value
+
+    return parse
+
+
+def _positive_int(name: str, high: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a whole number, got {text!r}") from None
+        if not 0 < value <= high:
+            raise argparse.ArgumentTypeError(f"{name} must be in 1..{high}, got {value}")
+        return value
+
+    return parse
+
+
+# ---- subcommands -------------------------------------------------------------------------------
+def cmd_terrain(args: argparse.Namespace) -> int:
+    from contactnet.terrain import available, resolve
+
+    if args.terrain_cmd == "list":
+        for name in available():
+            print(name)
+        print("random  (generated: --removed N --seed S)")
+        return 0
+    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed)
+    if args.terrain_cmd == "check":
+        print(terrain.summary())
+        return 0
+    if args.terrain_cmd == "render":
+        out = Path(args.out or f"{terrain.name}.png")
+        terrain.render_png(out)
+        print(f"wrote {out}")
+        return 0
+    if args.terrain_cmd == "save":
+        out = Path(args.out)
+        if out.exists() and not args.force:
+            raise UserError(f"{out} exists; pass --force to overwrite it")
+        terrain.save(out)
+        print(f"wrote {out}")
+        return 0
+    raise AssertionError(args.terrain_cmd)
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from contactnet.bench import BENCHMARKS, NOT_BUILT, format_table
+
+    if args.what in NOT_BUILT:
+        raise NotBuiltError(f"bench {args.what}: {NOT_BUILT[args.what]} is not built yet")
+    rows = BENCHMARKS[args.what]()
+    if args.json:
+        print(json.dumps({"benchmark": args.what, "rows": rows}, indent=2))
+    else:
+        print(format_table(rows))
+    return 0
+
+
+def cmd_not_built(what: str, issue: str):
+    def run(args: argparse.Namespace) -> int:
+        raise NotBuiltError(f"{what} is not built yet ({issue})")
+
+    return run
+
+
+# ---- parser ------------------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="contactnet",
+        description="ContactNet: acyclic contact planning for the Solo12 quadruped, simulated in PyBullet.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    serve = sub.add_parser("serve", help="start the web tool (FastAPI + viser)")
+    serve.add_argument("--host", default="127.0.0.1")
+    serve.add_argument("--port", type=int, default=8000)
+    serve.add_argument("--viser-port", type=int, default=8080)
+    serve.add_argument("--terrain", default="stepping_stones")
+    serve.add_argument("--gait", choices=["walk", "trot"], default="walk")
+    serve.add_argument("--planner", choices=["contactnet", "fixed", "heuristic", "oracle"], default="contactnet")
+    serve.set_defaults(func=cmd_not_built("contactnet serve (the web tool)", "issue 5"))
+
+    sim = sub.add_parser("simulate", help="run one simulation headless")
+    sim.add_argument("--terrain", required=True, help="terrain name or JSON path ('random' with --removed)")
+    sim.add_argument("--removed", type=int, default=None, help="squares removed from the random field")
+    sim.add_argument("--seed", type=int, default=0)
+    sim.add_argument("--gait", choices=["walk", "trot"], required=True)
+    sim.add_argument("--planner", choices=["contactnet", "fixed", "heuristic", "oracle"], required=True)
+    sim.add_argument("--vx", type=_bounded_float("--vx", -0.3, 0.3), default=0.05, help="m/s")
+    sim.add_argument("--vy", type=_bounded_float("--vy", -0.3, 0.3), default=0.0, help="m/s")
+    sim.add_argument("--duration", type=_bounded_float("--duration", 0.1, 3600), default=60.0, help="s")
+    sim.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
+                     help="variance of joint-velocity noise, (rad/s)^2")
+    sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
+    sim.add_argument("--record", metavar="FILE.viser")
+    sim.add_argument("--json", action="store_true")
+    sim.set_defaults(func=cmd_not_built("contactnet simulate (the locomotion loop)", "issue 3"))
+
+    datagen = sub.add_parser("datagen", help="generate a training dataset")
+    datagen.add_argument("--gait", choices=["walk", "trot"], required=True)
+    datagen.add_argument("--episodes", type=_positive_int("--episodes", 10**6), default=1500)
+    datagen.add_argument("--out", required=True)
+    datagen.add_argument("--workers", type=_positive_int("--workers", 256))
+    datagen.add_argument("--seed", type=int, default=0)
+    datagen.set_defaults(func=cmd_not_built("contactnet datagen", "issue 4"))
+
+    train = sub.add_parser("train", help="train a ContactNet model")
+    train.add_argument("--gait", choices=["walk", "trot"], required=True)
+    train.add_argument("--data", required=True)
+    train.add_argument("--out", required=True)
+    train.add_argument("--epochs", type=_positive_int("--epochs", 10**6), default=1000)
+    train.set_defaults(func=cmd_not_built("contactnet train", "issue 4"))
+
+    experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
+    experiment.add_argument("name")
+    experiment.add_argument("--trials", type=_positive_int("--trials", 10**5))
+    experiment.add_argument("--workers", type=_positive_int("--workers", 256))
+    experiment.add_argument("--out", required=True)
+    experiment.set_defaults(func=cmd_not_built("contactnet experiment", "issue 4"))
+
+    bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
+    bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain"])
+    bench.add_argument("--json", action="store_true")
+    bench.set_defaults(func=cmd_bench)
+
+    terrain = sub.add_parser("terrain", help="check, render, list and save terrains")
+    tsub = terrain.add_subparsers(dest="terrain_cmd", metavar="ACTION", required=True)
+    tsub.add_parser("list", help="names of the shipped terrains")
+    for action, text in (
+        ("check", "validate a terrain and print its summary"),
+        ("render", "draw a top view to PNG"),
+        ("save", "write a (generated) terrain to a JSON file"),
+    ):
+        t = tsub.add_parser(action, help=text)
+        t.add_argument("terrain", help="terrain name or JSON path ('random' with --removed)")
+        t.add_argument("--removed", type=int, default=None)
+        t.add_argument("--seed", type=int, default=0)
+        if action in ("render", "save"):
+            t.add_argument("--out", required=action == "save")
+        if action == "save":
+            t.add_argument("--force", action="store_true")
+    terrain.set_defaults(func=cmd_terrain)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)  # argparse itself exits 2 with a one-line message on bad options
+    try:
+        return int(args.func(args) or 0)
+    except NotBuiltError as exc:
+        print(f"contactnet: {exc}", file=sys.stderr)
+        return EXIT_NOT_BUILT
+    except _user_errors() as exc:
+        print(f"contactnet: error: {exc}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except KeyboardInterrupt:
+        print("contactnet: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

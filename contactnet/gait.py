@@ -1,0 +1,190 @@
+"""Walk and trot as in the paper: step timing, the candidate foothold grid, and the action index.
+
+An *action* is one step: which leg(s) swing and where each lands. The landing spots are a fixed
+grid of offsets around each leg's *hip reference*: the nominal foot position under the hip, moved
+with the robot (the paper's "fixed offsets from the current hip position"). Offsets are in the
+horizontal body frame (x forward, y left, rotated by the base yaw only).
+
+Action indices (0 .. N_a - 1) map one-to-one to (swing group, one grid cell per swinging leg):
+- walk: 4 groups of one leg, 5 x 5 cells at 5 cm (20 x 20 cm): N_a = 4 * 25 = 100,
+  index = leg * 25 + cell;
+- trot: 2 diagonal pairs, 3 x 3 cells at 5 cm (10 x 10 cm) per leg: N_a = 2 * 9 * 9 = 162,
+  index = pair * 81 + cell_of_first_leg * 9 + cell_of_second_leg.
+A grid cell is `cell = ix * n + iy`, ix counting along +x (back to front), iy along +y (right to left).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from contactnet.robot import LEG_NAMES
+
+FL, FR, HL, HR = range(4)
+
+
+@dataclass(frozen=True)
+class Action:
+    """One decoded action: the legs that swing and each one's foothold offset from its hip reference."""
+
+    index: int
+    group: int
+    legs: tuple[int, ...]
+    cells: tuple[int, ...]
+    offsets_xy: np.ndarray  # (len(legs), 2) metres, horizontal body frame
+
+    @property
+    def leg_names(self) -> tuple[str, ...]:
+        return tuple(LEG_NAMES[leg] for leg in self.legs)
+
+
+@dataclass(frozen=True)
+class GaitSpec:
+    """Timing and candidate grid of one gait. One step horizon = stance, swing, stance nodes."""
+
+    name: str
+    swing_groups: tuple[tuple[int, ...], ...]
+    grid_n: int
+    grid_spacing_m: float = 0.05
+    node_dt_s: float = 0.04
+    n_stance_pre: int = 3
+    n_swing: int = 4
+    n_stance_post: int = 1
+    steps_per_plan: int = 3
+    cyclic_order: tuple[int, ...] = ()  # group order of the fixed cyclic gait (the baseline)
+
+    # ---- timing ----------------------------------------------------------------------------
+    @property
+    def nodes_per_step(self) -> int:
+        return self.n_stance_pre + self.n_swing + self.n_stance_post
+
+    @property
+    def step_duration_s(self) -> float:
+        return self.nodes_per_step * self.node_dt_s
+
+    @property
+    def liftoff_s(self) -> float:
+        """Time of lift-off from the start of a step horizon."""
+        return self.n_stance_pre * self.node_dt_s
+
+    @property
+    def swing_duration_s(self) -> float:
+        return self.n_swing * self.node_dt_s
+
+    @property
+    def horizon_nodes(self) -> int:
+        return self.steps_per_plan * self.nodes_per_step
+
+    def step_contact(self, swing_legs: tuple[int, ...]) -> np.ndarray:
+        """(nodes_per_step, 4) bool: True where a leg is in stance during one step horizon."""
+        contact = np.ones((self.nodes_per_step, 4), dtype=bool)
+        swing = slice(self.n_stance_pre, self.n_stance_pre + self.n_swing)
+        contact[swing, list(swing_legs)] = False
+        return contact
+
+    def horizon_contact(self, swing_legs_per_step: list[tuple[int, ...]]) -> np.ndarray:
+        """(n_steps * nodes_per_step, 4) bool: the contact schedule of consecutive steps."""
+        return np.concatenate([self.step_contact(legs) for legs in swing_legs_per_step], axis=0)
+
+    # ---- candidate grid --------------------------------------------------------------------
+    @property
+    def legs_per_step(self) -> int:
+        return len(self.swing_groups[0])
+
+    @property
+    def cells_per_leg(self) -> int:
+        return self.grid_n * self.grid_n
+
+    @property
+    def actions_per_group(self) -> int:
+        return self.cells_per_leg**self.legs_per_step
+
+    @property
+    def n_actions(self) -> int:
+        return len(self.swing_groups) * self.actions_per_group
+
+    @cached_property
+    def cell_offsets_xy(self) -> np.ndarray:
+        """(cells_per_leg, 2) offsets of the grid cells from the hip reference, metres."""
+        half = (self.grid_n - 1) / 2
+        ix, iy = np.divmod(np.arange(self.cells_per_leg), self.grid_n)
+        offsets = np.stack([ix - half, iy - half], axis=1) * self.grid_spacing_m
+        offsets.flags.writeable = False
+        return offsets
+
+    @cached_property
+    def action_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every action at once: swing mask (N_a, 4) bool and offsets (N_a, 4, 2), zero for stance legs."""
+        swing = np.zeros((self.n_actions, 4), dtype=bool)
+        offsets = np.zeros((self.n_actions, 4, 2))
+        for index in range(self.n_actions):
+            action = self.decode(index)
+            swing[index, list(action.legs)] = True
+            offsets[index, list(action.legs)] = action.offsets_xy
+        swing.flags.writeable = False
+        offsets.flags.writeable = False
+        return swing, offsets
+
+    def decode(self, index: int) -> Action:
+        if not 0 <= index < self.n_actions:
+            raise IndexError(f"{self.name}: action {index} outside 0..{self.n_actions - 1}")
+        group, rest = divmod(int(index), self.actions_per_group)
+        cells = []
+        for _ in range(self.legs_per_step):
+            rest, cell = divmod(rest, self.cells_per_leg)
+            cells.append(cell)
+        cells.reverse()
+        legs = self.swing_groups[group]
+        return Action(
+            index=int(index),
+            group=group,
+            legs=legs,
+            cells=tuple(cells),
+            offsets_xy=self.cell_offsets_xy[cells].copy(),
+        )
+
+    def encode(self, group: int, cells: tuple[int, ...]) -> int:
+        if not 0 <= group < len(self.swing_groups):
+            raise IndexError(f"{self.name}: group {group} outside 0..{len(self.swing_groups) - 1}")
+        if len(cells) != self.legs_per_step or not all(0 <= c < self.cells_per_leg for c in cells):
+            raise IndexError(f"{self.name}: cells {cells} must be {self.legs_per_step} in 0..{self.cells_per_leg - 1}")
+        index = 0
+        for cell in cells:
+            index = index * self.cells_per_leg + int(cell)
+        return group * self.actions_per_group + index
+
+    def group_of_legs(self, legs: tuple[int, ...]) -> int:
+        return self.swing_groups.index(tuple(sorted(legs)))
+
+    def candidates_world(self, hip_ref_xy_world: np.ndarray, yaw_rad: float) -> np.ndarray:
+        """(4, cells_per_leg, 2) world XY of every leg's candidate footholds.
+
+        `hip_ref_xy_world` (4, 2) are the legs' hip references (nominal foot XY) in the world.
+        """
+        c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+        rot = np.array([[c, -s], [s, c]])
+        return np.asarray(hip_ref_xy_world)[:, None, :] + (self.cell_offsets_xy @ rot.T)[None, :, :]
+
+
+WALK = GaitSpec(
+    name="walk",
+    swing_groups=((FL,), (FR,), (HL,), (HR,)),
+    grid_n=5,
+    cyclic_order=(HL, FL, HR, FR),  # the classic crawl: a hind leg, then the front leg on its side
+)
+TROT = GaitSpec(
+    name="trot",
+    swing_groups=((FL, HR), (FR, HL)),
+    grid_n=3,
+    cyclic_order=(0, 1),
+)
+GAITS: dict[str, GaitSpec] = {"walk": WALK, "trot": TROT}
+
+
+def gait_by_name(name: str) -> GaitSpec:
+    try:
+        return GAITS[name]
+    except KeyError:
+        raise ValueError(f"unknown gait {name!r}: choose one of {', '.join(GAITS)}") from None

@@ -1,0 +1,114 @@
+"""The command line: working subcommands work, user mistakes get one line and exit code 2."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from contactnet.cli import EXIT_NOT_BUILT, EXIT_USER_ERROR, main
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "contactnet", *args], capture_output=True, text=True, cwd=REPO, timeout=120
+    )
+
+
+def test_terrain_check_prints_a_summary():
+    result = run_cli("terrain", "check", "terrains/stepping_stones.json")
+    assert result.returncode == 0, result.stderr
+    assert "stepping_stones" in result.stdout
+
+
+def test_terrain_check_by_name_and_random(capsys):
+    assert main(["terrain", "check", "flat"]) == 0
+    assert main(["terrain", "check", "random", "--removed", "80", "--seed", "3"]) == 0
+    assert "random_80_3" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("content", "needle"),
+    [
+        ("{not json", "JSON"),
+        ('{"name": "x", "start": [0, 0], "goal_x": 1}', "regions"),
+        ('{"name": "x", "start": [0, 0], "goal_x": 1, "regions": [{"shape": "blob"}]}', "blob"),
+    ],
+)
+def test_malformed_terrain_is_one_line_and_exit_2(tmp_path, content, needle):
+    bad = tmp_path / "bad.json"
+    bad.write_text(content)
+    result = run_cli("terrain", "check", str(bad))
+    assert result.returncode == EXIT_USER_ERROR
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert "Traceback" not in result.stderr and "bad.json" in lines[0] and needle in lines[0]
+    assert bad.read_text() == content  # nothing touched
+
+
+def test_unknown_terrain_name_is_a_user_error(capsys):
+    assert main(["terrain", "check", "no_such_terrain"]) == EXIT_USER_ERROR
+    assert "no_such_terrain" in capsys.readouterr().err
+
+
+def test_terrain_render_writes_a_png(tmp_path):
+    out = tmp_path / "stones.png"
+    assert main(["terrain", "render", "stepping_stones", "--out", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_terrain_save_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["terrain", "save", "random", "--removed", "10", "--out", str(out)]) == 0
+    before = out.read_text()
+    assert main(["terrain", "save", "flat", "--out", str(out)]) == EXIT_USER_ERROR
+    assert out.read_text() == before
+    assert "exists" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "5"],
+        ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "nan"],
+        ["simulate", "--terrain", "flat", "--gait", "gallop", "--planner", "heuristic"],
+        ["bench", "everything"],
+    ],
+)
+def test_bad_options_exit_2(args, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == EXIT_USER_ERROR
+    assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["serve"],
+        ["datagen", "--gait", "walk", "--out", "x"],
+        ["train", "--gait", "walk", "--data", "x", "--out", "y.pt"],
+        ["experiment", "random", "--out", "x"],
+        ["bench", "planner"],
+    ],
+)
+def test_unbuilt_subcommands_say_so(args, capsys):
+    assert main(args) == EXIT_NOT_BUILT
+    assert "not built yet" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_bench_sim_json():
+    result = run_cli("bench", "sim", "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["benchmark"] == "sim"
+    rows = {row["name"]: row for row in report["rows"]}
+    assert len(rows) == 3
+    for row in rows.values():
+        assert row["median_rtf"] > 0 and row["fell"] is False

@@ -1,0 +1,143 @@
+"""The PyBullet world: Solo12 stands, the sensors read the truth (plus noise when asked), pushes push,
+and the referee sees falls and success."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactnet.sim import Push, SimConfig, Simulator, standing_torques
+from contactnet.terrain import flat, random_field, resolve
+
+
+def stand(sim: Simulator, seconds: float, target: np.ndarray | None = None) -> None:
+    """Hold a joint pose (the nominal stance by default) with the joint PD."""
+    target = sim.robot.joint_standing if target is None else target
+    state = sim.state(with_contacts=False)
+    for _ in range(round(seconds / sim.config.dt_s)):
+        sim.step(standing_torques(state, target))
+        state = sim.state(with_contacts=False)
+
+
+@pytest.fixture
+def flat_sim(robot):
+    with Simulator(robot, flat()) as sim:
+        yield sim
+
+
+def test_pinocchio_and_pybullet_agree_on_the_feet(robot, flat_sim):
+    rng = np.random.default_rng(3)
+    for joints in (robot.joint_standing, robot.joint_standing + rng.uniform(-0.3, 0.3, 12)):
+        state = flat_sim.reset(joint_pos=joints, base_height_m=0.5, base_yaw_rad=0.4)
+        feet_pin = robot.foot_positions_world(state.q_pinocchio())
+        np.testing.assert_allclose(flat_sim.foot_positions_world(), feet_pin, atol=1e-3)
+        np.testing.assert_allclose(state.joint_pos, joints, atol=1e-12)
+
+
+def test_stands_two_seconds_on_flat(flat_sim):
+    stand(flat_sim, 2.0)
+    state = flat_sim.state()
+    assert flat_sim.fall_reason(state) is None
+    assert 0.20 < state.base_pos_world[2] < 0.245
+    assert state.foot_contact.all()
+    weight = flat_sim.robot.mass_kg * flat_sim.config.gravity
+    assert state.foot_force_world[:, 2].sum() == pytest.approx(weight, rel=0.05)
+    assert np.abs(state.rpy[:2]).max() < 0.05
+    np.testing.assert_allclose(state.base_pos_world[:2], flat_sim.terrain.start_xy, atol=0.01)
+
+
+def test_stands_on_the_start_of_stepping_stones(robot):
+    with Simulator(robot, resolve("stepping_stones")) as sim:
+        stand(sim, 2.0)
+        assert sim.fall_reason() is None
+        assert sim.state().foot_contact.all()
+
+
+def test_a_push_moves_the_base_sideways(robot):
+    with Simulator(robot, flat()) as sim:
+        sim.add_push(Push(t0_s=0.2, duration_s=0.3, force_world=(0.0, 8.0, 0.0)))
+        stand(sim, 0.6)
+        pushed = sim.state().base_pos_world
+    with Simulator(robot, flat()) as sim:
+        stand(sim, 0.6)
+        still = sim.state().base_pos_world
+    assert pushed[1] - still[1] > 0.005
+
+
+def test_push_parsing():
+    push = Push.parse("1.5,1,5,-5")
+    assert push == Push(1.5, 1.0, (5.0, -5.0, 0.0))
+    assert push.active(1.5) and push.active(2.49) and not push.active(2.5) and not push.active(1.4)
+    for bad in ("1,2,3", "a,1,1,1", "1,0,1,1", "-1,1,1,1", "1,1,nan,1", "0,1,500,0"):
+        with pytest.raises(ValueError, match="--push"):
+            Push.parse(bad)
+
+
+def test_joint_velocity_noise_has_the_asked_variance_and_is_seeded(robot):
+    def samples(seed):
+        with Simulator(robot, flat(), SimConfig(joint_vel_noise_var=0.01, seed=seed)) as sim:
+            return np.array([sim.state().joint_vel - sim.state().joint_vel_true for _ in range(300)])
+
+    a, b, c = samples(1), samples(1), samples(2)
+    np.testing.assert_array_equal(a, b)
+    assert not np.allclose(a, c)
+    assert a.std() == pytest.approx(0.1, rel=0.1)
+    assert abs(a.mean()) < 0.02
+
+
+def test_falling_into_a_hole_is_a_fall(robot):
+    terrain = random_field(removed=300, seed=0)  # the whole field is a hole
+    with Simulator(robot, terrain) as sim:
+        hole_x = terrain.goal_x - 0.75
+        sim.reset(base_xy=np.array([hole_x, 0.0]))
+        assert sim.fall_reason() is None
+        stand(sim, 0.5)
+        reason = sim.fall_reason()
+        assert reason is not None and "base height" in reason
+
+
+def test_body_contact_and_tilt_are_falls(flat_sim):
+    # Legs folded under the body: the base sinks onto the ground.
+    folded = np.tile([0.0, 1.6, -3.0], 4)
+    flat_sim.reset(joint_pos=folded, base_height_m=0.12)
+    stand(flat_sim, 0.3, target=folded)
+    assert "base_link" in flat_sim.non_foot_contacts()
+    assert flat_sim.fall_reason() is not None
+    # Knees on the ground, base high enough: caught by the non-foot contact alone.
+    kneeling = np.array([0.0, 0.3, -2.4] * 2 + [0.0, -0.3, 2.4] * 2)
+    flat_sim.reset(joint_pos=kneeling, base_height_m=0.4)
+    stand(flat_sim, 0.4, target=kneeling)
+    assert flat_sim.state().base_pos_world[2] > flat_sim.config.fall_base_height_m + 0.03
+    assert flat_sim.fall_reason().startswith("non-foot contact")
+    # Rolled over by 1 rad.
+    flat_sim.reset(base_height_m=0.4)
+    c = flat_sim.client
+    c.resetBasePositionAndOrientation(flat_sim.robot_id, [0, 0, 0.4], c.getQuaternionFromEuler([1.0, 0, 0]))
+    assert "tilted" in flat_sim.fall_reason()
+
+
+def test_success_is_passing_goal_x(robot):
+    terrain = resolve("stepping_stones")
+    with Simulator(robot, terrain) as sim:
+        assert not sim.reached_goal()
+        sim.reset(base_xy=np.array([terrain.goal_x + 0.01, terrain.start_xy[1]]))
+        assert sim.reached_goal()
+
+
+def test_same_seed_same_run(robot):
+    def run():
+        with Simulator(robot, flat(), SimConfig(joint_vel_noise_var=0.01, seed=5)) as sim:
+            sim.add_push(Push(0.1, 0.2, (3.0, 0.0, 0.0)))
+            stand(sim, 0.4)
+            return sim.state().base_pos_world
+
+    np.testing.assert_array_equal(run(), run())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("terrain_name", ["flat", "stepping_stones"])
+def test_stands_ten_seconds(robot, terrain_name):
+    with Simulator(robot, resolve(terrain_name)) as sim:
+        stand(sim, 10.0)
+        assert sim.fall_reason() is None
+        assert np.linalg.norm(sim.state().base_pos_world[:2] - sim.terrain.start_xy) < 0.02
