@@ -1,0 +1,202 @@
+"""The 1 kHz whole-body controller: track the optimizer's CoM motion and forces, swing the feet.
+
+Per tick (`WholeBodyController.torques`), as in the paper's Fig. 3 (after Grimminger et al. 2020):
+1. centroidal feedback: a PD on the CoM position/velocity and on the base orientation/angular
+   velocity gives a corrective wrench, spread over the stance feet (regularized least squares)
+   and added to the optimizer's reference forces; the forces are kept in the friction pyramid;
+2. stance legs: tau = -J^T f (the ground pushes the robot with f);
+3. swing legs: a Cartesian PD that tracks the swing trajectory (semi-ellipse for the horizontal
+   progress, fifth-order polynomial for the height, in the swing frame);
+4. a joint impedance layer: joint damping on every joint;
+5. torques saturated to the motor limit.
+Kinematics and Jacobians come from pinocchio on the measured state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from contactnet.robot import FOOT_FRAMES, TORQUE_LIMIT_NM, Solo12
+
+
+@dataclass(frozen=True)
+class ControllerGains:
+    """Gains of the whole-body controller (SI units)."""
+
+    kp_com: tuple[float, float, float] = (60.0, 60.0, 120.0)  # N/m, per robot (times mass below)
+    kd_com: tuple[float, float, float] = (8.0, 8.0, 10.0)  # N s/m, per kg
+    kp_base_rot: tuple[float, float, float] = (300.0, 300.0, 150.0)  # N m/rad per kg m^2 of inertia
+    kd_base_rot: tuple[float, float, float] = (25.0, 25.0, 15.0)
+    kp_swing: tuple[float, float, float] = (150.0, 150.0, 150.0)  # N/m
+    kd_swing: tuple[float, float, float] = (6.0, 6.0, 6.0)  # N s/m
+    kd_joint: float = 0.02  # N m s/rad, joint damping on every joint
+    force_regularization: float = 1e-3
+    mu: float = 0.6
+    fz_min_n: float = 0.5  # stance feet keep a little load so they do not slip off
+    fz_max_n: float = 25.0
+    torque_limit_nm: float = TORQUE_LIMIT_NM
+
+
+@dataclass(frozen=True)
+class SwingTrajectory:
+    """A foot's swing from `start_world` to `end_world` between t0_s and t1_s, apex `height_m` above
+    the higher of the two points."""
+
+    start_world: np.ndarray
+    end_world: np.ndarray
+    t0_s: float
+    t1_s: float
+    height_m: float = 0.05
+
+    def sample(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity and acceleration (world frame) at time t_s (clamped to the swing)."""
+        duration = self.t1_s - self.t0_s
+        s = float(np.clip((t_s - self.t0_s) / duration, 0.0, 1.0))
+        delta = self.end_world - self.start_world
+        # Horizontal: the projection of a semi-ellipse swept at a constant angular rate.
+        theta = np.pi * s
+        h = 0.5 * (1.0 - np.cos(theta))
+        dh = 0.5 * np.pi * np.sin(theta) / duration
+        ddh = 0.5 * np.pi**2 * np.cos(theta) / duration**2
+        pos = self.start_world + h * delta
+        vel = dh * delta
+        acc = ddh * delta
+        # Vertical: a quintic up to the apex, then a quintic down (zero velocity and acceleration at
+        # lift-off, apex and touchdown), on top of a linear blend of the two end heights.
+        z0, z1 = self.start_world[2], self.end_world[2]
+        apex = max(z0, z1) + self.height_m
+        if s < 0.5:
+            tau, rise, t_half = 2.0 * s, apex - z0, 0.5 * duration
+            base = z0
+            sign = 1.0
+        else:
+            tau, rise, t_half = 2.0 * (1.0 - s), apex - z1, 0.5 * duration
+            base = z1
+            sign = -1.0
+        p5 = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+        dp5 = (30 * tau**2 - 60 * tau**3 + 30 * tau**4) / t_half
+        ddp5 = (60 * tau - 180 * tau**2 + 120 * tau**3) / t_half**2
+        pos[2] = base + rise * p5
+        vel[2] = sign * rise * dp5
+        acc[2] = rise * ddp5
+        return pos, vel, acc
+
+
+@dataclass
+class ControlTarget:
+    """What the controller tracks at one instant (world frame)."""
+
+    com_pos: np.ndarray  # (3,)
+    com_vel: np.ndarray  # (3,)
+    rpy: np.ndarray  # (3,) base roll, pitch, yaw
+    ang_vel: np.ndarray  # (3,)
+    forces: np.ndarray  # (4, 3) reference ground reaction forces (zero for swing legs)
+    stance: np.ndarray  # (4,) bool
+    swing_pos: np.ndarray  # (4, 3) desired foot positions (used for swing legs)
+    swing_vel: np.ndarray  # (4, 3)
+
+
+def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
+    """Rotation matrix of ZYX Euler angles (roll, pitch, yaw)."""
+    cr, sr = np.cos(rpy[0]), np.sin(rpy[0])
+    cp, sp = np.cos(rpy[1]), np.sin(rpy[1])
+    cy, sy = np.cos(rpy[2]), np.sin(rpy[2])
+    return np.array(
+        [
+            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+            [-sp, cp * sr, cp * cr],
+        ]
+    )
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def clip_to_friction_pyramid(forces: np.ndarray, mu: float, fz_min: float, fz_max: float) -> np.ndarray:
+    """Project each (3,) force into {fz_min <= fz <= fz_max, |fx|, |fy| <= mu fz} (axis-wise)."""
+    out = np.array(forces, dtype=float)
+    out[..., 2] = np.minimum(np.maximum(out[..., 2], fz_min), fz_max)
+    limit = mu * out[..., 2:3]
+    out[..., :2] = np.minimum(np.maximum(out[..., :2], -limit), limit)
+    return out
+
+
+class WholeBodyController:
+    """Torques from the measured state and a ControlTarget; one instance per simulation thread."""
+
+    def __init__(self, robot: Solo12, gains: ControllerGains = ControllerGains()):
+        import pinocchio as pin
+
+        self._pin = pin
+        self.robot = robot
+        self.gains = gains
+        self.model = robot.model
+        self.data = robot.model.createData()
+        self.foot_ids = [robot.model.getFrameId(f) for f in FOOT_FRAMES]
+        self.mass = robot.mass_kg
+        self.inertia_diag = np.diag(robot.inertia_com_standing).copy()
+        self._kp_com = np.array(gains.kp_com) * self.mass
+        self._kd_com = np.array(gains.kd_com) * self.mass
+        self._kp_rot = np.array(gains.kp_base_rot) * self.inertia_diag
+        self._kd_rot = np.array(gains.kd_base_rot) * self.inertia_diag
+        self._kp_swing = np.array(gains.kp_swing)
+        self._kd_swing = np.array(gains.kd_swing)
+        self._grasp = np.zeros((6, 12))
+        self._grasp[:3] = np.tile(np.eye(3), 4)
+        # Filled by the last call, for viewers and tests.
+        self.last_forces = np.zeros((4, 3))
+        self.last_foot_pos = np.zeros((4, 3))
+        self.last_com = np.zeros(3)
+
+    def kinematics(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """CoM position, CoM velocity, foot positions (4, 3) and foot Jacobians (4, 3, 18), world frame."""
+        pin, model, data = self._pin, self.model, self.data
+        com = pin.centerOfMass(model, data, q, v)  # also runs forward kinematics with velocities
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        feet = np.array([data.oMf[fid].translation for fid in self.foot_ids])
+        jacobians = np.array([pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3] for fid in self.foot_ids])
+        return np.array(com), np.array(data.vcom[0]), feet, jacobians
+
+    def torques(self, q: np.ndarray, v: np.ndarray, target: ControlTarget) -> np.ndarray:
+        """Joint torques (12,), saturated, for configuration q (19,) and velocity v (18,) (pinocchio)."""
+        g = self.gains
+        com, vcom, feet, jac = self.kinematics(q, v)
+        rot = self.data.oMi[1].rotation  # base orientation (forward kinematics ran above)
+        omega_world = rot @ v[3:6]
+        stance = np.asarray(target.stance, dtype=float)
+
+        # 1. Centroidal feedback wrench, spread over the stance feet by weighted least squares:
+        #    delta = S G^T (G S G^T + eps I)^-1 wrench, with S the stance mask, G the 6 x 12 grasp map.
+        force_fb = self._kp_com * (target.com_pos - com) + self._kd_com * (target.com_vel - vcom)
+        rot_err = self._pin.log3(self._pin.rpy.rpyToMatrix(target.rpy) @ rot.T)
+        torque_fb = self._kp_rot * rot_err + self._kd_rot * (target.ang_vel - omega_world)
+        lever = feet - com
+        grasp = self._grasp
+        grasp[3:, 1::3] = 0.0
+        grasp[3:, 0::3] = np.array([np.zeros(4), lever[:, 2], -lever[:, 1]])
+        grasp[3:, 1::3] = np.array([-lever[:, 2], np.zeros(4), lever[:, 0]])
+        grasp[3:, 2::3] = np.array([lever[:, 1], -lever[:, 0], np.zeros(4)])
+        mask = np.repeat(stance, 3)
+        weighted = grasp * mask
+        lhs = weighted @ grasp.T
+        lhs[np.diag_indices(6)] += g.force_regularization
+        delta = (weighted.T @ np.linalg.solve(lhs, np.concatenate([force_fb, torque_fb]))).reshape(4, 3)
+        forces = clip_to_friction_pyramid(target.forces + delta, g.mu, g.fz_min_n, g.fz_max_n)
+        forces *= stance[:, None]
+
+        # 2-3. Stance legs push with the forces (tau = -J^T f); swing legs track their trajectory.
+        foot_vel = jac @ v  # (4, 3)
+        f_swing = self._kp_swing * (target.swing_pos - feet) + self._kd_swing * (target.swing_vel - foot_vel)
+        foot_force = np.where(stance[:, None] > 0, -forces, f_swing)
+        tau = np.einsum("lij,li->j", jac[:, :, 6:], foot_force) - g.kd_joint * v[6:]  # 4. joint damping
+
+        self.last_forces = forces
+        self.last_foot_pos = feet
+        self.last_com = com
+        limit = g.torque_limit_nm
+        return np.minimum(np.maximum(tau, -limit), limit)  # 5. saturation

@@ -1,0 +1,103 @@
+"""Contact planners: given the robot's state, decide the next steps (which legs swing, where they land).
+
+Every planner answers `plan(context) -> list[PlannedStep]` with `gait.steps_per_plan` (3) steps: the
+first is executed now, the next two complete the optimizer's 960 ms horizon. Planners differ only
+in how they choose; the loop (`locomotion.py`) treats them alike.
+
+- `HeuristicPlanner`: the fixed cyclic gait (walk: HL, FL, HR, FR; trot: alternating diagonal
+  pairs) with Raibert-style footholds. Blind to holes. The baseline, and the loop's planner until
+  ContactNet is trained.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from contactnet.gait import GaitSpec
+from contactnet.terrain import Terrain
+
+
+@dataclass(frozen=True)
+class PlannedStep:
+    """One step: the legs that swing and where each lands (world XY), plus how it was chosen."""
+
+    legs: tuple[int, ...]
+    footholds_xy_world: np.ndarray  # (len(legs), 2)
+    action_index: int | None = None  # index in the gait's action set, when the planner uses it
+    rank: int | None = None  # position of the chosen action in the planner's ranking (0 = best)
+    discarded: int = 0  # candidates ranked better but rejected as unsafe
+    safe: bool = True  # False when the planner knowingly steps where the terrain is unsafe
+
+
+@dataclass(frozen=True)
+class PlanningContext:
+    """What a planner sees when it plans (world frame, SI units)."""
+
+    com_pos_world: np.ndarray  # (3,)
+    com_vel_world: np.ndarray  # (3,)
+    yaw_rad: float
+    foot_pos_world: np.ndarray  # (4, 3) where the feet are now
+    hip_ref_xy_base: np.ndarray  # (4, 2) nominal foot XY in the base frame (candidate grid centres)
+    base_xy_world: np.ndarray  # (2,) base origin (the hip references move with it)
+    vel_cmd_xy: np.ndarray  # (2,) commanded velocity, horizontal body frame
+    terrain: Terrain
+    gait: GaitSpec
+
+    def vel_cmd_world(self) -> np.ndarray:
+        return rotate_xy(self.vel_cmd_xy, self.yaw_rad)
+
+    def hip_ref_world(self, base_xy_world: np.ndarray) -> np.ndarray:
+        """(4, 2) hip references (nominal foot XY) when the base origin is at base_xy_world."""
+        return base_xy_world + rotate_xy(self.hip_ref_xy_base, self.yaw_rad)
+
+
+def rotate_xy(xy: np.ndarray, yaw_rad: float) -> np.ndarray:
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    xy = np.asarray(xy, dtype=float)
+    return np.stack([c * xy[..., 0] - s * xy[..., 1], s * xy[..., 0] + c * xy[..., 1]], axis=-1)
+
+
+def touchdown_times_s(gait: GaitSpec) -> np.ndarray:
+    """Time of each planned step's touchdown, from the start of the plan, (steps_per_plan,)."""
+    touchdown_in_step = (gait.n_stance_pre + gait.n_swing) * gait.node_dt_s
+    return np.arange(gait.steps_per_plan) * gait.step_duration_s + touchdown_in_step
+
+
+@dataclass
+class HeuristicPlanner:
+    """Fixed cyclic gait with Raibert footholds: land under the hip's mid-stance position plus a
+    velocity-error correction. It never looks at the terrain (the baseline the paper beats)."""
+
+    gait: GaitSpec
+    raibert_gain: float = 0.03  # s: extra step per m/s of velocity error
+    max_offset_m: float = 0.12  # clamp of the foothold around the hip reference
+    _next_group: int = field(default=0, init=False)
+
+    name = "heuristic"
+
+    def reset(self) -> None:
+        self._next_group = 0
+
+    def stance_duration_s(self) -> float:
+        """How long a leg stays down in the cyclic gait (one cycle minus its swing)."""
+        cycle = len(self.gait.cyclic_order) * self.gait.step_duration_s
+        return cycle - self.gait.swing_duration_s
+
+    def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
+        gait = self.gait
+        vel_cmd = ctx.vel_cmd_world()
+        vel_err = ctx.com_vel_world[:2] - vel_cmd
+        half_stance = 0.5 * self.stance_duration_s()
+        steps = []
+        for j, t_td in enumerate(touchdown_times_s(gait)):
+            group = gait.cyclic_order[(self._next_group + j) % len(gait.cyclic_order)]
+            legs = gait.swing_groups[group]
+            base_td = ctx.base_xy_world + vel_cmd * t_td
+            hip_td = ctx.hip_ref_world(base_td)[list(legs)]
+            offset = vel_cmd * half_stance + (self.raibert_gain * vel_err if j == 0 else 0.0)
+            offset = np.clip(offset, -self.max_offset_m, self.max_offset_m)
+            steps.append(PlannedStep(legs=legs, footholds_xy_world=hip_td + offset))
+        self._next_group = (self._next_group + 1) % len(gait.cyclic_order)
+        return steps
