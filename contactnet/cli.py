@@ -95,6 +95,55 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def make_planner(name: str, gait):
+    from contactnet.planner import HeuristicPlanner
+
+    if name == "heuristic":
+        return HeuristicPlanner(gait)
+    raise NotBuiltError(f"the {name!r} planner is not built yet (issue 4); use --planner heuristic")
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from contactnet.gait import gait_by_name
+    from contactnet.locomotion import Locomotion
+    from contactnet.robot import Solo12
+    from contactnet.sim import Push, SimConfig
+    from contactnet.terrain import resolve
+
+    if args.record:
+        raise NotBuiltError("--record is not built yet (issue 5)")
+    try:
+        pushes = [Push.parse(text) for text in args.push]
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed)
+    gait = gait_by_name(args.gait)
+    planner = make_planner(args.planner, gait)
+    sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed)
+    with Locomotion(Solo12.load(), terrain, gait, planner, sim_config, vel_cmd_xy=(args.vx, args.vy)) as loco:
+        for push in pushes:
+            loco.push(push)
+        chunk_s = 0.32
+        with tqdm(total=round(args.duration, 2), unit="sim s", file=sys.stderr, disable=None, leave=False) as bar:
+            while loco.t_s < args.duration - 1e-9 and not loco.done:
+                before = loco.t_s
+                loco.run_for(min(chunk_s, args.duration - loco.t_s))
+                bar.update(round(loco.t_s - before, 3))
+        result = loco.summary()
+    if args.json:
+        print(json.dumps(result))
+    else:
+        outcome = "SUCCESS" if result["success"] else ("FELL: " + str(result["fall_reason"]) if result["fell"] else "did not reach the goal")
+        print(
+            f"{outcome}; x = {result['reached_x']:.3f} m after {result['sim_time_s']:.2f} s simulated "
+            f"({result['sim_time_s'] / max(result['wall_time_s'], 1e-9):.1f}x real time), {result['steps']} steps; "
+            f"planner {result['planner_ms']['median']:.3f} ms, optimizer {result['trajopt_ms']['median']:.2f} ms (medians)"
+        )
+    return 0
+
+
 def cmd_not_built(what: str, issue: str):
     def run(args: argparse.Namespace) -> int:
         raise NotBuiltError(f"{what} is not built yet ({issue})")
@@ -133,7 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--record", metavar="FILE.viser")
     sim.add_argument("--json", action="store_true")
-    sim.set_defaults(func=cmd_not_built("contactnet simulate (the locomotion loop)", "issue 3"))
+    sim.set_defaults(func=cmd_simulate)
 
     datagen = sub.add_parser("datagen", help="generate a training dataset")
     datagen.add_argument("--gait", choices=["walk", "trot"], required=True)

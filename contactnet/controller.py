@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg.lapack import dposv
 
 from contactnet.robot import FOOT_FRAMES, TORQUE_LIMIT_NM, Solo12
 
@@ -53,7 +54,7 @@ class SwingTrajectory:
     def sample(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration (world frame) at time t_s (clamped to the swing)."""
         duration = self.t1_s - self.t0_s
-        s = float(np.clip((t_s - self.t0_s) / duration, 0.0, 1.0))
+        s = min(max((t_s - self.t0_s) / duration, 0.0), 1.0)
         delta = self.end_world - self.start_world
         # Horizontal: the projection of a semi-ellipse swept at a constant angular rate.
         theta = np.pi * s
@@ -145,6 +146,7 @@ class WholeBodyController:
         self._kd_rot = np.array(gains.kd_base_rot) * self.inertia_diag
         self._kp_swing = np.array(gains.kp_swing)
         self._kd_swing = np.array(gains.kd_swing)
+        self._regularization = gains.force_regularization * np.eye(6)
         self._grasp = np.zeros((6, 12))
         self._grasp[:3] = np.tile(np.eye(3), 4)
         # Filled by the last call, for viewers and tests.
@@ -181,11 +183,10 @@ class WholeBodyController:
         grasp[3:, 0::3] = np.array([np.zeros(4), lever[:, 2], -lever[:, 1]])
         grasp[3:, 1::3] = np.array([-lever[:, 2], np.zeros(4), lever[:, 0]])
         grasp[3:, 2::3] = np.array([lever[:, 1], -lever[:, 0], np.zeros(4)])
-        mask = np.repeat(stance, 3)
-        weighted = grasp * mask
-        lhs = weighted @ grasp.T
-        lhs[np.diag_indices(6)] += g.force_regularization
-        delta = (weighted.T @ np.linalg.solve(lhs, np.concatenate([force_fb, torque_fb]))).reshape(4, 3)
+        weighted = (grasp.reshape(6, 4, 3) * stance[None, :, None]).reshape(6, 12)
+        lhs = weighted @ grasp.T + self._regularization
+        _, solved, _ = dposv(lhs, np.concatenate([force_fb, torque_fb]))  # lhs is SPD (regularized)
+        delta = (weighted.T @ solved).reshape(4, 3)
         forces = clip_to_friction_pyramid(target.forces + delta, g.mu, g.fz_min_n, g.fz_max_n)
         forces *= stance[:, None]
 
@@ -193,7 +194,7 @@ class WholeBodyController:
         foot_vel = jac @ v  # (4, 3)
         f_swing = self._kp_swing * (target.swing_pos - feet) + self._kd_swing * (target.swing_vel - foot_vel)
         foot_force = np.where(stance[:, None] > 0, -forces, f_swing)
-        tau = np.einsum("lij,li->j", jac[:, :, 6:], foot_force) - g.kd_joint * v[6:]  # 4. joint damping
+        tau = jac.reshape(12, -1)[:, 6:].T @ foot_force.ravel() - g.kd_joint * v[6:]  # 4. joint damping
 
         self.last_forces = forces
         self.last_foot_pos = feet

@@ -160,6 +160,9 @@ class Locomotion:
         self.reached_goal = False
         self._state = self.sim.state()
         self._last_target: ControlTarget | None = None
+        self.start_xy = self._state.base_pos_world[:2].copy()
+        self.max_abs_yaw_rad = 0.0
+        self.wall_time_s = 0.0
 
     def set_command(self, vx: float, vy: float) -> None:
         """Commanded velocity (m/s) in the horizontal body frame; takes effect at the next plan."""
@@ -184,13 +187,18 @@ class Locomotion:
                 return
             self._tick_once()
 
-    def run(self, duration_s: float, stop_at_goal: bool = True) -> dict:
-        """Run until duration, a fall, or (by default) the goal; return the `simulate --json` summary."""
+    def run_for(self, duration_s: float, stop_at_goal: bool = True) -> None:
+        """Simulate duration_s more seconds, stopping early at a fall or (by default) at the goal."""
         wall0 = time.perf_counter()
-        n = round(duration_s / self.sim.config.dt_s)
-        while self.tick < n and self.fall_reason is None and not (stop_at_goal and self.reached_goal):
+        end = self.tick + round(duration_s / self.sim.config.dt_s)
+        while self.tick < end and self.fall_reason is None and not (stop_at_goal and self.reached_goal):
             self._tick_once()
-        return self.summary(wall_time_s=time.perf_counter() - wall0)
+        self.wall_time_s += time.perf_counter() - wall0
+
+    def run(self, duration_s: float, stop_at_goal: bool = True) -> dict:
+        """Run from now until duration_s of simulated time in total; return the summary."""
+        self.run_for(max(0.0, duration_s - self.t_s), stop_at_goal)
+        return self.summary()
 
     def _tick_once(self) -> None:
         phase = self.tick % self.ticks_per_step
@@ -207,6 +215,7 @@ class Locomotion:
         self._state = state = self.sim.state(with_contacts=False)
         if self.tick % self.config.fall_check_every_ticks == 0:
             self.fall_reason = self.sim.fall_reason(state)
+            self.max_abs_yaw_rad = max(self.max_abs_yaw_rad, abs(float(state.rpy[2] - self.yaw_ref_rad)))
         if not self.reached_goal and self.sim.reached_goal(state):
             self.reached_goal = True
 
@@ -332,8 +341,8 @@ class Locomotion:
                 swing_vel=swing_vel,
             )
         u = (t_s - plan.t0_s) / gait.node_dt_s
-        k = int(np.clip(np.floor(u), 0, len(solution.forces_world) - 1))
-        a = float(np.clip(u - k, 0.0, 1.0))
+        k = min(max(int(u // 1), 0), len(solution.forces_world) - 1)
+        a = min(max(u - k, 0.0), 1.0)
         x = (1 - a) * solution.x[k] + a * solution.x[k + 1]
         forces = solution.forces_world[k] * stance[:, None]
         return ControlTarget(
@@ -372,15 +381,17 @@ class Locomotion:
             steps=len(self.records),
         )
 
-    def summary(self, wall_time_s: float) -> dict:
-        """The `contactnet simulate --json` object (see DESIGN.md)."""
+    def summary(self) -> dict:
+        """The `contactnet simulate --json` object (DESIGN.md), plus a few diagnostics at the end."""
         ranks = [r.rank for r in self.records if r.rank is not None]
+        sim_time = float(self.sim.t_s)
+        displacement = self._state.base_pos_world[:2] - self.start_xy
         return {
             "success": bool(self.reached_goal and self.fall_reason is None),
             "fell": self.fall_reason is not None,
             "reached_x": float(self._state.base_pos_world[0]),
-            "sim_time_s": float(self.sim.t_s),
-            "wall_time_s": float(wall_time_s),
+            "sim_time_s": sim_time,
+            "wall_time_s": float(self.wall_time_s),
             "steps": len(self.records),
             "gait_sequence": [list(r.legs) for r in self.records],
             "planner_ms": summary_stats(self.planner_times_s),
@@ -388,6 +399,9 @@ class Locomotion:
             "rank_chosen": {"mean": float(np.mean(ranks)) if ranks else 0.0, "max": int(max(ranks)) if ranks else 0},
             "unsafe_landings": sum(not r.safe_landing for r in self.records),
             "fall_reason": self.fall_reason,
+            "mean_velocity_xy": (displacement / sim_time).tolist() if sim_time > 0 else [0.0, 0.0],
+            "max_abs_yaw_rad": self.max_abs_yaw_rad,
+            "trajopt_failures": self.trajopt_failures,
         }
 
     def close(self) -> None:

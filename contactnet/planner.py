@@ -71,7 +71,7 @@ class HeuristicPlanner:
     velocity-error correction. It never looks at the terrain (the baseline the paper beats)."""
 
     gait: GaitSpec
-    raibert_gain: float = 0.03  # s: extra step per m/s of velocity error
+    raibert_gain: float = 0.15  # s: extra step per m/s of velocity error (about sqrt(h / g))
     max_offset_m: float = 0.12  # clamp of the foothold around the hip reference
     _next_group: int = field(default=0, init=False)
 

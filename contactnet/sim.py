@@ -166,6 +166,7 @@ class Simulator:
         self.config = config
         self._pb = pybullet
         self.client = client
+        self._cid = client._client  # hot-path calls go to pybullet directly (BulletClient wraps each call)
         self.client.setTimeStep(config.dt_s)
         self.client.setGravity(0.0, 0.0, -config.gravity)
         self.client.setPhysicsEngineParameter(numSolverIterations=config.solver_iterations)
@@ -266,15 +267,17 @@ class Simulator:
 
     def step(self, tau: np.ndarray) -> None:
         """Apply joint torques (N m, pinocchio order; clipped to the motor limit) for one time step."""
-        c = self.client
+        pb, cid = self._pb, self._cid
         limit = self.config.torque_limit_nm
-        tau = np.clip(np.asarray(tau, dtype=float), -limit, limit)
-        c.setJointMotorControlArray(self.robot_id, self.joint_ids, self._pb.TORQUE_CONTROL, forces=tau.tolist())
+        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), -limit), limit)
+        pb.setJointMotorControlArray(
+            self.robot_id, self.joint_ids, pb.TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=cid
+        )
         for push in self.pushes:
             if push.active(self.t_s):
-                pos, _ = c.getBasePositionAndOrientation(self.robot_id)
-                c.applyExternalForce(self.robot_id, -1, push.force_world, pos, self._pb.WORLD_FRAME)
-        c.stepSimulation()
+                pos, _ = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+                pb.applyExternalForce(self.robot_id, -1, push.force_world, pos, pb.WORLD_FRAME, physicsClientId=cid)
+        pb.stepSimulation(physicsClientId=cid)
         self.steps += 1
         self.t_s = self.steps * self.config.dt_s
 
@@ -282,10 +285,10 @@ class Simulator:
     def state(self, with_contacts: bool = True) -> SimState:
         """Read the sensors. `with_contacts=False` skips the foot-contact query (about 15 us) for
         loops that do not need it; contacts then read as all False."""
-        c = self.client
-        pos, quat = c.getBasePositionAndOrientation(self.robot_id)
-        lin, ang = c.getBaseVelocity(self.robot_id)
-        q_tuple, v_tuple, _, _ = zip(*c.getJointStates(self.robot_id, self.joint_ids), strict=True)
+        pb, cid = self._pb, self._cid
+        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+        lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
+        q_tuple, v_tuple, _, _ = zip(*pb.getJointStates(self.robot_id, self.joint_ids, physicsClientId=cid), strict=True)
         q = np.array(q_tuple)
         v_true = np.array(v_tuple)
         v = v_true
@@ -313,7 +316,8 @@ class Simulator:
         contact = np.zeros(4, dtype=bool)
         force = np.zeros((4, 3))
         others: set[int] = set()
-        for point in self.client.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id):
+        points = self._pb.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id, physicsClientId=self._cid)
+        for point in points:
             slot = self._foot_slot.get(point[3])
             if slot is None:
                 others.add(point[3])

@@ -75,6 +75,7 @@ def test_terrain_save_refuses_to_overwrite(tmp_path, capsys):
     "args",
     [
         ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "5"],
+        ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--duration", "-1"],
         ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "nan"],
         ["simulate", "--terrain", "flat", "--gait", "gallop", "--planner", "heuristic"],
         ["bench", "everything"],

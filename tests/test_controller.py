@@ -1,0 +1,121 @@
+"""Whole-body controller: swing trajectories hit their ends at rest, forces stay in the friction
+pyramid, torques are saturated, and the controller holds Solo12 up in PyBullet."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactnet.controller import (
+    ControllerGains,
+    ControlTarget,
+    SwingTrajectory,
+    WholeBodyController,
+    clip_to_friction_pyramid,
+    rpy_to_matrix,
+)
+from contactnet.sim import Push, Simulator, quat_to_matrix
+from contactnet.terrain import flat
+
+
+@pytest.fixture
+def swing():
+    return SwingTrajectory(
+        start_world=np.array([0.2, 0.15, 0.016]), end_world=np.array([0.3, 0.1, 0.036]), t0_s=1.0, t1_s=1.16, height_m=0.05
+    )
+
+
+def test_swing_hits_liftoff_and_touchdown_at_rest(swing):
+    for t, point in ((swing.t0_s, swing.start_world), (swing.t1_s, swing.end_world)):
+        pos, vel, acc = swing.sample(t)
+        np.testing.assert_allclose(pos, point, atol=1e-12)
+        np.testing.assert_allclose(vel, 0.0, atol=1e-9)
+        assert abs(acc[2]) < 1e-6  # the height polynomial also starts and ends without acceleration
+    # Clamped outside the swing.
+    np.testing.assert_allclose(swing.sample(0.0)[0], swing.start_world)
+    np.testing.assert_allclose(swing.sample(5.0)[0], swing.end_world)
+
+
+def test_swing_apex_and_derivatives(swing):
+    mid = swing.sample(0.5 * (swing.t0_s + swing.t1_s))[0]
+    assert mid[2] == pytest.approx(max(swing.start_world[2], swing.end_world[2]) + swing.height_m)
+    np.testing.assert_allclose(mid[:2], 0.5 * (swing.start_world[:2] + swing.end_world[:2]), atol=1e-12)
+    # Velocity is the derivative of position (central differences), acceleration of velocity.
+    dt = 1e-6
+    for t in np.linspace(1.001, 1.159, 17):
+        p0, v0, a0 = swing.sample(t - dt)
+        p1, v1, a1 = swing.sample(t + dt)
+        _, v, a = swing.sample(t)
+        np.testing.assert_allclose((p1 - p0) / (2 * dt), v, atol=1e-4)
+        np.testing.assert_allclose((v1 - v0) / (2 * dt), a, atol=1e-2)
+    # Never below the straight line between the ends.
+    heights = [swing.sample(t)[0][2] for t in np.linspace(1.0, 1.16, 50)]
+    assert min(heights) >= swing.start_world[2] - 1e-12
+
+
+def test_friction_pyramid_projection():
+    forces = np.array([[10.0, -10.0, 5.0], [0.1, 0.2, 10.0], [1.0, 1.0, -3.0], [0.0, 0.0, 100.0]])
+    out = clip_to_friction_pyramid(forces, mu=0.6, fz_min=0.5, fz_max=25.0)
+    assert np.all(out[:, 2] >= 0.5) and np.all(out[:, 2] <= 25.0)
+    assert np.all(np.abs(out[:, :2]) <= 0.6 * out[:, 2:3] + 1e-12)
+    np.testing.assert_allclose(out[1], forces[1])  # inside: untouched
+
+
+def test_rpy_matrix_matches_quaternion():
+    rng = np.random.default_rng(0)
+    import pinocchio as pin
+
+    for _ in range(10):
+        rpy = rng.uniform(-1, 1, 3)
+        matrix = rpy_to_matrix(rpy)
+        quat = pin.Quaternion(pin.rpy.rpyToMatrix(rpy)).coeffs()  # x, y, z, w
+        np.testing.assert_allclose(matrix, quat_to_matrix(quat), atol=1e-12)
+
+
+def standing_target(controller: WholeBodyController, q, v, mass):
+    com, _, feet, _ = controller.kinematics(q, v)
+    return ControlTarget(
+        com_pos=com,
+        com_vel=np.zeros(3),
+        rpy=np.zeros(3),
+        ang_vel=np.zeros(3),
+        forces=np.tile([0.0, 0.0, mass * 9.81 / 4], (4, 1)),
+        stance=np.ones(4, dtype=bool),
+        swing_pos=feet,
+        swing_vel=np.zeros((4, 3)),
+    )
+
+
+def test_torques_are_saturated(robot):
+    controller = WholeBodyController(robot, ControllerGains(torque_limit_nm=0.5))
+    q = robot.q_standing.copy()
+    v = np.zeros(18)
+    target = standing_target(controller, q, v, robot.mass_kg)
+    target.com_pos = target.com_pos + np.array([0.3, 0.0, 0.2])  # a huge error
+    tau = controller.torques(q, v, target)
+    assert np.abs(tau).max() == pytest.approx(0.5)
+
+
+def test_stance_forces_balance_gravity_at_rest(robot):
+    controller = WholeBodyController(robot)
+    q = robot.q_standing.copy()
+    v = np.zeros(18)
+    target = standing_target(controller, q, v, robot.mass_kg)
+    controller.torques(q, v, target)
+    np.testing.assert_allclose(controller.last_forces.sum(axis=0), [0, 0, robot.mass_kg * 9.81], atol=1e-6)
+
+
+def test_holds_the_robot_up_and_recovers_from_a_push(robot):
+    controller = WholeBodyController(robot)
+    with Simulator(robot, flat()) as sim:
+        state = sim.state(with_contacts=False)
+        target = standing_target(controller, state.q_pinocchio(), state.v_pinocchio(), robot.mass_kg)
+        sim.add_push(Push(0.5, 0.5, (5.0, 0.0, 0.0)))
+        max_pitch = 0.0
+        for _ in range(2000):
+            sim.step(controller.torques(state.q_pinocchio(), state.v_pinocchio(), target))
+            state = sim.state(with_contacts=False)
+            max_pitch = max(max_pitch, abs(state.rpy[1]))
+        assert sim.fall_reason() is None
+        assert max_pitch < 0.15
+        np.testing.assert_allclose(controller.last_com[:2], target.com_pos[:2], atol=0.01)
