@@ -42,6 +42,10 @@ class LocomotionConfig:
     swing_height_m: float = 0.05
     reoptimize_every_node: bool = True  # MPC at 25 Hz between plans (the paper: after touchdown only)
     fall_check_every_ticks: int = 10
+    # The CoM reference path integrates the commanded velocity and stays within this distance of
+    # the measured CoM: after a push the optimizer brings the robot back toward its path (a little),
+    # instead of only stopping it where the push left it.
+    ref_leash_m: float = 0.05
     mu: float = 0.6
     trajopt: TrajoptConfig = TrajoptConfig()
     trajopt_weights: TrajoptWeights = TrajoptWeights()
@@ -161,6 +165,8 @@ class Locomotion:
         self._state = self.sim.state()
         self._last_target: ControlTarget | None = None
         self.start_xy = self._state.base_pos_world[:2].copy()
+        com, _, _, _ = self.controller.kinematics(self._state.q_pinocchio(), self._state.v_pinocchio())
+        self.com_xy_ref = com[:2].copy()
         self.max_abs_yaw_rad = 0.0
         self.wall_time_s = 0.0
 
@@ -211,6 +217,7 @@ class Locomotion:
         tau = self.controller.torques(state.q_pinocchio(), state.v_pinocchio(), target)
         self._last_target = target
         self.sim.step(tau)
+        self._advance_reference(self.controller.last_com[:2])
         self.tick += 1
         self._state = state = self.sim.state(with_contacts=False)
         if self.tick % self.config.fall_check_every_ticks == 0:
@@ -218,6 +225,14 @@ class Locomotion:
             self.max_abs_yaw_rad = max(self.max_abs_yaw_rad, abs(float(state.rpy[2] - self.yaw_ref_rad)))
         if not self.reached_goal and self.sim.reached_goal(state):
             self.reached_goal = True
+
+    def _advance_reference(self, com_xy: np.ndarray) -> None:
+        """Move the CoM reference path by one tick of commanded velocity, on a leash to the CoM."""
+        self.com_xy_ref += rotate_xy(self.vel_cmd_xy, self.yaw_ref_rad) * self.sim.config.dt_s
+        lead = self.com_xy_ref - com_xy
+        distance = float(np.hypot(lead[0], lead[1]))
+        if distance > self.config.ref_leash_m:
+            self.com_xy_ref = com_xy + lead * (self.config.ref_leash_m / distance)
 
     # ---- planning --------------------------------------------------------------------------
     def _context(self, state: SimState) -> PlanningContext:
@@ -303,6 +318,7 @@ class Locomotion:
             com_vel_ref_xy=rotate_xy(self.vel_cmd_xy, self.yaw_ref_rad),
             com_height_ref_m=self.terrain.surface_z + self.com_height_ref_m,
             yaw_ref_rad=self.yaw_ref_rad,
+            com_xy_ref_start=self.com_xy_ref.copy(),
         )
         solution = self.optimizer.solve(problem)
         self.trajopt_times_s.append(solution.solve_time_s)
