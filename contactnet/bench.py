@@ -44,7 +44,22 @@ def standing_real_time_factor(
     return {"rtf": sim_seconds / wall, "wall_s": wall, "fell": fell, "base_height_m": height}
 
 
-def bench_sim(runs: int = 5, sim_seconds: float = 4.0) -> list[dict]:
+def walking_real_time_factor(gait_name: str, sim_seconds: float = 6.4, vx: float = 0.1) -> dict:
+    """The whole stack (heuristic planner, optimizer, 1 kHz controller, PyBullet) walking on flat."""
+    from contactnet.gait import gait_by_name
+    from contactnet.locomotion import Locomotion
+    from contactnet.planner import HeuristicPlanner
+    from contactnet.robot import Solo12
+    from contactnet.terrain import resolve
+
+    gait = gait_by_name(gait_name)
+    with Locomotion(Solo12.load(), resolve("flat"), gait, HeuristicPlanner(gait), vel_cmd_xy=(vx, 0.0)) as loco:
+        result = loco.run(sim_seconds)
+    return {"rtf": result["sim_time_s"] / result["wall_time_s"], "fell": result["fell"],
+            "trajopt_median_ms": result["trajopt_ms"]["median"], "planner_median_ms": result["planner_ms"]["median"]}
+
+
+def bench_sim(runs: int = 5, sim_seconds: float = 4.0, stack_runs: int = 3) -> list[dict]:
     """Real-time factor of the standing simulation (joint PD at 1 kHz on `flat`).
 
     Rows: sphere feet (ours), sphere feet with foot-contact sensing every step, and the URDF's
@@ -64,7 +79,24 @@ def bench_sim(runs: int = 5, sim_seconds: float = 4.0) -> list[dict]:
             rtfs[name].append(result["rtf"])
             fell[name] |= result["fell"]
     reference = float(np.median(rtfs["mesh feet (reference)"]))
-    return [
+    stack_rows = []
+    for gait_name in ("walk", "trot"):
+        results = [walking_real_time_factor(gait_name) for _ in range(stack_runs)]
+        values = [r["rtf"] for r in results]
+        stack_rows.append(
+            {
+                "name": f"whole stack: {gait_name} 0.1 m/s on flat, heuristic planner",
+                "median_rtf": float(np.median(values)),
+                "min_rtf": float(np.min(values)),
+                "max_rtf": float(np.max(values)),
+                "vs_mesh_feet": float(np.median(values)) / reference,
+                "runs": stack_runs,
+                "sim_s_per_run": 6.4,
+                "fell": any(r["fell"] for r in results),
+                "trajopt_median_ms": float(np.median([r["trajopt_median_ms"] for r in results])),
+            }
+        )
+    return stack_rows + [
         {
             "name": f"standing on flat, {name}, 1 kHz",
             "median_rtf": float(np.median(values)),
@@ -77,6 +109,12 @@ def bench_sim(runs: int = 5, sim_seconds: float = 4.0) -> list[dict]:
         }
         for name, values in rtfs.items()
     ]
+
+
+def bench_trajopt() -> list[dict]:
+    from contactnet.trajopt import benchmark
+
+    return benchmark()
 
 
 def time_calls(fn: Callable[[], object], repeats: int, warmup: int = 10) -> list[float]:
@@ -100,10 +138,10 @@ def bench_terrain(repeats: int = 2000) -> list[dict]:
 BENCHMARKS: dict[str, Callable[[], list[dict]]] = {
     "sim": bench_sim,
     "terrain": bench_terrain,
+    "trajopt": bench_trajopt,
 }
 NOT_BUILT = {
     "planner": "the ContactNet planner (issue: ContactNet ranking, data generation, training)",
-    "trajopt": "the trajectory optimizer (issue: locomotion)",
     "cost": "the ranking cost (issue: ContactNet ranking, data generation, training)",
 }
 

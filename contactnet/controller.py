@@ -149,6 +149,15 @@ class WholeBodyController:
         self._regularization = gains.force_regularization * np.eye(6)
         self._grasp = np.zeros((6, 12))
         self._grasp[:3] = np.tile(np.eye(3), 4)
+        # The lower half of the grasp map holds skew(lever_i) for each foot: linear in the levers.
+        self._skew_map = np.zeros((3, 12, 12))  # (row, column of grasp, lever entry)
+        for leg in range(4):
+            for j in range(3):
+                unit = np.zeros(3)
+                unit[j] = 1.0
+                self._skew_map[:, 3 * leg : 3 * leg + 3, 3 * leg + j] = skew(unit)
+        self._skew_map = self._skew_map.reshape(36, 12)
+        self._leg_of_column = np.repeat(np.arange(4), 3)
         # Filled by the last call, for viewers and tests.
         self.last_forces = np.zeros((4, 3))
         self.last_foot_pos = np.zeros((4, 3))
@@ -179,11 +188,8 @@ class WholeBodyController:
         torque_fb = self._kp_rot * rot_err + self._kd_rot * (target.ang_vel - omega_world)
         lever = feet - com
         grasp = self._grasp
-        grasp[3:, 1::3] = 0.0
-        grasp[3:, 0::3] = np.array([np.zeros(4), lever[:, 2], -lever[:, 1]])
-        grasp[3:, 1::3] = np.array([-lever[:, 2], np.zeros(4), lever[:, 0]])
-        grasp[3:, 2::3] = np.array([lever[:, 1], -lever[:, 0], np.zeros(4)])
-        weighted = (grasp.reshape(6, 4, 3) * stance[None, :, None]).reshape(6, 12)
+        grasp[3:] = (self._skew_map @ lever.ravel()).reshape(3, 12)
+        weighted = grasp * stance[self._leg_of_column]
         lhs = weighted @ grasp.T + self._regularization
         _, solved, _ = dposv(lhs, np.concatenate([force_fb, torque_fb]))  # lhs is SPD (regularized)
         delta = (weighted.T @ solved).reshape(4, 3)

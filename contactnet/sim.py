@@ -106,8 +106,8 @@ class SimState:
 
     def v_pinocchio(self) -> np.ndarray:
         """(18,) pinocchio velocity: base velocities in the base frame, then measured joint velocities."""
-        rot = quat_to_matrix(self.base_quat_world)
-        return np.concatenate([rot.T @ self.base_lin_vel_world, rot.T @ self.base_ang_vel_world, self.joint_vel])
+        rot_t = quat_to_matrix(self.base_quat_world).T
+        return np.concatenate([rot_t @ self.base_lin_vel_world, rot_t @ self.base_ang_vel_world, self.joint_vel])
 
 
 @contextlib.contextmanager
@@ -125,7 +125,8 @@ def _stdout_silenced():
 
 
 def quat_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
-    x, y, z, w = quat_xyzw
+    """Rotation matrix of a unit quaternion (x, y, z, w)."""
+    x, y, z, w = (float(c) for c in quat_xyzw)
     return np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],

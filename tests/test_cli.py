@@ -96,6 +96,8 @@ def test_bad_options_exit_2(args, capsys):
         ["train", "--gait", "walk", "--data", "x", "--out", "y.pt"],
         ["experiment", "random", "--out", "x"],
         ["bench", "planner"],
+        ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "contactnet"],
+        ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--record", "x.viser"],
     ],
 )
 def test_unbuilt_subcommands_say_so(args, capsys):
@@ -110,6 +112,12 @@ def test_bench_sim_json():
     report = json.loads(result.stdout)
     assert report["benchmark"] == "sim"
     rows = {row["name"]: row for row in report["rows"]}
-    assert len(rows) == 3
+    assert len(rows) == 5
     for row in rows.values():
         assert row["median_rtf"] > 0 and row["fell"] is False
+
+
+def test_bad_push_is_a_user_error(capsys):
+    args = ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--push", "1,2"]
+    assert main(args) == EXIT_USER_ERROR
+    assert "--push" in capsys.readouterr().err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -350,3 +351,23 @@ def test_reference_states_integrate_the_user_velocity() -> None:
     assert np.allclose(ref[-1, 0:2], problem.x0[0:2] + 24 * DT * np.array([0.2, -0.1]))
     assert np.allclose(ref[:, 2], problem.com_height_ref_m) and np.allclose(ref[:, 8], 0.4)
     assert np.allclose(ref[:, [6, 7, 9, 10, 11]], 0.0)
+
+
+def test_reference_start_pulls_the_com_back_to_its_path(optimizers) -> None:
+    """A reference path 4 cm to the left: every solver moves the CoM left, and the fast paths agree."""
+    x0 = moving_state(yaw=0.4)
+    base = example_problem(WALK, (0.05, 0.0), x0=x0)
+    left_world = x0[0:2] + np.array([-np.sin(0.4), np.cos(0.4)]) * 0.04
+    shifted = dataclasses.replace(base, com_xy_ref_start=left_world)
+    ends = {}
+    for solver in ("auto", "qp-ipm", "nlp-ipopt"):
+        opt = optimizers[(solver, 24)]
+        plain, pulled = opt.solve(base, warm_start=False), opt.solve(shifted, warm_start=False)
+        assert plain.success and pulled.success
+        moved = pulled.x[-1, 0:2] - plain.x[-1, 0:2]
+        assert np.dot(moved, left_world - x0[0:2]) / 0.04 > 0.02  # more than half-way to the new path
+        ends[solver] = pulled.x[:, 0:3]
+    np.testing.assert_allclose(ends["qp-ipm"], ends["auto"], atol=1e-5)
+    np.testing.assert_allclose(ends["auto"], ends["nlp-ipopt"], atol=3e-3)
+    batch = optimizers[("qp-ipm", 24)].solve_batch([base, shifted])
+    np.testing.assert_allclose(batch[1].x[:, 0:3], ends["qp-ipm"], atol=1e-6)

@@ -1,0 +1,130 @@
+"""The locomotion loop end to end in PyBullet: Solo12 walks and trots with the heuristic planner,
+survives a push, and falls back safely when the optimizer fails."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contactnet.gait import TROT, WALK
+from contactnet.locomotion import Locomotion
+from contactnet.planner import HeuristicPlanner, PlanningContext
+from contactnet.sim import Push
+from contactnet.terrain import flat, resolve
+from contactnet.trajopt import TrajoptSolution
+
+REPO = Path(__file__).resolve().parent.parent
+SIMULATE_KEYS = {
+    "success", "fell", "reached_x", "sim_time_s", "wall_time_s", "steps", "gait_sequence",
+    "planner_ms", "trajopt_ms", "rank_chosen", "unsafe_landings",
+}
+
+
+def test_heuristic_planner_cycles_legs_and_leads_with_velocity(robot):
+    planner = HeuristicPlanner(WALK)
+    ctx = PlanningContext(
+        com_pos_world=np.array([0.0, 0.0, 0.21]),
+        com_vel_world=np.array([0.1, 0.0, 0.0]),
+        yaw_rad=0.0,
+        foot_pos_world=np.c_[robot.foot_nominal_base[:, :2], np.full(4, 0.016)],
+        hip_ref_xy_base=robot.foot_nominal_base[:, :2],
+        base_xy_world=np.zeros(2),
+        vel_cmd_xy=np.array([0.1, 0.0]),
+        terrain=flat(),
+        gait=WALK,
+    )
+    first = planner.plan(ctx)
+    second = planner.plan(ctx)
+    assert [s.legs for s in first] == [(2,), (0,), (3,)]  # HL, FL, HR
+    assert second[0].legs == (0,)
+    for step in first:
+        hip = robot.foot_nominal_base[step.legs[0], :2]
+        ahead = step.footholds_xy_world[0, 0] - hip[0]
+        assert ahead > 0.1 * 0.28  # the base moves on, and the foot lands ahead of the hip
+        assert abs(step.footholds_xy_world[0, 1] - hip[1]) < 1e-9
+    trot = HeuristicPlanner(TROT).plan(ctx)
+    assert [s.legs for s in trot] == [(0, 3), (1, 2), (0, 3)]
+
+
+def walk_run(robot, gait, seconds, vel=(0.1, 0.0), push=None):
+    with Locomotion(robot, flat(), gait, HeuristicPlanner(gait), vel_cmd_xy=vel) as loco:
+        if push:
+            loco.push(push)
+        result = loco.run(seconds)
+        snapshot = loco.snapshot()
+    return result, snapshot
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
+def test_walks_forward_on_flat(robot, gait):
+    result, snapshot = walk_run(robot, gait, 3.2)
+    assert not result["fell"], result["fall_reason"]
+    assert result["trajopt_failures"] == 0
+    assert 0.07 < result["mean_velocity_xy"][0] < 0.13
+    assert abs(result["mean_velocity_xy"][1]) < 0.02
+    assert result["max_abs_yaw_rad"] < 0.05
+    assert result["steps"] == 10
+    expected = ["HL", "FL", "HR", "FR"] if gait is WALK else ["FL", "HR", "FR", "HL"]
+    legs = [leg for step in result["gait_sequence"] for leg in step]
+    assert legs[: len(expected)] == expected
+    assert snapshot.com_plan.shape == (25, 3) and len(snapshot.planned_steps) == 3
+
+
+@pytest.mark.slow
+def test_walk_survives_a_sideways_push(robot):
+    result, _ = walk_run(robot, WALK, 5.0, vel=(0.05, 0.0), push=Push(1.5, 1.0, (0.0, -5.0, 0.0)))
+    assert not result["fell"], result["fall_reason"]
+
+
+@pytest.mark.slow
+def test_optimizer_failure_falls_back_without_a_crash(robot, monkeypatch):
+    with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), vel_cmd_xy=(0.1, 0.0)) as loco:
+        loco.run(1.0)
+        real_solve = loco.optimizer.solve
+
+        def failing(problem, warm_start=True):
+            solution = real_solve(problem, warm_start)
+            return TrajoptSolution("infeasible", False, float("inf"), solution.x, solution.forces_world, 0.0, 0)
+
+        monkeypatch.setattr(loco.optimizer, "solve", failing)
+        result = loco.run(2.0)
+        assert result["trajopt_failures"] > 10
+        assert not result["fell"], result["fall_reason"]
+        monkeypatch.setattr(loco.optimizer, "solve", real_solve)
+        result = loco.run(3.0)
+        assert not result["fell"], result["fall_reason"]
+
+
+def test_commands_and_snapshot(robot):
+    with Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK)) as loco:
+        loco.advance(50)
+        loco.set_command(0.05, -0.02)
+        snapshot = loco.snapshot()
+        assert snapshot.vel_cmd_xy == (0.05, -0.02)
+        assert snapshot.q.shape == (19,) and snapshot.forces.shape == (4, 3)
+        assert snapshot.t_s == pytest.approx(0.05)
+        # Standing at the start: the commanded forces carry the robot's weight.
+        assert snapshot.forces[:, 2].sum() == pytest.approx(robot.mass_kg * 9.81, rel=0.3)
+
+
+def test_simulate_json_contract():
+    result = subprocess.run(
+        [sys.executable, "-m", "contactnet", "simulate", "--terrain", "flat", "--gait", "trot",
+         "--planner", "heuristic", "--vx", "0.1", "--duration", "1", "--json"],
+        capture_output=True, text=True, cwd=REPO, timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert SIMULATE_KEYS <= set(report)
+    assert report["sim_time_s"] == pytest.approx(1.0)
+    assert report["fell"] is False and report["success"] is False  # flat's goal is 8 m away
+    assert report["steps"] == 4 and report["gait_sequence"][0] == ["FL", "HR"]
+    for key in ("planner_ms", "trajopt_ms"):
+        assert set(report[key]) == {"mean", "median", "p99", "max"}
+        assert 0 < report[key]["median"] <= report[key]["max"]
