@@ -253,6 +253,9 @@ class Locomotion:
             vel_cmd_xy=self.vel_cmd_xy.copy(),
             terrain=self.terrain,
             gait=self.gait,
+            rpy=state.rpy,
+            ang_vel_world=state.base_ang_vel_world.copy(),
+            com_height_ref_m=self.com_height_ref_m,
         )
 
     def _plan_steps(self, state: SimState) -> None:

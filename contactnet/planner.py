@@ -44,6 +44,9 @@ class PlanningContext:
     vel_cmd_xy: np.ndarray  # (2,) commanded velocity, horizontal body frame
     terrain: Terrain
     gait: GaitSpec
+    rpy: np.ndarray = field(default_factory=lambda: np.zeros(3))  # base roll, pitch, yaw
+    ang_vel_world: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    com_height_ref_m: float = 0.215  # nominal CoM height above the surface
 
     def vel_cmd_world(self) -> np.ndarray:
         return rotate_xy(self.vel_cmd_xy, self.yaw_rad)
