@@ -20,11 +20,11 @@ $(STAMP): pyproject.toml
 setup: $(STAMP)
 
 # Until the web server lands (issue 5), `make serve` runs the best demo the package has:
-# validate and draw the default terrain, then stand Solo12 in PyBullet and time it.
+# draw the default terrain, then let Solo12 walk and trot in PyBullet (heuristic planner).
 serve: setup
-	$(BIN)/contactnet terrain check stepping_stones
 	$(BIN)/contactnet terrain render stepping_stones --out stepping_stones.png
-	$(BIN)/contactnet bench sim
+	$(BIN)/contactnet simulate --terrain flat --gait walk --planner heuristic --vx 0.1 --duration 10
+	$(BIN)/contactnet simulate --terrain flat --gait trot --planner heuristic --vx 0.1 --vy 0.05 --duration 10
 
 test: setup
 	$(BIN)/python -m pytest -q
