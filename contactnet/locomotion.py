@@ -153,8 +153,9 @@ class Locomotion:
         self.reset()
 
     # ---- commands --------------------------------------------------------------------------
-    def reset(self) -> None:
-        self.sim.reset()
+    def reset(self, joint_pos: np.ndarray | None = None, joint_vel: np.ndarray | None = None) -> None:
+        """Back to the terrain's start (standing, or the given joint positions and velocities)."""
+        self.sim.reset(joint_pos=joint_pos, joint_vel=joint_vel)
         if hasattr(self.planner, "reset"):
             self.planner.reset()
         self.tick = 0

@@ -1,0 +1,274 @@
+"""Data generation (the paper's Sec. III-B): states a walking robot meets, with the ranking cost of
+every candidate action.
+
+An *episode* starts Solo12 on flat ground in a random configuration (joint positions and
+velocities perturbed around the stance) with a random reference velocity in (-0.1, 0.1) m/s for x
+and y. Before each lift-off the oracle evaluates V for every candidate action and the cheapest is
+executed in the PyBullet loop (plan + optimize + track): one *instance*, recorded as (u_r, V).
+An episode ends after 30 instances or when the robot falls; a fall drops its last 3 instances.
+
+Output: a directory of shards (`shard-00000.npz`: `u` (n, 14), `V` (n, N_a), `episode` (n,)), each
+holding `episodes_per_shard` consecutive episodes, and `manifest.json`. Every episode is seeded
+from (seed, episode index), so the dataset does not depend on how many workers made it. Shards and
+the manifest are written atomically: an interrupted run (Ctrl-C, kill) loses at most the shards in
+progress, and running the same command again resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+import contactnet
+from contactnet.gait import GaitSpec, gait_by_name
+from contactnet.network import INPUT_NAMES, network_input
+from contactnet.planner import PlanningContext
+
+FORMAT = "contactnet-dataset-v1"
+
+
+class DatasetDirError(ValueError):
+    """The output directory holds something that is not this dataset (one-line message)."""
+
+
+@dataclass(frozen=True)
+class DatagenConfig:
+    """The data-generation procedure (defaults: the paper's)."""
+
+    gait: str
+    episodes: int = 1500
+    instances_per_episode: int = 30
+    drop_on_fall: int = 3
+    vel_max_m_s: float = 0.1
+    joint_pos_noise_rad: float = 0.15  # uniform perturbation of each joint around the stance
+    joint_vel_noise_rad_s: float = 0.5  # uniform initial joint velocities
+    episodes_per_shard: int = 5
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        gait_by_name(self.gait)
+        if not 1 <= self.episodes <= 10**6:
+            raise ValueError(f"episodes must be in 1..1000000, got {self.episodes}")
+        if not 1 <= self.episodes_per_shard <= 1000:
+            raise ValueError(f"episodes_per_shard must be in 1..1000, got {self.episodes_per_shard}")
+
+    @property
+    def n_shards(self) -> int:
+        return -(-self.episodes // self.episodes_per_shard)
+
+    def shard_episodes(self, shard: int) -> range:
+        start = shard * self.episodes_per_shard
+        return range(start, min(start + self.episodes_per_shard, self.episodes))
+
+    def settings(self) -> dict:
+        """What must match for a directory to be resumed."""
+        return asdict(self)
+
+
+def shard_name(shard: int) -> str:
+    return f"shard-{shard:05d}.npz"
+
+
+class RecordingPlanner:
+    """Wraps the oracle: records (u_r, V) at every plan, i.e. before every lift-off."""
+
+    def __init__(self, oracle):
+        self.oracle = oracle
+        self.inputs: list[np.ndarray] = []
+        self.costs: list[np.ndarray] = []
+
+    def reset(self) -> None:
+        self.inputs.clear()
+        self.costs.clear()
+        if hasattr(self.oracle, "reset"):
+            self.oracle.reset()
+
+    def plan(self, ctx: PlanningContext):
+        steps = self.oracle.plan(ctx)
+        self.inputs.append(network_input(ctx))
+        self.costs.append(np.asarray(self.oracle.last_costs.V, dtype=np.float64))
+        return steps
+
+
+def make_oracle(gait: GaitSpec, robot):
+    from contactnet.planner import OraclePlanner
+
+    return OraclePlanner(gait, robot.foot_nominal_base[:, :2])
+
+
+def run_episode(loco, recorder: RecordingPlanner, config: DatagenConfig, episode: int) -> dict:
+    """One episode in an existing Locomotion (reset here); returns its arrays and facts."""
+    rng = np.random.default_rng([config.seed, episode])
+    robot = loco.robot
+    joint_pos = robot.joint_standing + rng.uniform(-config.joint_pos_noise_rad, config.joint_pos_noise_rad, 12)
+    joint_vel = rng.uniform(-config.joint_vel_noise_rad_s, config.joint_vel_noise_rad_s, 12)
+    vel_cmd = rng.uniform(-config.vel_max_m_s, config.vel_max_m_s, 2)
+    loco.set_command(*vel_cmd)
+    loco.reset(joint_pos=joint_pos, joint_vel=joint_vel)
+    recorder.reset()
+    step_ticks = loco.ticks_per_step
+    # Run until the instance after the last one would be planned: every recorded step was executed.
+    while len(recorder.inputs) < config.instances_per_episode + 1 and loco.fall_reason is None:
+        loco.advance(step_ticks)
+    n = min(len(recorder.inputs), config.instances_per_episode)
+    fell = loco.fall_reason is not None
+    if fell:
+        n = max(0, len(recorder.inputs) - config.drop_on_fall)
+    return {
+        "u": np.asarray(recorder.inputs[:n], dtype=np.float32).reshape(n, len(INPUT_NAMES)),
+        "V": np.asarray(recorder.costs[:n], dtype=np.float32).reshape(n, loco.gait.n_actions),
+        "fell": fell,
+    }
+
+
+def _write_atomic(path: Path, write) -> None:
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def make_shard(out_dir: str, config: DatagenConfig, shard: int) -> dict:
+    """Worker: generate one shard's episodes and write the shard file. Returns its counts."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    import torch
+
+    torch.set_num_threads(1)
+    from contactnet.locomotion import Locomotion
+    from contactnet.robot import Solo12
+    from contactnet.sim import SimConfig
+    from contactnet.terrain import flat
+
+    robot = Solo12.load()
+    gait = gait_by_name(config.gait)
+    recorder = RecordingPlanner(make_oracle(gait, robot))
+    us, vs, eps, falls = [], [], [], 0
+    t0 = time.perf_counter()
+    with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard)) as loco:
+        for episode in config.shard_episodes(shard):
+            result = run_episode(loco, recorder, config, episode)
+            us.append(result["u"])
+            vs.append(result["V"])
+            eps.append(np.full(len(result["u"]), episode, dtype=np.int32))
+            falls += result["fell"]
+    u, V, episode_ids = np.concatenate(us), np.concatenate(vs), np.concatenate(eps)
+    path = Path(out_dir) / shard_name(shard)
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as file:
+            np.savez_compressed(file, u=u, V=V, episode=episode_ids)
+
+    _write_atomic(path, write)
+    return {"shard": shard, "instances": len(u), "falls": falls, "seconds": time.perf_counter() - t0}
+
+
+def read_manifest(out_dir: Path) -> dict | None:
+    path = out_dir / "manifest.json"
+    if not path.exists():
+        return None
+    try:
+        manifest = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise DatasetDirError(f"{path}: unreadable manifest ({exc})") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+        raise DatasetDirError(f"{path}: not a {FORMAT} manifest")
+    return manifest
+
+
+def write_manifest(out_dir: Path, config: DatagenConfig, shards: dict[int, dict], wall_s: float) -> dict:
+    gait = gait_by_name(config.gait)
+    done = sorted(shards)
+    manifest = {
+        "format": FORMAT,
+        "gait": config.gait,
+        "n_actions": gait.n_actions,
+        "input_names": list(INPUT_NAMES),
+        "shards": [shard_name(s) for s in done],
+        "episodes": sum(len(config.shard_episodes(s)) for s in done),
+        "episodes_planned": config.episodes,
+        "instances": sum(shards[s]["instances"] for s in done),
+        "falls": sum(shards[s]["falls"] for s in done),
+        "complete": len(done) == config.n_shards,
+        "seed": config.seed,
+        "settings": config.settings(),
+        "shard_stats": {shard_name(s): shards[s] for s in done},
+        "wall_time_s": wall_s,
+        "code_version": contactnet.__version__,
+    }
+    path = out_dir / "manifest.json"
+    _write_atomic(path, lambda tmp: tmp.write_text(json.dumps(manifest, indent=1)))
+    return manifest
+
+
+def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = None, progress: bool = True) -> dict:
+    """Generate (or resume) a dataset in out_dir with `workers` processes (default: all cores).
+
+    Ctrl-C stops the workers at once; finished shards stay, listed in the manifest, and the next
+    call with the same settings resumes with the missing shards.
+    """
+    import multiprocessing
+
+    from tqdm import tqdm
+
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise DatasetDirError(f"{out} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    manifest = read_manifest(out)
+    shards: dict[int, dict] = {}
+    wall_before = 0.0
+    if manifest is not None:
+        if manifest.get("settings") != config.settings():
+            raise DatasetDirError(
+                f"{out} holds a dataset made with other settings ({manifest.get('settings')}); "
+                "use another --out, or the same settings to resume"
+            )
+        for name, stats in manifest.get("shard_stats", {}).items():
+            if (out / name).is_file():
+                shards[int(stats["shard"])] = stats
+        wall_before = float(manifest.get("wall_time_s", 0.0))
+    elif any(p for p in out.iterdir() if not p.name.startswith(".")):
+        raise DatasetDirError(f"{out} is not empty and has no dataset manifest; choose an empty --out")
+    todo = [s for s in range(config.n_shards) if s not in shards]
+    workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
+    t0 = time.perf_counter()
+    previous = sum(s["instances"] for s in shards.values())
+    new_instances = 0
+    bar = tqdm(
+        total=config.episodes,
+        initial=sum(len(config.shard_episodes(s)) for s in shards),
+        unit="episode",
+        disable=not progress,
+        dynamic_ncols=True,
+    )
+    pool = multiprocessing.get_context("spawn").Pool(workers)
+    try:
+        jobs = [(str(out), config, shard) for shard in todo]
+        for stats in pool.imap_unordered(_make_shard_job, jobs):
+            shards[stats["shard"]] = stats
+            new_instances += stats["instances"]
+            elapsed = time.perf_counter() - t0
+            write_manifest(out, config, shards, wall_before + elapsed)
+            bar.update(len(config.shard_episodes(stats["shard"])))
+            bar.set_postfix(instances=previous + new_instances, per_s=f"{new_instances / elapsed:.1f}")
+        pool.close()
+    except BaseException:
+        pool.terminate()
+        write_manifest(out, config, shards, wall_before + time.perf_counter() - t0)
+        raise
+    finally:
+        pool.join()
+        bar.close()
+    return write_manifest(out, config, shards, wall_before + time.perf_counter() - t0)
+
+
+def _make_shard_job(job: tuple[str, DatagenConfig, int]) -> dict:
+    return make_shard(*job)
