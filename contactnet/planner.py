@@ -104,3 +104,97 @@ class HeuristicPlanner:
             steps.append(PlannedStep(legs=legs, footholds_xy_world=hip_td + offset))
         self._next_group = (self._next_group + 1) % len(gait.cyclic_order)
         return steps
+
+
+class OraclePlanner:
+    """The exact teacher: evaluate the ranking cost V of every action online and take the cheapest safe one.
+
+    Slow (one batched optimization of all N_a candidates per planned step) but exact: the teacher of data
+    generation and a baseline. Each of the ``gait.steps_per_plan`` steps is chosen from a state: step 1
+    from the measured one, steps 2 and 3 from the state predicted at the end of the previous step horizon
+    (``contactnet.cost.predicted_state``: the CoM moved by the commanded velocity, level, no angular
+    velocity, the previous step's legs on their footholds; the paper's procedure).
+
+    Safe = every swinging leg's landing point inside the steppable terrain shrunk by ``margin_m``. The
+    default, half the foot-ball radius (8 mm), covers the swing controller's touchdown error (a few mm)
+    while keeping the contact point, which is the bottom of the ball, on the surface; a larger margin
+    throws away too many footholds on stepping stones. ``rank`` is the chosen action's position in the
+    ascending-V order (0 = cheapest) and ``discarded`` how many cheaper actions were unsafe (the same
+    number for this planner).
+
+    No safe action at all: the robot steps in place. Swing groups are tried in the order of their
+    cheapest action; the first group whose legs stand on safe ground (margin 0: they already stand
+    there) lifts those legs and puts them back where they are (``action_index=None``, ``rank=None``,
+    ``discarded=N_a``, ``safe=True``): the body keeps moving, so the next plan sees new candidates. Only
+    when no group stands on safe ground does it step in place with the cheapest group and ``safe=False``.
+
+    ``last_costs`` is the ``CostBreakdown`` of step 1 and ``last_state`` its ``CostState``, so data
+    generation can record (u_r, V) without evaluating again.
+    """
+
+    name = "oracle"
+
+    def __init__(
+        self,
+        gait: GaitSpec,
+        robot_nominal_foot_xy_base: np.ndarray,
+        weights=None,  # noqa: ANN001 - contactnet.cost.CostWeights (default: the gait's tuned weights)
+        margin_m: float | None = None,
+        model=None,  # noqa: ANN001 - contactnet.trajopt.SrbdModel (default: SrbdModel())
+    ) -> None:
+        from contactnet.cost import CostWeights, RankingCost
+        from contactnet.robot import FOOT_RADIUS_M
+
+        self.gait = gait
+        self.weights = weights if weights is not None else CostWeights.for_gait(gait.name)
+        self.margin_m = 0.5 * FOOT_RADIUS_M if margin_m is None else float(margin_m)
+        self.cost = RankingCost(gait, robot_nominal_foot_xy_base, self.weights, model=model)
+        self.last_costs = None
+        self.last_state = None
+
+    def reset(self) -> None:
+        self.last_costs = None
+        self.last_state = None
+
+    def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
+        from contactnet.cost import CostState, predicted_state
+
+        state = CostState.from_context(ctx)
+        steps = []
+        for j in range(self.gait.steps_per_plan):
+            costs = self.cost.evaluate(state)
+            if j == 0:
+                self.last_costs, self.last_state = costs, state
+            step = self.choose(costs, state, ctx.terrain)
+            steps.append(step)
+            state = predicted_state(state, step.footholds_xy_world, step.legs, self.gait.step_duration_s)
+        return steps
+
+    def choose(self, costs, state, terrain: Terrain) -> PlannedStep:  # noqa: ANN001 - cost types
+        """The cheapest safe action of one evaluated state (or the step in place, see the class doc)."""
+        swing, _ = self.gait.action_table
+        order = costs.ranking()
+        landing = costs.footholds_xy_world[swing]  # (N_a * legs_per_step, 2), row-major by action
+        safe = terrain.is_safe(landing, self.margin_m).reshape(len(swing), -1).all(axis=1)
+        safe_ranks = np.flatnonzero(safe[order])
+        if len(safe_ranks):
+            rank = int(safe_ranks[0])
+            index = int(order[rank])
+            legs = self.gait.swing_groups[self.gait.decode(index).group]
+            return PlannedStep(
+                legs=legs,
+                footholds_xy_world=costs.footholds_xy_world[index, list(legs)].copy(),
+                action_index=index,
+                rank=rank,
+                discarded=rank,
+            )
+        groups = list(dict.fromkeys(self.gait.decode(int(a)).group for a in order))
+        feet_xy = np.asarray(state.foot_pos_world, dtype=float)[:, 0:2]
+        for group in groups:
+            legs = self.gait.swing_groups[group]
+            if terrain.is_safe(feet_xy[list(legs)], 0.0).all():
+                return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(),
+                                   discarded=len(order))
+        legs = self.gait.swing_groups[groups[0]]
+        return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(), discarded=len(order),
+                           safe=False)
