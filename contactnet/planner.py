@@ -7,6 +7,8 @@ in how they choose; the loop (`locomotion.py`) treats them alike.
 - `HeuristicPlanner`: the fixed cyclic gait (walk: HL, FL, HR, FR; trot: alternating diagonal
   pairs) with Raibert-style footholds. Blind to holes. The baseline, and the loop's planner until
   ContactNet is trained.
+- `OraclePlanner`: evaluates the ranking cost V of every action online and takes the cheapest safe
+  one (exact and slow: the teacher of data generation, and a baseline).
 """
 
 from __future__ import annotations
