@@ -7,7 +7,10 @@ BIN    := $(VENV)/bin
 # Reinstall whenever pyproject.toml changes.
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: setup serve test test-fast bench clean
+.PHONY: setup browser serve test test-fast bench clean
+
+# The browser tests drive Debian's chromium (no browser download): install it when it is missing.
+CHROMIUM ?= /usr/bin/chromium
 
 $(STAMP): pyproject.toml
 	@$(PYTHON) -c 'import sys; assert sys.version_info >= (3, 11), "contactnet needs Python >= 3.11"'
@@ -26,7 +29,13 @@ serve: setup
 	$(BIN)/contactnet simulate --terrain flat --gait walk --planner heuristic --vx 0.1 --duration 10
 	$(BIN)/contactnet simulate --terrain flat --gait trot --planner heuristic --vx 0.1 --vy 0.05 --duration 10
 
-test: setup
+browser:
+	@test -x $(CHROMIUM) || { \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=; elif command -v sudo >/dev/null; then SUDO=sudo; \
+	  else echo "the browser tests need Debian's chromium: apt-get install chromium"; exit 1; fi; \
+	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium; }
+
+test: setup browser
 	$(BIN)/python -m pytest -q
 
 test-fast: setup
