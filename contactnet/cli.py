@@ -20,11 +20,20 @@ class NotBuiltError(Exception):
     """A subcommand whose capability does not exist yet: printed as one line, exit code 3."""
 
 
-def _user_errors() -> tuple[type[BaseException], ...]:
-    from contactnet.robot import RobotDataError
-    from contactnet.terrain import TerrainError
+USER_ERROR_CLASSES = (
+    ("contactnet.terrain", "TerrainError"),
+    ("contactnet.robot", "RobotDataError"),
+    ("contactnet.datagen", "DatasetDirError"),
+    ("contactnet.train", "DatasetError"),
+    ("contactnet.network", "ModelFileError"),
+)
 
-    return (UserError, TerrainError, RobotDataError)
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    """The exception classes that mean a user mistake. Only modules already imported can have raised
+    one, so this imports nothing (the network module would pull in torch just to print an error)."""
+    found = [getattr(sys.modules[module], name) for module, name in USER_ERROR_CLASSES if module in sys.modules]
+    return (UserError, *found)
 
 
 # ---- argument types ----------------------------------------------------------------------------
@@ -144,6 +153,58 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _port_number(name: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a whole number, got {text!r}") from None
+        if not 1 <= value <= 65535:
+            raise argparse.ArgumentTypeError(f"{name} must be in 1..65535, got {value}")
+        return value
+
+    return parse
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    from app.server import AppConfig, serve
+    from contactnet.terrain import resolve
+
+    resolve(args.terrain)  # a bad terrain is a one-line user error before anything starts
+    return serve(AppConfig(host=args.host, port=args.port, viser_port=args.viser_port, terrain=args.terrain,
+                           gait=args.gait, planner=args.planner, vx=args.vx, recordings_dir=Path(args.recordings)))
+
+
+def cmd_datagen(args: argparse.Namespace) -> int:
+    from contactnet.datagen import DatagenConfig, generate
+
+    config = DatagenConfig(gait=args.gait, episodes=args.episodes, seed=args.seed,
+                           episodes_per_shard=args.episodes_per_shard)
+    try:
+        manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"contactnet: interrupted; finished shards are kept in {args.out}: run the same command to resume",
+              file=sys.stderr)
+        return 130
+    rate = manifest["instances"] / max(manifest["wall_time_s"], 1e-9)
+    print(
+        f"{args.out}: {manifest['episodes']} episodes, {manifest['instances']} instances "
+        f"({manifest['falls']} episodes ended in a fall), {manifest['wall_time_s'] / 60:.1f} min, "
+        f"{rate:.2f} instances/s"
+    )
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from contactnet.train import train_command
+
+    return train_command(
+        args.gait, args.data, args.out, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
+        seed=args.seed, split=args.split, threads=args.threads, max_minutes=args.max_minutes,
+        save_partial=args.save_partial, progress=not args.quiet,
+    )
+
+
 def cmd_not_built(what: str, issue: str):
     def run(args: argparse.Namespace) -> int:
         raise NotBuiltError(f"{what} is not built yet ({issue})")
@@ -161,12 +222,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     serve = sub.add_parser("serve", help="start the web tool (FastAPI + viser)")
     serve.add_argument("--host", default="127.0.0.1")
-    serve.add_argument("--port", type=int, default=8000)
-    serve.add_argument("--viser-port", type=int, default=8080)
-    serve.add_argument("--terrain", default="stepping_stones")
+    serve.add_argument("--port", type=_port_number("--port"), default=8000, help="web page and REST API")
+    serve.add_argument("--viser-port", type=_port_number("--viser-port"), default=8080,
+                       help="3D view (viser takes the next free port if busy)")
+    serve.add_argument("--terrain", default="stepping_stones", help="terrain name or JSON path")
     serve.add_argument("--gait", choices=["walk", "trot"], default="walk")
-    serve.add_argument("--planner", choices=["contactnet", "fixed", "heuristic", "oracle"], default="contactnet")
-    serve.set_defaults(func=cmd_not_built("contactnet serve (the web tool)", "issue 5"))
+    serve.add_argument("--planner", choices=["contactnet", "fixed", "heuristic"], default="contactnet",
+                       help="falls back to heuristic while the asked planner is not built")
+    serve.add_argument("--vx", type=_bounded_float("--vx", -0.3, 0.3), default=0.05, help="m/s")
+    serve.add_argument("--recordings", default="recordings", metavar="DIR", help="folder of scene recordings")
+    serve.set_defaults(func=cmd_serve)
 
     sim = sub.add_parser("simulate", help="run one simulation headless")
     sim.add_argument("--terrain", required=True, help="terrain name or JSON path ('random' with --removed)")
@@ -190,14 +255,25 @@ def build_parser() -> argparse.ArgumentParser:
     datagen.add_argument("--out", required=True)
     datagen.add_argument("--workers", type=_positive_int("--workers", 256))
     datagen.add_argument("--seed", type=int, default=0)
-    datagen.set_defaults(func=cmd_not_built("contactnet datagen", "issue 4"))
+    datagen.add_argument("--episodes-per-shard", type=_positive_int("--episodes-per-shard", 1000), default=5)
+    datagen.add_argument("--quiet", action="store_true", help="no progress bar")
+    datagen.set_defaults(func=cmd_datagen)
 
     train = sub.add_parser("train", help="train a ContactNet model")
     train.add_argument("--gait", choices=["walk", "trot"], required=True)
     train.add_argument("--data", required=True)
     train.add_argument("--out", required=True)
     train.add_argument("--epochs", type=_positive_int("--epochs", 10**6), default=1000)
-    train.set_defaults(func=cmd_not_built("contactnet train", "issue 4"))
+    train.add_argument("--batch-size", type=_positive_int("--batch-size", 10**5), default=100)
+    train.add_argument("--lr", type=_bounded_float("--lr", 1e-7, 1.0), default=1e-3)
+    train.add_argument("--seed", type=int, default=0)
+    train.add_argument("--split", choices=["episode", "instance"], default="episode",
+                       help="70/30 split by whole episodes (default) or by instances (the paper's)")
+    train.add_argument("--threads", type=_positive_int("--threads", 256), default=1)
+    train.add_argument("--max-minutes", type=_bounded_float("--max-minutes", 0.01, 10**5), default=None)
+    train.add_argument("--save-partial", action="store_true", help="on Ctrl-C, save the model trained so far")
+    train.add_argument("--quiet", action="store_true", help="no progress bar")
+    train.set_defaults(func=cmd_train)
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
     experiment.add_argument("name")

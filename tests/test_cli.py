@@ -91,9 +91,6 @@ def test_bad_options_exit_2(args, capsys):
 @pytest.mark.parametrize(
     "args",
     [
-        ["serve"],
-        ["datagen", "--gait", "walk", "--out", "x"],
-        ["train", "--gait", "walk", "--data", "x", "--out", "y.pt"],
         ["experiment", "random", "--out", "x"],
         ["bench", "planner"],
         ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "contactnet"],
@@ -121,3 +118,14 @@ def test_bad_push_is_a_user_error(capsys):
     args = ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--push", "1,2"]
     assert main(args) == EXIT_USER_ERROR
     assert "--push" in capsys.readouterr().err
+
+
+def test_train_and_datagen_bad_paths_are_user_errors(tmp_path, capsys):
+    missing = tmp_path / "no_dataset"
+    assert main(["train", "--gait", "walk", "--data", str(missing), "--out", str(tmp_path / "m.pt")]) == EXIT_USER_ERROR
+    assert "no_dataset" in capsys.readouterr().err
+    a_file = tmp_path / "taken"
+    a_file.write_text("x")
+    assert main(["datagen", "--gait", "walk", "--episodes", "1", "--out", str(a_file)]) == EXIT_USER_ERROR
+    assert "taken" in capsys.readouterr().err
+    assert a_file.read_text() == "x"

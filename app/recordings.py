@@ -1,0 +1,278 @@
+"""Recording the scene over time (.viser files), listing them, and exporting self-contained HTML.
+
+`SceneRecorder` draws `LiveView`s with the same `LiveScene` as the browser, on its own viser
+server, and serializes that server's scene messages (viser's `get_scene_serializer`). Keeping
+the recording on a separate server means it has its own, lower rate (12 Hz by default: the
+serializer keeps every message in memory) and no editing gizmos; the live view is untouched. A
+headless server on a free loopback port is enough, so a plain loop can record too::
+
+    with SceneRecorder() as recorder:          # its own headless viser server
+        tracker = ViewTracker(loco.robot, loco.terrain, loco.gait)
+        while not loco.done:
+            loco.advance(10)
+            recorder.add(view_of(loco, tracker))   # app.recordings.view_of
+        Path("demo.viser").write_bytes(recorder.finish())
+
+`RecordingStore` lists and serves the files of the recordings folder; `LiveRecorder` starts and
+stops recordings of the live session (from the GUI or REST) and is fed by the viewer's update
+loop. The viser client plays a file with `?playbackPath=URL` (play, pause, scrub);
+`viser_html(data)` wraps a recording into one HTML file that plays anywhere.
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import io
+import re
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import viser
+
+from app.live import LiveView, SessionStatus, ViewTracker
+from app.scene import LiveScene
+
+DEFAULT_RATE_HZ = 12.0
+MAX_DURATION_S = 600.0  # a recording stops itself after 10 simulated minutes (memory bound)
+RECORDING_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind((host, 0))
+        return sock.getsockname()[1]
+
+
+def quiet_viser_server(host: str = "127.0.0.1", port: int | None = None) -> viser.ViserServer:
+    """A ViserServer without its banner on stdout (viser prints it even with verbose=False)."""
+    with contextlib.redirect_stdout(io.StringIO()):
+        return viser.ViserServer(host=host, port=port or free_port(host), verbose=False)
+
+
+def stop_quietly(server: viser.ViserServer) -> None:
+    with contextlib.redirect_stdout(io.StringIO()):
+        server.stop()
+
+
+def default_urdf() -> Path:
+    from contactnet.robot import RobotFiles
+
+    return RobotFiles.locate().urdf
+
+
+class SceneRecorder:
+    """Records `LiveView`s into a .viser scene at `rate_hz` of simulated time.
+
+    `server`: a viser server to draw on and serialize; by default a headless one on a free
+    loopback port, owned (and stopped) by the recorder. Use from one thread."""
+
+    def __init__(self, server: viser.ViserServer | None = None, *, urdf_path: Path | None = None,
+                 rate_hz: float = DEFAULT_RATE_HZ, max_duration_s: float = MAX_DURATION_S):
+        if not 0.5 <= rate_hz <= 60.0:
+            raise ValueError(f"rate_hz must be in [0.5, 60], got {rate_hz}")
+        self._own_server = server is None
+        self.server = server if server is not None else quiet_viser_server()
+        self.scene = LiveScene(self.server, urdf_path or default_urdf())
+        self.rate_hz = rate_hz
+        self.max_duration_s = max_duration_s
+        self._serializer = None
+        self._last_t: float | None = None
+        self.frames = 0
+        self.duration_s = 0.0
+        self._data: bytes | None = None
+
+    @property
+    def full(self) -> bool:
+        return self.duration_s >= self.max_duration_s
+
+    def add(self, view: LiveView) -> bool:
+        """Record `view` if a frame is due (every 1 / rate_hz s of simulated time); True if recorded."""
+        if self._data is not None:
+            raise RuntimeError("this recording is finished")
+        t = float(view.snapshot.t_s)
+        if self._serializer is None:
+            self.scene.update(view)
+            self._serializer = self.server.get_scene_serializer()
+        else:
+            period = 1.0 / self.rate_hz
+            if self._last_t is not None and 0.0 <= t - self._last_t < period - 1e-9:
+                return False
+            if self.full:
+                return False
+            # After a reset the simulated clock goes back: continue one period later.
+            dt = t - self._last_t if self._last_t is not None and t >= self._last_t else period
+            self._serializer.insert_sleep(dt)
+            self.duration_s += dt
+            self.scene.update(view)
+        self._last_t = t
+        self.frames += 1
+        return True
+
+    def finish(self) -> bytes:
+        """The .viser bytes (call once; stops an owned server)."""
+        if self._data is None:
+            if self._serializer is None:
+                raise RuntimeError("nothing recorded")
+            self._serializer.insert_sleep(1.0 / self.rate_hz)
+            self._data = self._serializer.serialize()
+            self.close()
+        return self._data
+
+    def close(self) -> None:
+        if self._own_server and self.server is not None:
+            stop_quietly(self.server)
+            self.server = None
+
+    def __enter__(self) -> SceneRecorder:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
+    """A LiveView of a Locomotion driven by a plain loop (no live session): for SceneRecorder."""
+    snap = loco.snapshot()
+    t = loco.t_s
+    push_force = np.zeros(3)
+    for push in loco.sim.pushes:
+        if push.active(t):
+            push_force += push.force_world
+    done = f"fell: {loco.fall_reason}" if loco.fall_reason else ("goal reached" if loco.reached_goal else None)
+    planner = getattr(loco.planner, "name", type(loco.planner).__name__)
+    status = SessionStatus(running=not done, paused=False, done=done, speed=1.0, real_time_factor=0.0,
+                           terrain=label or loco.terrain.name, gait=loco.gait.name, planner=planner,
+                           planner_active=planner, planner_note=None,
+                           noise=loco.sim.config.joint_vel_noise_var > 0, pushes=len(loco.sim.pushes))
+    return LiveView(seq=loco.tick, snapshot=snap, status=status, terrain=loco.terrain, terrain_version=0,
+                    gait=loco.gait, push_force_world=push_force, wall_time_s=time.monotonic(),
+                    **tracker.update(snap))
+
+
+def viser_html(data: bytes, dark_mode: bool = False) -> str:
+    """One self-contained HTML page that plays a .viser recording.
+
+    This is what viser's `StateSerializer.as_html()` does with the bytes of `serialize()` (the
+    client reads `window.__VISER_EMBED_DATA__`); the serializer can only serialize once, so we
+    build the page from the saved bytes instead, any time later.
+    """
+    client_html = (Path(viser.__file__).parent / "client" / "build" / "index.html").read_text()
+    script = (f'<script>window.__VISER_EMBED_DATA__="{base64.b64encode(data).decode("ascii")}";'
+              f"window.__VISER_EMBED_CONFIG__={{darkMode:{'true' if dark_mode else 'false'}}};</script>")
+    head_end = client_html.index("</head>")
+    return client_html[:head_end] + script + client_html[head_end:]
+
+
+@dataclass(frozen=True)
+class RecordingInfo:
+    name: str
+    size_bytes: int
+    modified: float
+
+
+class RecordingStore:
+    """The .viser files of one folder."""
+
+    def __init__(self, directory: Path):
+        self.directory = Path(directory)
+
+    def path(self, name: str) -> Path:
+        if not isinstance(name, str) or not RECORDING_NAME.fullmatch(name):
+            raise ValueError(f"invalid recording name {name!r}: expected letters, digits, '_', '-' and .viser")
+        return self.directory / name
+
+    def list(self) -> list[RecordingInfo]:
+        if not self.directory.is_dir():
+            return []
+        infos = []
+        for path in self.directory.glob("*.viser"):
+            if RECORDING_NAME.fullmatch(path.name):
+                stat = path.stat()
+                infos.append(RecordingInfo(path.name, stat.st_size, stat.st_mtime))
+        return sorted(infos, key=lambda r: r.modified, reverse=True)
+
+    def new_name(self, label: str = "") -> str:
+        stem = re.sub(r"[^A-Za-z0-9_-]+", "-", label).strip("-")[:40]
+        base = time.strftime("%Y%m%d-%H%M%S") + (f"-{stem}" if stem else "")
+        name, k = f"{base}.viser", 1
+        while (self.directory / name).exists():
+            k += 1
+            name = f"{base}-{k}.viser"
+        return name
+
+    def save(self, data: bytes, name: str) -> Path:
+        path = self.path(name)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.tmp")
+        tmp.write_bytes(data)
+        tmp.replace(path)
+        return path
+
+
+class LiveRecorder:
+    """Start/stop recordings of the live session; `feed(view)` is called by the viewer's update loop."""
+
+    def __init__(self, store: RecordingStore, urdf_path: Path | None = None, rate_hz: float = DEFAULT_RATE_HZ):
+        self.store = store
+        self.urdf_path = urdf_path
+        self.rate_hz = rate_hz
+        self._lock = threading.Lock()
+        self._recorder: SceneRecorder | None = None
+        self._name: str | None = None
+        self._started_wall = 0.0
+        self.last_saved: str | None = None
+
+    @property
+    def recording(self) -> bool:
+        return self._recorder is not None
+
+    def status(self) -> dict:
+        with self._lock:
+            rec = self._recorder
+            return {
+                "recording": rec is not None,
+                "name": self._name,
+                "frames": rec.frames if rec else 0,
+                "duration_s": rec.duration_s if rec else 0.0,
+                "last_saved": self.last_saved,
+            }
+
+    def start(self, label: str = "") -> str:
+        with self._lock:
+            if self._recorder is not None:
+                raise RuntimeError(f"already recording {self._name}")
+            self._recorder = SceneRecorder(urdf_path=self.urdf_path, rate_hz=self.rate_hz)
+            self._name = self.store.new_name(label)
+            self._started_wall = time.monotonic()
+            return self._name
+
+    def feed(self, view: LiveView | None) -> None:
+        if view is None or self._recorder is None:
+            return
+        with self._lock:
+            if self._recorder is not None:
+                self._recorder.add(view)
+
+    def stop(self) -> RecordingInfo:
+        with self._lock:
+            recorder, name = self._recorder, self._name
+            if recorder is None or name is None:
+                raise RuntimeError("not recording")
+            self._recorder, self._name = None, None
+        try:
+            path = self.store.save(recorder.finish(), name)
+        finally:
+            recorder.close()
+        self.last_saved = name
+        return RecordingInfo(name, path.stat().st_size, path.stat().st_mtime)
+
+    def close(self) -> None:
+        with self._lock:
+            if self._recorder is not None:
+                self._recorder.close()
+                self._recorder = None

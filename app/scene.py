@@ -1,0 +1,336 @@
+"""The 3D scene of a live session in viser: Solo12 on the terrain, candidate disks, planned steps,
+CoM paths and force arrows. `LiveScene.update(view)` draws one `LiveView`.
+
+Cheap updates matter (the simulation shares the process and the GIL): every node is created once
+and later only its changed properties are sent. Per update that is the robot (12 joint rotations
+and the base pose: we compute the joint rotations directly from the URDF joint axes instead of
+yourdfpy's scene-graph update, which costs ~5 ms) and the force lines; the disks, steps and
+planned CoM path change at replanning (a few Hz); the actual CoM path is drawn in fixed chunks of
+which only the newest one changes; the terrain mesh only when the terrain does.
+
+The scene draws on any viser server: the live one (browsers), or a headless one that a
+`SceneRecorder` serializes (app/recordings.py).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+import trimesh
+import viser
+from viser.extras import ViserUrdf
+
+from app.live import LiveView
+from contactnet.robot import FOOT_RADIUS_M, JOINT_NAMES
+
+ROBOT_ROOT = "/robot"
+ROBOT_MESH_CELL_M = 0.004
+DISK_RADIUS_M = 0.017
+DISK_HEIGHT_M = 0.004
+DISK_POOL = 100  # walk: 4 legs x 25 candidates at most (a future ranking of every leg's grid)
+STEP_POOL = 6  # 3 planned steps x 2 legs (trot)
+FORCE_SCALE_M_PER_N = 0.012
+PUSH_SCALE_M_PER_N = 0.02
+COM_CHUNK = 200  # points per chunk of the actual CoM path
+
+TERRAIN_DISPLAY_THICKNESS_M = 0.08  # drawn as slabs (the simulation's are 0.4 m deep) over a floor grid
+TERRAIN_COLOR = (181, 160, 120)
+SAFE_COLOR = np.array([0, 115, 40], dtype=np.uint8)
+UNSAFE_COLOR = np.array([185, 0, 0], dtype=np.uint8)
+CHOSEN_COLOR = np.array([255, 185, 0], dtype=np.uint8)
+STEP_COLORS = np.array([[255, 120, 0], [255, 165, 70], [255, 205, 140]], dtype=np.uint8)
+UNSAFE_STEP_COLOR = np.array([200, 0, 120], dtype=np.uint8)
+PLANNED_COM_COLOR = (0, 160, 255)
+ACTUAL_COM_COLOR = (190, 30, 190)
+FORCE_COLOR = (40, 90, 235)
+PUSH_COLOR = (230, 20, 20)
+GOAL_COLOR = (30, 150, 60)
+HIDDEN_POS = np.array([0.0, 0.0, -100.0], dtype=np.float32)
+
+
+def rank_colors(rank: np.ndarray, safe: np.ndarray) -> np.ndarray:
+    """Colours by ranking: the best safe candidates bright blue fading to grey, unsafe ones red."""
+    n = max(int(rank.max()) + 1, 1) if rank.size else 1
+    fade = np.clip(rank / max(n - 1, 1), 0.0, 1.0)[:, None]
+    best, worst = np.array([20, 120, 255.0]), np.array([170, 170, 170.0])
+    colors = (1 - fade) * best + fade * worst
+    colors[~safe] = UNSAFE_COLOR
+    return colors.astype(np.uint8)
+
+
+def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product of wxyz quaternions, broadcast over leading axes."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    ], axis=-1)
+
+
+def cluster_decimate(mesh: trimesh.Trimesh, cell_m: float) -> trimesh.Trimesh:
+    """A lighter copy of a mesh by vertex clustering: vertices in one cell of a `cell_m` grid merge
+    into their mean; faces that collapse or repeat are dropped."""
+    keys = np.floor(np.asarray(mesh.vertices) / cell_m).astype(np.int64)
+    _, cluster, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    cluster = cluster.ravel()
+    vertices = np.zeros((len(counts), 3))
+    np.add.at(vertices, cluster, mesh.vertices)
+    vertices /= counts[:, None]
+    faces = cluster[np.asarray(mesh.faces)]
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
+    _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
+    return trimesh.Trimesh(vertices, faces[np.sort(first)], process=False)
+
+
+def load_display_urdf(urdf_path: Path):
+    """Solo12's URDF for display, its visual meshes decimated (51k -> ~10k triangles at 4 mm): a
+    software-rendering browser (no GPU) spends most of each frame on the robot's triangles."""
+    import yourdfpy
+
+    urdf = yourdfpy.URDF.load(urdf_path, build_scene_graph=True, load_meshes=True,
+                              build_collision_scene_graph=False, load_collision_meshes=False,
+                              filename_handler=partial(yourdfpy.filename_handler_magic, dir=urdf_path.parent))
+    for name, mesh in list(urdf.scene.geometry.items()):
+        urdf.scene.geometry[name] = cluster_decimate(mesh, ROBOT_MESH_CELL_M)
+    return urdf
+
+
+class _RobotPose:
+    """Poses Solo12's ViserUrdf from a pinocchio configuration.
+
+    Joints map by name from pinocchio's order (JOINT_NAMES) to the URDF's. A revolute joint's
+    frame is origin * rotation(axis, q): its position never changes and its rotation is the
+    origin's quaternion times the axis-angle one, so one update is 12 quaternion products.
+    Falls back to ViserUrdf.update_cfg if viser's internals are not as expected.
+    """
+
+    def __init__(self, server: viser.ViserServer, urdf_path: Path):
+        self.root = server.scene.add_frame(ROBOT_ROOT, show_axes=False)
+        self.urdf = ViserUrdf(server, load_display_urdf(urdf_path), root_node_name=ROBOT_ROOT,
+                              mesh_color_override=(0.32, 0.34, 0.40))
+        names = self.urdf.get_actuated_joint_names()
+        self.cfg_from_pin = np.array([JOINT_NAMES.index(n) for n in names])
+        self.urdf.update_cfg(np.zeros(len(names)))  # sets every joint frame's fixed position
+        self._fast = None
+        try:
+            joints = list(self.urdf._urdf.joint_map.values())
+            frames = list(self.urdf._joint_frames)[: len(joints)]
+            handles, pin_index, origin_q, axes = [], [], [], []
+            for joint, frame in zip(joints, frames, strict=True):
+                if joint.type not in ("revolute", "continuous"):
+                    continue
+                handles.append(frame)
+                pin_index.append(JOINT_NAMES.index(joint.name))
+                origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin)
+                origin_q.append(viser.transforms.SO3.from_matrix(origin[:3, :3]).wxyz)
+                axis = np.asarray(joint.axis, dtype=float)
+                axes.append(axis / np.linalg.norm(axis))
+            self._fast = (handles, np.array(pin_index), np.array(origin_q), np.array(axes))
+        except (AttributeError, ValueError, TypeError):
+            self._fast = None
+        self._last_q: np.ndarray | None = None
+
+    def set(self, q: np.ndarray) -> None:
+        q = np.asarray(q, dtype=float)
+        if self._last_q is not None and np.array_equal(q, self._last_q):
+            return
+        self._last_q = q.copy()
+        x, y, z, w = q[3:7]
+        self.root.position = q[:3]
+        self.root.wxyz = np.array([w, x, y, z])
+        joints = q[7:]
+        if self._fast is None:
+            self.urdf.update_cfg(joints[self.cfg_from_pin])
+            return
+        handles, pin_index, origin_q, axes = self._fast
+        half = 0.5 * joints[pin_index]
+        motion = np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * axes], axis=1)
+        wxyz = _quat_mul(origin_q, motion)
+        for handle, value in zip(handles, wxyz, strict=True):
+            handle.wxyz = value
+
+
+def _segments(points: np.ndarray) -> np.ndarray:
+    """(N, 3) polyline -> (N - 1, 2, 3) segments (at least one, degenerate if needed)."""
+    points = np.asarray(points, dtype=np.float32)
+    if len(points) < 2:
+        p = points[0] if len(points) else HIDDEN_POS
+        return np.stack([p, p])[None]
+    return np.stack([points[:-1], points[1:]], axis=1)
+
+
+class LiveScene:
+    """Scene nodes of one session on one viser server; `update(view)` sends what changed."""
+
+    def __init__(self, server: viser.ViserServer, urdf_path: Path):
+        self.server = server
+        scene = server.scene
+        scene.set_up_direction("+z")
+        self.robot = _RobotPose(server, urdf_path)
+        disk = trimesh.creation.cylinder(radius=DISK_RADIUS_M, height=DISK_HEIGHT_M, sections=20)
+        self.disks = scene.add_batched_meshes_simple(
+            "/plan/candidates", disk.vertices, disk.faces,
+            batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (DISK_POOL, 1)),
+            batched_positions=np.tile(HIDDEN_POS, (DISK_POOL, 1)),
+            batched_scales=np.ones((DISK_POOL, 3), dtype=np.float32),
+            batched_colors=np.tile(SAFE_COLOR, (DISK_POOL, 1)), lod="off", cast_shadow=False,
+        )
+        ball = trimesh.creation.icosphere(subdivisions=2, radius=0.018)
+        self.steps = scene.add_batched_meshes_simple(
+            "/plan/steps", ball.vertices, ball.faces,
+            batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (STEP_POOL, 1)),
+            batched_positions=np.tile(HIDDEN_POS, (STEP_POOL, 1)),
+            batched_colors=np.tile(STEP_COLORS[0], (STEP_POOL, 1)), lod="off", cast_shadow=False,
+        )
+        self.planned_com = scene.add_line_segments("/plan/com", _segments(np.zeros((0, 3))), PLANNED_COM_COLOR,
+                                                   thickness=0.006)
+        self.forces = scene.add_line_segments("/forces/feet", np.tile(HIDDEN_POS, (4, 2, 1)), FORCE_COLOR,
+                                              thickness=0.007)
+        self.push = scene.add_line_segments("/forces/push", np.tile(HIDDEN_POS, (1, 2, 1)), PUSH_COLOR,
+                                            thickness=0.014)
+        self._com_chunks: list[viser.LineSegmentsHandle] = []
+        self._com_drawn = 0
+        self._com_first: np.ndarray | None = None
+        self._terrain_version: int | None = None
+        self._terrain_nodes: list = []
+        self._plan_key: tuple | None = None
+        self._candidates_key: int | None = None
+        self._com_plan_last: np.ndarray | None = None
+
+    def update(self, view: LiveView) -> None:
+        with self.server.atomic():
+            if view.terrain_version != self._terrain_version:
+                self._draw_terrain(view)
+            snap = view.snapshot
+            self.robot.set(snap.q)
+            self._draw_forces(view)
+            if id(view.candidates) != self._candidates_key:
+                self._candidates_key = id(view.candidates)
+                self._draw_candidates(view)
+            plan_key = tuple(id(s) for s in snap.planned_steps)
+            if plan_key != self._plan_key:
+                self._plan_key = plan_key
+                self._draw_steps(view)
+            com_plan = snap.com_plan
+            if self._com_plan_last is None or not np.array_equal(com_plan, self._com_plan_last):
+                self._com_plan_last = com_plan
+                self.planned_com.points = _segments(com_plan)
+            self._draw_com_path(view.com_path)
+
+    # ---- pieces ------------------------------------------------------------------------------------
+    def _draw_terrain(self, view: LiveView) -> None:
+        for node in self._terrain_nodes:
+            node.remove()
+        terrain = view.terrain
+        mesh = terrain.mesh(thickness=TERRAIN_DISPLAY_THICKNESS_M)
+        scene = self.server.scene
+        z = terrain.surface_z
+        minx, miny, maxx, maxy = terrain.bounds
+        nodes = [
+            scene.add_mesh_simple("/terrain/mesh", mesh.vertices, mesh.faces, color=TERRAIN_COLOR,
+                                  flat_shading=True, cast_shadow=False),
+            scene.add_line_segments(
+                "/terrain/goal",
+                np.array([[[terrain.goal_x, miny - 0.05, z + 0.002], [terrain.goal_x, maxy + 0.05, z + 0.002]]]),
+                GOAL_COLOR, thickness=0.008),
+            scene.add_grid("/terrain/floor", width=max(maxx - minx, 1.0) + 1.0, height=max(maxy - miny, 1.0) + 1.0,
+                           position=((minx + maxx) / 2, (miny + maxy) / 2, z - 0.45), cell_size=0.1,
+                           section_size=0.5, shadow_opacity=0.0),
+        ]
+        self._terrain_nodes = nodes
+        self._terrain_version = view.terrain_version
+        self._candidates_key = None
+        self._plan_key = None
+
+    def _draw_candidates(self, view: LiveView) -> None:
+        positions = np.tile(HIDDEN_POS, (DISK_POOL, 1))
+        colors = np.tile(SAFE_COLOR, (DISK_POOL, 1))
+        scales = np.ones((DISK_POOL, 3), dtype=np.float32)
+        cand = view.candidates
+        if cand is not None:
+            n = min(len(cand.xy_world), DISK_POOL)
+            positions[:n, :2] = cand.xy_world[:n]
+            positions[:n, 2] = view.terrain.surface_z + 0.5 * DISK_HEIGHT_M + 0.001
+            if cand.rank is not None:
+                colors[:n] = rank_colors(cand.rank[:n], cand.safe[:n])
+            else:
+                colors[:n] = np.where(cand.safe[:n, None], SAFE_COLOR, UNSAFE_COLOR)
+            for k in cand.chosen:
+                if k < n:
+                    colors[k] = CHOSEN_COLOR
+                    scales[k] = (1.5, 1.5, 2.0)
+        self.disks.batched_positions = positions
+        self.disks.batched_colors = colors
+        self.disks.batched_scales = scales
+
+    def _draw_steps(self, view: LiveView) -> None:
+        positions = np.tile(HIDDEN_POS, (STEP_POOL, 1))
+        colors = np.tile(STEP_COLORS[0], (STEP_POOL, 1))
+        k = 0
+        z = view.terrain.surface_z + FOOT_RADIUS_M
+        for j, step in enumerate(view.snapshot.planned_steps[:3]):
+            footholds = np.asarray(step.footholds_xy_world)
+            safe = view.terrain.is_safe(footholds) & bool(step.safe)
+            for xy, ok in zip(footholds, safe, strict=True):
+                if k < STEP_POOL:
+                    positions[k] = (xy[0], xy[1], z)
+                    colors[k] = STEP_COLORS[min(j, 2)] if ok else UNSAFE_STEP_COLOR
+                    k += 1
+        self.steps.batched_positions = positions
+        self.steps.batched_colors = colors
+
+    def _draw_forces(self, view: LiveView) -> None:
+        feet = view.foot_pos_world.copy()
+        feet[:, 2] -= FOOT_RADIUS_M
+        forces = np.asarray(view.snapshot.forces, dtype=float)
+        self.forces.points = np.stack([feet, feet + FORCE_SCALE_M_PER_N * forces], axis=1)
+        push = view.push_force_world
+        if np.any(push):
+            base = np.asarray(view.snapshot.q[:3], dtype=float)
+            start = base - PUSH_SCALE_M_PER_N * push
+            self.push.points = np.stack([start, base])[None]
+        else:
+            self.push.points = np.tile(HIDDEN_POS, (1, 2, 1))
+
+    def _draw_com_path(self, path: np.ndarray) -> None:
+        n = len(path)
+        first = path[0] if n else None
+        restart = n < self._com_drawn or (
+            first is not None and self._com_first is not None and not np.array_equal(first, self._com_first))
+        if restart or (n == 0 and self._com_chunks):
+            for chunk in self._com_chunks:
+                chunk.remove()
+            self._com_chunks, self._com_drawn = [], 0
+        self._com_first = None if first is None else first.copy()
+        if n == self._com_drawn or n < 2:
+            return
+        # Chunk c covers points [c * COM_CHUNK, (c + 1) * COM_CHUNK] (sharing the end point).
+        last_chunk = (n - 2) // COM_CHUNK
+        first_dirty = max(0, (self._com_drawn - 2) // COM_CHUNK) if self._com_drawn >= 2 else 0
+        for c in range(first_dirty, last_chunk + 1):
+            segment = _segments(path[c * COM_CHUNK: min(n, (c + 1) * COM_CHUNK + 1)])
+            if c < len(self._com_chunks):
+                self._com_chunks[c].points = segment
+            else:
+                self._com_chunks.append(self.server.scene.add_line_segments(
+                    f"/com_path/{c}", segment, ACTUAL_COM_COLOR, thickness=0.004))
+        self._com_drawn = n
+
+
+def default_camera(view: LiveView) -> tuple[np.ndarray, np.ndarray]:
+    """(position, look_at) behind and to the right of the robot, looking ahead along +x."""
+    base = np.asarray(view.snapshot.q[:3], dtype=float)
+    look_at = np.array([base[0] + 0.25, base[1], view.terrain.surface_z + 0.05])
+    position = look_at + np.array([-0.75, -1.0, 0.85])
+    return position, look_at
+
+
+def yaw_of(q: np.ndarray) -> float:
+    x, y, z, w = q[3:7]
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))

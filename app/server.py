@@ -1,0 +1,500 @@
+"""The web server: a FastAPI app (front page, REST API with OpenAPI docs, recordings) next to a
+viser server (the 3D view and its control panel), around one live session.
+
+viser cannot be mounted inside FastAPI (it is its own websocket server), so it runs on its own
+port; the front page embeds viser's client (served here at /viewer/) with `?websocket=` pointing
+at that port. `contactnet serve` calls `serve()`; tests build a `ContactnetApp` directly.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import sys
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import uvicorn
+from fastapi import FastAPI, HTTPException, Query, Request
+from fastapi import Path as PathParam
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from app.editing import TerrainService
+from app.editor import (
+    MAX_UPLOAD_BYTES,
+    EditError,
+    ShippedTerrainError,
+    TerrainStore,
+    is_shipped,
+    parse_upload,
+)
+from app.live import (
+    PUSH_DURATION_LIMIT,
+    PUSH_FORCE_LIMIT,
+    SPEED_RANGE,
+    VELOCITY_LIMIT,
+    ApplyPush,
+    LiveSession,
+    LiveView,
+    Reset,
+    SessionConfig,
+    SetGait,
+    SetNoise,
+    SetPaused,
+    SetPlanner,
+    SetSpeed,
+    SetVelocity,
+)
+from app.recordings import LiveRecorder, RecordingStore, default_urdf, viser_html
+from app.viewer import Viewer
+from contactnet.terrain import Terrain, resolve, terrains_dir
+
+log = logging.getLogger("contactnet.app.server")
+
+STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+VISER_CLIENT = Path(__import__("viser").__file__).parent / "client" / "build" / "index.html"
+TERRAIN_NAME = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
+COMMAND_TIMEOUT_S = 60.0
+TerrainName = Annotated[str, PathParam(pattern=TERRAIN_NAME, description="file stem in terrains/")]
+RecordingName = Annotated[str, PathParam(pattern=r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")]
+
+
+# ---- request and response models --------------------------------------------------------------
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class VelocityCommand(_Strict):
+    """Commanded base velocity in the robot's horizontal frame."""
+
+    vx: float = Field(..., ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, forward")
+    vy: float = Field(0.0, ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, left")
+
+
+class PushCommand(_Strict):
+    """A horizontal push on the base (world frame), starting now."""
+
+    fx: float = Field(0.0, ge=-PUSH_FORCE_LIMIT, le=PUSH_FORCE_LIMIT, allow_inf_nan=False, description="N")
+    fy: float = Field(0.0, ge=-PUSH_FORCE_LIMIT, le=PUSH_FORCE_LIMIT, allow_inf_nan=False, description="N")
+    duration: float = Field(1.0, gt=0.0, le=PUSH_DURATION_LIMIT, allow_inf_nan=False, description="s")
+
+    @model_validator(mode="after")
+    def _magnitude(self) -> PushCommand:
+        magnitude = math.hypot(self.fx, self.fy)
+        if magnitude > PUSH_FORCE_LIMIT:
+            raise ValueError(f"fx, fy: push force |(fx, fy)| = {magnitude:.3g} N exceeds {PUSH_FORCE_LIMIT:g} N")
+        return self
+
+
+class PauseCommand(_Strict):
+    paused: bool
+
+
+class SettingsCommand(_Strict):
+    """Any subset of the session settings. Gait, planner and noise restart the robot."""
+
+    gait: Literal["walk", "trot"] | None = None
+    planner: Literal["contactnet", "fixed", "heuristic"] | None = None
+    noise: bool | None = Field(None, description="Gaussian joint-velocity noise, variance 0.01 (rad/s)^2")
+    speed: float | None = Field(None, ge=SPEED_RANGE[0], le=SPEED_RANGE[1], allow_inf_nan=False,
+                                description="simulated seconds per wall-clock second")
+
+
+class TerrainSelect(_Strict):
+    """A terrain for the session: a file in terrains/ (or a shipped generator), or 'random'."""
+
+    name: str = Field(..., pattern=r"^(random|[A-Za-z0-9][A-Za-z0-9_-]{0,63})$")
+    removed: int | None = Field(None, ge=0, le=300, description="random: squares removed (0..300)")
+    seed: int = Field(0, ge=0, le=2**31 - 1, description="random: seed")
+
+
+class RecordingStart(_Strict):
+    label: str = Field("", max_length=40, pattern=r"^[A-Za-z0-9_ -]*$")
+
+
+class State(BaseModel):
+    """The live session now."""
+
+    t_s: float
+    running: bool
+    paused: bool
+    done: str | None
+    fell: bool
+    fall_reason: str | None
+    reached_goal: bool
+    speed: float
+    real_time_factor: float
+    terrain: str
+    gait: str
+    planner: str
+    planner_active: str
+    planner_note: str | None
+    noise: bool
+    vel_cmd: tuple[float, float]
+    base_position: tuple[float, float, float]
+    com_position: tuple[float, float, float]
+    com_velocity: tuple[float, float, float]
+    stance: tuple[bool, bool, bool, bool]
+    foot_contact: tuple[bool, bool, bool, bool]
+    steps: int
+    rank_chosen: int | None
+    last_planner_ms: float
+    last_trajopt_ms: float
+    pushes: int
+    push_force: tuple[float, float, float]
+    error: str | None
+    recording: bool
+    viser_port: int
+
+
+class TerrainEntry(BaseModel):
+    name: str
+    shipped: bool
+    url: str
+
+
+class TerrainList(BaseModel):
+    terrains: list[TerrainEntry]
+    generators: list[str] = ["random"]
+    current: str
+
+
+class Saved(BaseModel):
+    name: str
+    path: str
+
+
+class RecordingEntry(BaseModel):
+    name: str
+    size_bytes: int
+    modified: float
+    download_url: str
+    html_url: str
+    play_url: str
+
+
+class RecordingStatus(BaseModel):
+    recording: bool
+    name: str | None
+    frames: int
+    duration_s: float
+    last_saved: str | None
+
+
+class Info(BaseModel):
+    viser_port: int
+    viewer_url: str
+    version: str
+
+
+def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
+    s, snap = view.status, view.snapshot
+    q = snap.q
+    return State(
+        t_s=snap.t_s, running=s.running, paused=s.paused, done=s.done, fell=snap.fell, fall_reason=snap.fall_reason,
+        reached_goal=snap.reached_goal, speed=s.speed, real_time_factor=s.real_time_factor, terrain=s.terrain,
+        gait=s.gait, planner=s.planner, planner_active=s.planner_active, planner_note=s.planner_note,
+        noise=s.noise, vel_cmd=snap.vel_cmd_xy, base_position=tuple(float(v) for v in q[:3]),
+        com_position=tuple(float(v) for v in snap.com_pos), com_velocity=tuple(float(v) for v in snap.com_vel),
+        stance=tuple(bool(v) for v in snap.stance), foot_contact=tuple(bool(v) for v in snap.foot_contact),
+        steps=snap.steps, rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
+        last_planner_ms=snap.last_planner_ms, last_trajopt_ms=snap.last_trajopt_ms, pushes=s.pushes,
+        push_force=tuple(float(v) for v in view.push_force_world), error=s.error, recording=recording,
+        viser_port=viser_port,
+    )
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+# ---- the application ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class AppConfig:
+    host: str = "127.0.0.1"
+    port: int = 8000
+    viser_port: int = 8080
+    terrain: str = "stepping_stones"
+    gait: str = "walk"
+    planner: str = "contactnet"
+    vx: float = 0.05
+    vy: float = 0.0
+    paused: bool = False
+    terrains_dir: Path | None = None
+    recordings_dir: Path = Path("recordings")
+    scene_hz: float = 30.0
+    record_hz: float = 12.0
+
+
+class ContactnetApp:
+    """The whole tool: live session, viser viewer, terrain service, recorder and the FastAPI app."""
+
+    def __init__(self, config: AppConfig):
+        self.config = config
+        terrain, label = self._initial_terrain(config.terrain)
+        self.session = LiveSession(SessionConfig(
+            terrain=terrain, terrain_label=label, gait=config.gait, planner=config.planner,
+            vx=config.vx, vy=config.vy, paused=config.paused)).start()
+        try:
+            urdf = default_urdf()
+            self.terrains = TerrainService(self.session, TerrainStore(config.terrains_dir or terrains_dir()),
+                                           terrain, label)
+            self.recordings = RecordingStore(config.recordings_dir)
+            self.recorder = LiveRecorder(self.recordings, urdf, rate_hz=config.record_hz)
+            self.viewer = Viewer(self.session, self.terrains, self.recorder, urdf, host=config.host,
+                                 port=config.viser_port, scene_hz=config.scene_hz)
+        except BaseException:
+            self.session.stop()
+            raise
+        self.api = create_api(self)
+
+    @staticmethod
+    def _initial_terrain(spec: str) -> tuple[Terrain, str]:
+        terrain = resolve(spec)
+        label = Path(spec).stem if spec.endswith(".json") else spec
+        return terrain, label
+
+    @property
+    def viser_port(self) -> int:
+        return self.viewer.port
+
+    def state(self) -> State:
+        view = self.session.view
+        if view is None:
+            raise HTTPException(503, "the live session is starting")
+        return state_of(view, self.viser_port, self.recorder.recording)
+
+    def close(self) -> None:
+        self.recorder.close()
+        self.viewer.close()
+        self.session.stop()
+
+
+def create_api(app: ContactnetApp) -> FastAPI:
+    api = FastAPI(
+        title="contactnet",
+        description="Drive, push and inspect the live Solo12 session; manage terrains and recordings. "
+                    "The 3D view is at / (viser, port given by GET /api/info).",
+        version="0.1.0",
+    )
+
+    @api.exception_handler(RequestValidationError)
+    async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
+        """FastAPI's 422, but JSON-safe when the bad input was NaN or infinite (JSON allows neither)."""
+        return JSONResponse(status_code=422, content={"detail": _json_safe(jsonable_encoder(exc.errors()))})
+
+    def run(command, timeout: float = COMMAND_TIMEOUT_S) -> State:
+        try:
+            app.session.call(command, timeout=timeout)
+        except (ValueError, EditError) as exc:
+            raise HTTPException(422, str(exc)) from None
+        except TimeoutError:
+            raise HTTPException(504, "the live session did not answer in time") from None
+        except RuntimeError as exc:
+            raise HTTPException(503, str(exc)) from None
+        return app.state()
+
+    # ---- pages ------------------------------------------------------------------------------------
+    @api.get("/", include_in_schema=False)
+    def index() -> FileResponse:
+        return FileResponse(STATIC_DIR / "index.html", media_type="text/html")
+
+    @api.get("/viewer/", include_in_schema=False)
+    def viewer_page() -> FileResponse:
+        """viser's client (one self-contained HTML file): give it ?websocket=ws://host:port for the
+        live view, or ?playbackPath=URL to play a recording."""
+        return FileResponse(VISER_CLIENT, media_type="text/html")
+
+    if STATIC_DIR.is_dir():
+        api.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+
+    # ---- session ------------------------------------------------------------------------------------
+    @api.get("/api/info", response_model=Info, tags=["session"])
+    def info() -> Info:
+        return Info(viser_port=app.viser_port, viewer_url="/viewer/", version="0.1.0")
+
+    @api.get("/api/state", response_model=State, tags=["session"])
+    def get_state() -> State:
+        return app.state()
+
+    @api.post("/api/command", response_model=State, tags=["session"])
+    def command(body: VelocityCommand) -> State:
+        """Set the commanded velocity (|vx|, |vy| <= 0.3 m/s)."""
+        return run(SetVelocity(body.vx, body.vy))
+
+    @api.post("/api/push", response_model=State, tags=["session"])
+    def push(body: PushCommand) -> State:
+        """Push the base now (|f| <= 20 N, 0 < duration <= 5 s)."""
+        return run(ApplyPush(body.fx, body.fy, body.duration))
+
+    @api.post("/api/reset", response_model=State, tags=["session"])
+    def reset() -> State:
+        """Back to the start of the terrain, running."""
+        return run(Reset())
+
+    @api.post("/api/pause", response_model=State, tags=["session"])
+    def pause(body: PauseCommand) -> State:
+        return run(SetPaused(body.paused))
+
+    @api.post("/api/settings", response_model=State, tags=["session"])
+    def settings(body: SettingsCommand) -> State:
+        """Change gait, planner, noise (each restarts the robot) and simulation speed."""
+        if body.speed is not None:
+            run(SetSpeed(body.speed))
+        if body.gait is not None:
+            run(SetGait(body.gait))
+        if body.planner is not None:
+            run(SetPlanner(body.planner))
+        if body.noise is not None:
+            run(SetNoise(body.noise))
+        return app.state()
+
+    @api.post("/api/session/terrain", response_model=State, tags=["session"])
+    def session_terrain(body: TerrainSelect) -> State:
+        """Put the robot on another terrain (a file, a shipped generator, or the random field)."""
+        try:
+            app.terrains.load(body.name, removed=body.removed, seed=body.seed, timeout=COMMAND_TIMEOUT_S)
+        except FileNotFoundError as exc:
+            raise HTTPException(404, str(exc)) from None
+        except (EditError, ValueError) as exc:
+            raise HTTPException(422, str(exc)) from None
+        return app.state()
+
+    # ---- terrains ---------------------------------------------------------------------------------
+    @api.get("/api/terrains", response_model=TerrainList, tags=["terrains"])
+    def list_terrains() -> TerrainList:
+        names = app.terrains.store.names()
+        return TerrainList(terrains=[TerrainEntry(name=n, shipped=is_shipped(n), url=f"/api/terrains/{n}")
+                                     for n in names], current=app.terrains.label)
+
+    @api.get("/api/terrains/{name}", tags=["terrains"])
+    def get_terrain(name: TerrainName) -> dict[str, Any]:
+        """The terrain file (DESIGN.md "Terrain file" format)."""
+        try:
+            return app.terrains.store.load(name).to_dict()
+        except FileNotFoundError as exc:
+            raise HTTPException(404, str(exc)) from None
+        except EditError as exc:
+            raise HTTPException(422, str(exc)) from None
+
+    @api.put("/api/terrains/{name}", response_model=Saved, tags=["terrains"], openapi_extra={
+        "requestBody": {"required": True, "content": {"application/json": {"schema": {
+            "type": "object", "description": "a terrain (DESIGN.md 'Terrain file'); at most 1 MB",
+            "required": ["name", "start", "goal_x", "regions"]}}}}})
+    async def put_terrain(name: TerrainName, request: Request,
+                          overwrite: Annotated[bool, Query(description="confirm replacing a shipped terrain")] = False
+                          ) -> Saved:
+        """Save a terrain under `name` in terrains/ (validated; nothing is written if it is invalid)."""
+        declared = request.headers.get("content-length")
+        if declared is not None and declared.isdigit() and int(declared) > MAX_UPLOAD_BYTES:
+            raise HTTPException(413, f"terrain file is {declared} bytes; the limit is {MAX_UPLOAD_BYTES} bytes")
+        body = bytearray()
+        async for chunk in request.stream():
+            body += chunk
+            if len(body) > MAX_UPLOAD_BYTES:
+                raise HTTPException(413, f"terrain file exceeds the limit of {MAX_UPLOAD_BYTES} bytes")
+        try:
+            data = parse_upload(bytes(body), source=f"{name}.json")
+            path = app.terrains.store.save(data, name, overwrite=overwrite)
+        except ShippedTerrainError as exc:
+            raise HTTPException(409, str(exc)) from None
+        except EditError as exc:
+            raise HTTPException(422, str(exc)) from None
+        return Saved(name=name, path=str(path))
+
+    # ---- recordings ---------------------------------------------------------------------------------
+    def entry(name: str, size: int, modified: float) -> RecordingEntry:
+        url = f"/api/recordings/{name}"
+        return RecordingEntry(name=name, size_bytes=size, modified=modified, download_url=url,
+                              html_url=f"{url}/html", play_url=f"/viewer/?playbackPath={url}")
+
+    @api.get("/api/recordings", response_model=list[RecordingEntry], tags=["recordings"])
+    def list_recordings() -> list[RecordingEntry]:
+        return [entry(r.name, r.size_bytes, r.modified) for r in app.recordings.list()]
+
+    @api.get("/api/recordings/status", response_model=RecordingStatus, tags=["recordings"])
+    def recording_status() -> RecordingStatus:
+        return RecordingStatus(**app.recorder.status())
+
+    @api.post("/api/recordings/start", response_model=RecordingStatus, tags=["recordings"])
+    def start_recording(body: RecordingStart | None = None) -> RecordingStatus:
+        """Record the scene (12 Hz) until stopped (at most 10 simulated minutes)."""
+        try:
+            app.recorder.start((body.label if body else "").replace(" ", "-"))
+        except RuntimeError as exc:
+            raise HTTPException(409, str(exc)) from None
+        return RecordingStatus(**app.recorder.status())
+
+    @api.post("/api/recordings/stop", response_model=RecordingEntry, tags=["recordings"])
+    def stop_recording() -> RecordingEntry:
+        try:
+            info = app.recorder.stop()
+        except RuntimeError as exc:
+            raise HTTPException(409, str(exc)) from None
+        return entry(info.name, info.size_bytes, info.modified)
+
+    def recording_path(name: str) -> Path:
+        path = app.recordings.path(name)
+        if not path.is_file():
+            raise HTTPException(404, f"no recording named {name!r}")
+        return path
+
+    @api.get("/api/recordings/{name}", tags=["recordings"], response_class=FileResponse)
+    def download_recording(name: RecordingName) -> FileResponse:
+        """The .viser file (play it with /viewer/?playbackPath=<this URL>)."""
+        return FileResponse(recording_path(name), media_type="application/octet-stream", filename=name)
+
+    @api.get("/api/recordings/{name}/html", tags=["recordings"], response_class=HTMLResponse)
+    def recording_html(name: RecordingName, download: bool = True) -> Response:
+        """One self-contained HTML file that plays the recording in any browser."""
+        html = viser_html(recording_path(name).read_bytes())
+        headers = {"Content-Disposition": f'attachment; filename="{name[:-6]}.html"'} if download else {}
+        return HTMLResponse(html, headers=headers)
+
+    return api
+
+
+# ---- process start-up ------------------------------------------------------------------------------
+class BackgroundServer:
+    """uvicorn in a thread (tests and benchmarks)."""
+
+    def __init__(self, api: FastAPI, host: str, port: int):
+        self.server = uvicorn.Server(uvicorn.Config(api, host=host, port=port, log_level="warning",
+                                                    lifespan="off"))
+        self.thread = threading.Thread(target=self.server.run, name="uvicorn", daemon=True)
+        self.thread.start()
+        while not self.server.started:
+            if not self.thread.is_alive():
+                raise RuntimeError(f"uvicorn could not start on {host}:{port}")
+            threading.Event().wait(0.02)
+
+    def stop(self) -> None:
+        self.server.should_exit = True
+        self.thread.join(10)
+
+
+def serve(config: AppConfig) -> int:
+    """Run the tool until interrupted (Ctrl-C)."""
+    logging.basicConfig(level=os.environ.get("CONTACTNET_LOG", "INFO"), stream=sys.stderr,
+                        format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    app = ContactnetApp(config)
+    try:
+        print(f"contactnet: open http://{config.host}:{config.port}/  (3D view: viser on port {app.viser_port}; "
+              f"API docs: http://{config.host}:{config.port}/docs)", file=sys.stderr, flush=True)
+        uvicorn.Server(uvicorn.Config(app.api, host=config.host, port=config.port, log_level="warning")).run()
+    finally:
+        app.close()
+    return 0

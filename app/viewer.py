@@ -1,0 +1,101 @@
+"""The viser side of the tool: one ViserServer with the scene, the control panel and the terrain
+editor, and the loop that keeps them up to date (scene ~30 Hz, panel and plots ~5 Hz, following
+cameras ~10 Hz, recordings at their own rate). The loop only reads `session.view`; it never
+waits for the simulation, and the simulation never waits for it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import logging
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import viser
+
+from app.editing import EditorPanel, TerrainService
+from app.gui import ControlPanel
+from app.live import LiveSession
+from app.recordings import LiveRecorder, stop_quietly
+from app.scene import LiveScene, default_camera
+
+log = logging.getLogger("contactnet.app.viewer")
+
+
+@dataclass
+class UpdateStats:
+    """Costs of the update loop (seconds of this thread's CPU time per scene update)."""
+
+    scene_updates: int = 0
+    scene_cpu_s: list[float] = field(default_factory=list)
+
+    def add(self, cpu_s: float) -> None:
+        self.scene_updates += 1
+        self.scene_cpu_s.append(cpu_s)
+        del self.scene_cpu_s[:-2000]
+
+    def median_ms(self) -> float:
+        return 1e3 * float(np.median(self.scene_cpu_s)) if self.scene_cpu_s else 0.0
+
+
+class Viewer:
+    def __init__(self, session: LiveSession, terrains: TerrainService, recorder: LiveRecorder, urdf_path: Path,
+                 host: str = "127.0.0.1", port: int = 8080, scene_hz: float = 30.0):
+        self.session = session
+        self.recorder = recorder
+        with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner even when not verbose
+            self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        view = session.view
+        if view is not None:
+            position, look_at = default_camera(view)
+            self.server.initial_camera.position = tuple(position)
+            self.server.initial_camera.look_at = tuple(look_at)
+            self.server.initial_camera.up = (0.0, 0.0, 1.0)
+        self.scene = LiveScene(self.server, urdf_path)
+        self.panel = ControlPanel(self.server, session, terrains, recorder)
+        self.editor = EditorPanel(self.server, terrains)
+        self.scene_period = 1.0 / scene_hz
+        self.stats = UpdateStats()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._loop, name="viewer-update", daemon=True)
+        self._thread.start()
+
+    @property
+    def port(self) -> int:
+        return self.server.get_port()
+
+    def _loop(self) -> None:
+        last_seq = -1
+        next_panel = next_camera = 0.0
+        deadline = time.perf_counter()
+        while not self._stop.is_set():
+            deadline += self.scene_period
+            now = time.perf_counter()
+            if deadline < now - self.scene_period:  # fell behind: skip, do not burst
+                deadline = now
+            view = self.session.view
+            try:
+                if view is not None and view.seq != last_seq:
+                    last_seq = view.seq
+                    cpu0 = time.thread_time()
+                    self.scene.update(view)
+                    self.stats.add(time.thread_time() - cpu0)
+                    self.recorder.feed(view)
+                if view is not None and now >= next_camera:
+                    next_camera = now + 0.1
+                    self.panel.camera.step(view)
+                if view is not None and now >= next_panel:
+                    next_panel = now + 0.2
+                    self.panel.refresh(view)
+            except Exception:  # noqa: BLE001 - keep drawing; log once per failure
+                log.exception("viewer update failed")
+            self._stop.wait(max(0.0, deadline - time.perf_counter()))
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(5.0)
+        stop_quietly(self.server)

@@ -1,0 +1,198 @@
+"""The REST API (app/server.py) against a real live session and viser server (no browser)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+
+import pytest
+from fastapi.testclient import TestClient
+
+from app.recordings import free_port
+from app.server import AppConfig, ContactnetApp
+from contactnet.terrain import Terrain, terrains_dir
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory):
+    terrains = tmp_path_factory.mktemp("terrains")
+    for path in terrains_dir().glob("*.json"):
+        shutil.copy(path, terrains / path.name)
+    instance = ContactnetApp(AppConfig(terrain="flat", planner="heuristic", vx=0.0, viser_port=free_port(),
+                                       terrains_dir=terrains, recordings_dir=tmp_path_factory.mktemp("rec")))
+    yield instance
+    instance.close()
+
+
+@pytest.fixture(scope="module")
+def client(app):
+    return TestClient(app.api)
+
+
+def detail_locations(response) -> list:
+    return [tuple(error["loc"]) for error in response.json()["detail"]]
+
+
+def test_state_and_info(client, app):
+    state = client.get("/api/state").json()
+    assert state["terrain"] == "flat" and state["gait"] == "walk" and state["viser_port"] == app.viser_port
+    assert client.get("/api/info").json()["viser_port"] == app.viser_port
+    assert "/api/command" in client.get("/openapi.json").json()["paths"]
+
+
+def test_command_moves_the_robot(client):
+    client.post("/api/reset")
+    x0 = client.get("/api/state").json()["base_position"][0]
+    state = client.post("/api/command", json={"vx": 0.1}).json()
+    assert state["vel_cmd"] == [0.1, 0.0]
+    time.sleep(2.5)
+    state = client.get("/api/state").json()
+    assert state["base_position"][0] - x0 > 0.1
+    client.post("/api/command", json={"vx": 0.0, "vy": 0.0})
+
+
+@pytest.mark.parametrize("path, body, field", [
+    ("/api/command", {"vx": 0.31}, "vx"),
+    ("/api/command", {"vx": 0.0, "vy": -0.5}, "vy"),
+    ("/api/command", {"vx": "fast"}, "vx"),
+    ("/api/command", {"vx": True}, "vx"),
+    ("/api/command", {}, "vx"),
+    ("/api/command", {"vx": 0.1, "vz": 1.0}, "vz"),
+    ("/api/push", {"fx": 25.0}, "fx"),
+    ("/api/push", {"fy": -20.5}, "fy"),
+    ("/api/push", {"fx": 5.0, "duration": 0.0}, "duration"),
+    ("/api/push", {"fx": 5.0, "duration": 5.5}, "duration"),
+    ("/api/settings", {"speed": 3.0}, "speed"),
+    ("/api/settings", {"gait": "gallop"}, "gait"),
+    ("/api/settings", {"planner": "oracle"}, "planner"),
+    ("/api/session/terrain", {"name": "../etc/passwd"}, "name"),
+    ("/api/session/terrain", {"name": "random", "removed": 301}, "removed"),
+])
+def test_out_of_range_values_get_422_naming_the_field(client, path, body, field):
+    before = client.get("/api/state").json()
+    response = client.post(path, json=body)
+    assert response.status_code == 422, response.text
+    assert ("body", field) in detail_locations(response)
+    after = client.get("/api/state").json()
+    assert (after["vel_cmd"], after["pushes"], after["speed"], after["gait"]) == (
+        before["vel_cmd"], before["pushes"], before["speed"], before["gait"])
+
+
+@pytest.mark.parametrize("raw, field", [
+    (b'{"vx": NaN}', "vx"), (b'{"vx": 0.1, "vy": Infinity}', "vy"), (b'{"vx": -Infinity}', "vx"),
+])
+def test_non_finite_values_get_422(client, raw, field):
+    response = client.post("/api/command", content=raw, headers={"content-type": "application/json"})
+    assert response.status_code == 422
+    assert ("body", field) in detail_locations(response)
+    response = client.post("/api/push", content=raw.replace(b"vx", b"fx").replace(b"vy", b"fy"),
+                           headers={"content-type": "application/json"})
+    assert response.status_code == 422
+
+
+def test_push_magnitude_is_limited(client):
+    response = client.post("/api/push", json={"fx": 15.0, "fy": 15.0})
+    assert response.status_code == 422
+    assert "fx, fy" in response.json()["detail"][0]["msg"]
+
+
+def test_push_is_registered(client):
+    pushes = client.get("/api/state").json()["pushes"]
+    state = client.post("/api/push", json={"fx": 5.0, "fy": 0.0, "duration": 1.0}).json()
+    assert state["pushes"] == pushes + 1
+    assert state["push_force"] == [5.0, 0.0, 0.0]
+
+
+def test_pause_and_settings(client):
+    assert client.post("/api/pause", json={"paused": True}).json()["paused"] is True
+    t = client.get("/api/state").json()["t_s"]
+    time.sleep(0.2)
+    assert client.get("/api/state").json()["t_s"] == t
+    state = client.post("/api/settings", json={"speed": 0.5, "planner": "contactnet"}).json()
+    assert state["speed"] == 0.5
+    assert state["planner"] == "contactnet" and state["planner_active"] == "heuristic"
+    assert "not built" in state["planner_note"]
+    state = client.post("/api/settings", json={"speed": 1.0, "planner": "heuristic"}).json()
+    assert state["planner_note"] is None
+    assert client.post("/api/reset").json()["running"] is True
+
+
+def test_terrain_round_trip(client, app):
+    listing = client.get("/api/terrains").json()
+    assert {"flat", "stepping_stones"} <= {t["name"] for t in listing["terrains"]}
+    stones = client.get("/api/terrains/stepping_stones").json()
+    assert Terrain.from_dict(stones).name == "stepping_stones"
+    stones["regions"].append({"shape": "circle", "center": [0.5, 0.4], "radius": 0.05})
+    response = client.put("/api/terrains/my_stones", json=stones)
+    assert response.status_code == 200, response.text
+    saved = client.get("/api/terrains/my_stones").json()
+    assert saved["name"] == "my_stones" and saved["regions"] == stones["regions"]
+    state = client.post("/api/session/terrain", json={"name": "my_stones"}).json()
+    assert state["terrain"] == "my_stones" and state["paused"]
+    state = client.post("/api/session/terrain", json={"name": "random", "removed": 60, "seed": 3}).json()
+    assert state["terrain"].startswith("random")
+    assert client.post("/api/session/terrain", json={"name": "nowhere"}).status_code == 404
+    client.post("/api/session/terrain", json={"name": "flat"})
+    client.post("/api/pause", json={"paused": False})
+
+
+def test_shipped_terrains_need_confirmation(client, app):
+    flat = client.get("/api/terrains/flat").json()
+    before = (app.terrains.store.directory / "flat.json").read_bytes()
+    response = client.put("/api/terrains/flat", json=flat | {"goal_x": 5.0})
+    assert response.status_code == 409 and "confirm" in response.json()["detail"]
+    assert (app.terrains.store.directory / "flat.json").read_bytes() == before
+    assert client.put("/api/terrains/flat?overwrite=true", json=flat | {"goal_x": 5.0}).status_code == 200
+    assert client.get("/api/terrains/flat").json()["goal_x"] == 5.0
+
+
+@pytest.mark.parametrize("name", ["..%2F..%2Fetc%2Fpasswd", "..", "a.b", "%2Etmp", "x%00y", "-lead"])
+def test_path_traversal_is_refused(client, app, name):
+    body = client.get("/api/terrains/flat").json()
+    files = sorted(p.name for p in app.terrains.store.directory.parent.rglob("*"))
+    assert client.get(f"/api/terrains/{name}").status_code in (404, 422)
+    assert client.put(f"/api/terrains/{name}", json=body).status_code in (404, 405, 422)
+    assert sorted(p.name for p in app.terrains.store.directory.parent.rglob("*")) == files
+
+
+def test_bad_and_huge_uploads_change_nothing(client, app):
+    directory = app.terrains.store.directory
+    files = {p.name: p.read_bytes() for p in directory.iterdir()}
+    bad = client.put("/api/terrains/broken", content=b'{"name": "x", "start": [0, 0], "goal_x": 1, "regions": '
+                     b'[{"shape": "rect", "center": [0, 0], "size": [0.1]}]}',
+                     headers={"content-type": "application/json"})
+    assert bad.status_code == 422 and "regions[0].size" in bad.json()["detail"]
+    assert client.put("/api/terrains/broken", content=b"{not json",
+                      headers={"content-type": "application/json"}).status_code == 422
+    huge = json.dumps({"name": "x", "pad": "y" * 1_100_000}).encode()
+    response = client.put("/api/terrains/huge", content=huge, headers={"content-type": "application/json"})
+    assert response.status_code == 413 and "limit" in response.json()["detail"]
+    assert {p.name: p.read_bytes() for p in directory.iterdir()} == files
+
+
+def test_recordings(client, app):
+    assert client.post("/api/recordings/stop").status_code == 409
+    status = client.post("/api/recordings/start", json={"label": "api test"}).json()
+    assert status["recording"] and status["name"].endswith("-api-test.viser")
+    assert client.post("/api/recordings/start").status_code == 409
+    time.sleep(1.5)
+    entry = client.post("/api/recordings/stop").json()
+    assert entry["name"] == status["name"] and entry["size_bytes"] > 10_000
+    assert entry["name"] in [r["name"] for r in client.get("/api/recordings").json()]
+    download = client.get(entry["download_url"])
+    assert download.status_code == 200 and len(download.content) == entry["size_bytes"]
+    html = client.get(entry["html_url"])
+    assert html.status_code == 200 and "__VISER_EMBED_DATA__" in html.text
+    assert "attachment" in html.headers["content-disposition"]
+    assert entry["play_url"] == f"/viewer/?playbackPath={entry['download_url']}"
+    assert client.get("/api/recordings/missing.viser").status_code == 404
+    assert client.get("/api/recordings/..%2Fx.viser").status_code in (404, 422)
+
+
+def test_pages(client):
+    page = client.get("/")
+    assert page.status_code == 200 and 'id="viewer"' in page.text and "/docs" in page.text
+    viewer = client.get("/viewer/")
+    assert viewer.status_code == 200 and "<html" in viewer.text.lower()
+    assert client.get("/static/app.js").status_code == 200
