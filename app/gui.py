@@ -94,13 +94,17 @@ def status_markdown(view: LiveView) -> str:
 class _CameraFollow:
     """Per browser: move the camera with the robot until the user orbits, pans or zooms.
 
-    Camera reports from the browser lag our updates and may show half-applied ones (position
-    moved, look-at not yet), so a report counts as the user's own move only when it is off our
-    recent camera states by more than `tolerance_m` (and not within a grace time after a jump).
+    The browser reports its camera after every change, ours included, but late (a slow renderer
+    can be a second behind) and sometimes half-way through a smoothed transition. So after
+    (re)centring we wait for a report that matches what we set ("synced"); from then on a report
+    off every camera state we set in the last few seconds by more than `tolerance` (the larger of
+    `tolerance_m` and `tolerance_rel` of the viewing distance) is the user's own move, and
+    following stops for that browser. Smaller nudges are followed over.
     """
 
-    tolerance_m = 0.05
-    grace_s = 1.0
+    tolerance_m = 0.25
+    tolerance_rel = 0.15
+    sync_timeout_s = 5.0
 
     def __init__(self, server: viser.ViserServer):
         self.server = server
@@ -122,24 +126,29 @@ class _CameraFollow:
         position, look_at = default_camera(view)
         with self._lock:
             self._state[client.client_id] = {"follow": True, "offset": position - look_at,
-                                             "look_ats": deque([look_at.copy()], maxlen=10),
-                                             "grace_until": time.monotonic() + self.grace_s}
+                                             "look_ats": deque([look_at.copy()], maxlen=60), "synced": False,
+                                             "since": time.monotonic()}
         client.camera.look_at = look_at
         client.camera.position = position
         client.camera.look_at = look_at
 
-    def _on_camera(self, camera: viser.CameraHandle) -> None:
+    async def _on_camera(self, camera: viser.CameraHandle) -> None:
+        """Runs on viser's event loop, so reports are seen in the order they arrive."""
         with self._lock:
             state = self._state.get(camera.client.client_id)
-            if state is None or not state["follow"] or time.monotonic() < state["grace_until"]:
+            if state is None or not state["follow"]:
                 return
             position, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
             orbit_error = np.linalg.norm(position - look_at - state["offset"])
             pan_error = min(np.linalg.norm(look_at - p) for p in state["look_ats"])
-            if max(orbit_error, pan_error) > self.tolerance_m:
+            tolerance = max(self.tolerance_m, self.tolerance_rel * float(np.linalg.norm(state["offset"])))
+            matches = max(orbit_error, pan_error) <= tolerance
+            if not state["synced"]:
+                state["synced"] = matches or time.monotonic() - state["since"] > self.sync_timeout_s
+            elif not matches:
                 state["follow"] = False
-                log.debug("client %s moved the camera: stop following (orbit %.3f m, pan %.3f m)",
-                          camera.client.client_id, orbit_error, pan_error)
+                log.debug("client %s moved the camera: stop following (orbit %.3f m, pan %.3f m) %s %s %s",
+                          camera.client.client_id, orbit_error, pan_error, look_at, state["look_ats"][0], state["look_ats"][-1])
 
     def following(self, client_id: int) -> bool:
         state = self._state.get(client_id)
