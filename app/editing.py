@@ -144,17 +144,20 @@ class EditorPanel:
         self._gizmo: viser.TransformControlsHandle | None = None
         gui = server.gui
         with gui.add_folder("Terrain editor", order=order, expand_by_default=False):
-            self.tool = gui.add_dropdown("Click tool", TOOLS, initial_value="off",
-                                         hint="What a click on the terrain does")
+            self.tool = gui.add_dropdown(
+                "Click tool", TOOLS, initial_value="off", hint="What a click on the terrain does"
+            )
             self.info = gui.add_markdown("Pick a tool, then click the terrain.")
             self.undo_button = gui.add_button("Undo", icon=viser.Icon.ARROW_BACK_UP)
             self.delete_button = gui.add_button("Delete selected stone", icon=viser.Icon.TRASH, disabled=True)
             self.name = gui.add_text("Save as", initial_value="my_terrain", hint="letters, digits, _ and -")
-            self.overwrite = gui.add_checkbox("Overwrite shipped file", False,
-                                              hint="Needed to replace flat, stepping_stones, ...")
+            self.overwrite = gui.add_checkbox(
+                "Overwrite shipped file", False, hint="Needed to replace flat, stepping_stones, ..."
+            )
             self.save_button = gui.add_button("Save terrain", icon=viser.Icon.DEVICE_FLOPPY)
-            self.upload = gui.add_upload_button("Upload terrain JSON", icon=viser.Icon.UPLOAD,
-                                                mime_type="application/json")
+            self.upload = gui.add_upload_button(
+                "Upload terrain JSON", icon=viser.Icon.UPLOAD, mime_type="application/json"
+            )
         self.undo_button.on_click(self._on_undo)
         self.delete_button.on_click(self._on_delete)
         self.save_button.on_click(self._on_save)
@@ -220,22 +223,29 @@ class EditorPanel:
         z = float(self.terrains.current.get("surface_z", 0.0)) + 0.01
         self._selected = index
         self._gizmo = self.server.scene.add_transform_controls(
-            "/editor/gizmo", scale=0.15, active_axes=(True, True, False), disable_sliders=True,
-            rotation_limits=((0.0, 0.0), (0.0, 0.0), (-1000.0, 1000.0)), depth_test=False,
-            position=(x, y, z), wxyz=(math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)),
+            "/editor/gizmo",
+            scale=0.15,
+            active_axes=(True, True, False),
+            disable_sliders=True,
+            rotation_limits=((0.0, 0.0), (0.0, 0.0), (-1000.0, 1000.0)),
+            depth_test=False,
+            position=(x, y, z),
+            wxyz=(math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)),
         )
-        self._gizmo.on_drag_end(self._on_moved)
+        self._gizmo.on_update(self._on_moved)
         self.delete_button.disabled = False
         self.info.content = f"Selected region {index} ({region['shape']}): drag the gizmo, or delete it."
 
     def _on_moved(self, event) -> None:
         gizmo, index = self._gizmo, self._selected
-        if gizmo is None or index is None:
+        if event.phase != "end" or gizmo is None or index is None:
             return
         w, _, _, z = gizmo.wxyz
         yaw = 2.0 * math.atan2(z, w)
         xy = (float(gizmo.position[0]), float(gizmo.position[1]))
-        if self._run(event.client, "Move stone", lambda: self.terrains.edit(editor.move_region, index, xy, yaw)):
+        if self._run(
+            event.client, "Move stone", lambda: self.terrains.edit(editor.move_region, index, xy, yaw)
+        ):
             self._select(index)
 
     def _on_delete(self, event) -> None:

@@ -110,10 +110,19 @@ def snap_square(data: Mapping[str, Any], xy: Sequence[float], size: float = HOLE
             cell = _grid_cell_of(region, xy)
             if cell is not None:
                 (ox, oy), pitch = region["origin"], region["cell"]
-                return (ox + cell[0] * pitch, oy + cell[1] * pitch, ox + (cell[0] + 1) * pitch,
-                        oy + (cell[1] + 1) * pitch)
+                return (
+                    ox + cell[0] * pitch,
+                    oy + cell[1] * pitch,
+                    ox + (cell[0] + 1) * pitch,
+                    oy + (cell[1] + 1) * pitch,
+                )
     col, row = math.floor(xy[0] / size), math.floor(xy[1] / size)
-    return (round(col * size, 9), round(row * size, 9), round((col + 1) * size, 9), round((row + 1) * size, 9))
+    return (
+        round(col * size, 9),
+        round(row * size, 9),
+        round((col + 1) * size, 9),
+        round((row + 1) * size, 9),
+    )
 
 
 def _check_xy(xy: Sequence[float]) -> None:
@@ -138,7 +147,10 @@ def _hole_free_parts(geometry: BaseGeometry) -> list[Polygon]:
             continue
         cut_x = polygon.interiors[0].centroid.x
         minx, miny, maxx, maxy = polygon.bounds
-        for half in (box(minx - 1.0, miny - 1.0, cut_x, maxy + 1.0), box(cut_x, miny - 1.0, maxx + 1.0, maxy + 1.0)):
+        for half in (
+            box(minx - 1.0, miny - 1.0, cut_x, maxy + 1.0),
+            box(cut_x, miny - 1.0, maxx + 1.0, maxy + 1.0),
+        ):
             stack.extend(g for g in shapely.get_parts(polygon.intersection(half)) if isinstance(g, Polygon))
     return out
 
@@ -177,8 +189,14 @@ def _grid_without(region: dict[str, Any], square: Polygon) -> dict[str, Any]:
     (ox, oy), cell = region["origin"], region["cell"]
     minx, miny, maxx, maxy = square.bounds
     eps = 1e-9
-    col0, col1 = max(0, math.floor((minx - ox) / cell + eps)), min(region["cols"], math.ceil((maxx - ox) / cell - eps))
-    row0, row1 = max(0, math.floor((miny - oy) / cell + eps)), min(region["rows"], math.ceil((maxy - oy) / cell - eps))
+    col0, col1 = (
+        max(0, math.floor((minx - ox) / cell + eps)),
+        min(region["cols"], math.ceil((maxx - ox) / cell - eps)),
+    )
+    row0, row1 = (
+        max(0, math.floor((miny - oy) / cell + eps)),
+        min(region["rows"], math.ceil((maxy - oy) / cell - eps)),
+    )
     removed = {tuple(c) for c in region.get("removed", [])}
     removed.update((c, r) for c in range(col0, col1) for r in range(row0, row1))
     region["removed"] = [list(c) for c in sorted(removed, key=lambda c: (c[1], c[0]))]
@@ -199,8 +217,14 @@ def fill_hole(data: Mapping[str, Any], xy: Sequence[float], size: float = HOLE_S
     union = shapely.union_all([region_geometry(r) for r in regions])
     if union.covers(box(x0, y0, x1, y1)):
         return validated(data)
-    regions.append({"shape": "rect", "center": [round(c, 9) for c in centre], "size": [round(x1 - x0, 9),
-                   round(y1 - y0, 9)], "yaw": 0.0})
+    regions.append(
+        {
+            "shape": "rect",
+            "center": [round(c, 9) for c in centre],
+            "size": [round(x1 - x0, 9), round(y1 - y0, 9)],
+            "yaw": 0.0,
+        }
+    )
     return _with_regions(data, regions)
 
 
@@ -213,8 +237,14 @@ def add_stone(data: Mapping[str, Any], shape: str, xy: Sequence[float], yaw: flo
     elif shape == "circle":
         stone = {"shape": "circle", "center": centre, "radius": 0.06}
     elif shape == "star":
-        stone = {"shape": "star", "center": centre, "outer_radius": 0.09, "inner_radius": 0.05, "points": 5,
-                 "yaw": float(yaw)}
+        stone = {
+            "shape": "star",
+            "center": centre,
+            "outer_radius": 0.09,
+            "inner_radius": 0.05,
+            "points": 5,
+            "yaw": float(yaw),
+        }
     else:
         raise EditError(f"unknown stone shape {shape!r}: choose one of {', '.join(STONE_SHAPES)}")
     return _with_regions(data, [*copy.deepcopy(list(data["regions"])), stone])
@@ -238,7 +268,9 @@ def region_pose(region: Mapping[str, Any]) -> tuple[tuple[float, float], float]:
     return (float(centroid.x), float(centroid.y)), 0.0
 
 
-def move_region(data: Mapping[str, Any], index: int, xy: Sequence[float], yaw: float | None = None) -> TerrainDict:
+def move_region(
+    data: Mapping[str, Any], index: int, xy: Sequence[float], yaw: float | None = None
+) -> TerrainDict:
     """Move region `index` so its centre is at xy (and turn it to `yaw` where it can turn)."""
     _check_xy(xy)
     regions = copy.deepcopy(list(data["regions"]))
@@ -360,7 +392,8 @@ class TerrainStore:
         path = self.path(name)
         if is_shipped(name) and path.exists() and not overwrite:
             raise ShippedTerrainError(
-                f"{name!r} is a terrain shipped with contactnet: confirm (overwrite) to replace it")
+                f"{name!r} is a terrain shipped with contactnet: confirm (overwrite) to replace it"
+            )
         terrain = to_terrain(renamed(data, name), source=path.name)
         self.directory.mkdir(parents=True, exist_ok=True)
         terrain.save(path)
@@ -378,7 +411,9 @@ def parse_upload(content: bytes, source: str = "upload", max_bytes: int = MAX_UP
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise EditError(f"{source}: not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})") from None
+        raise EditError(
+            f"{source}: not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})"
+        ) from None
     except RecursionError:
         raise EditError(f"{source}: not valid JSON: nested too deeply") from None
     return validated(data, source)

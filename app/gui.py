@@ -52,7 +52,7 @@ LEG_COLORS = ("#e8590c", "#1c7ed6", "#2f9e44", "#ae3ec9")  # FL FR HL HR
 
 
 def _hex_rgba(color: str, alpha: float) -> str:
-    r, g, b = (int(color[i: i + 2], 16) for i in (1, 3, 5))
+    r, g, b = (int(color[i : i + 2], 16) for i in (1, 3, 5))
     return f"rgba({r},{g},{b},{alpha})"
 
 
@@ -72,7 +72,9 @@ def status_markdown(view: LiveView) -> str:
     rank = snap.planned_steps[0].rank if snap.planned_steps else None
     timing = view.timing
     mean_plan = f" (mean {timing[:, 1].mean():.2f})" if len(timing) else ""
-    planner = s.planner_active if s.planner == s.planner_active else f"{s.planner_active} (asked: {s.planner})"
+    planner = (
+        s.planner_active if s.planner == s.planner_active else f"{s.planner_active} (asked: {s.planner})"
+    )
     lines = [
         f"{state} · t = {snap.t_s:.2f} s · RTF {s.real_time_factor:.2f} · speed {s.speed:.2g}x",
         f"terrain **{s.terrain}** · {s.gait} · planner **{planner}** · noise {'on' if s.noise else 'off'}",
@@ -95,15 +97,16 @@ class _CameraFollow:
     """Per browser: move the camera with the robot until the user orbits, pans or zooms.
 
     The browser reports its camera after every change, ours included, but late (a slow renderer
-    can be a second behind) and sometimes half-way through a smoothed transition. So after
-    (re)centring we wait for a report that matches what we set ("synced"); from then on a report
-    off every camera state we set in the last few seconds by more than `tolerance` (the larger of
-    `tolerance_m` and `tolerance_rel` of the viewing distance) is the user's own move, and
-    following stops for that browser. Smaller nudges are followed over.
+    can be a second behind); reports are handled in arrival order on viser's event loop, and a
+    late report of the page's initial camera is ignored. After (re)centring we wait for a report
+    that matches what we set ("synced"); from then on a report off every camera state we set in
+    the last few seconds by more than `tolerance` (the larger of `tolerance_m` and `tolerance_rel`
+    of the viewing distance) is the user's own orbit, pan or zoom, and following stops for that
+    browser until "Re-center camera".
     """
 
-    tolerance_m = 0.25
-    tolerance_rel = 0.15
+    tolerance_m = 0.05
+    tolerance_rel = 0.03
     sync_timeout_s = 5.0
 
     def __init__(self, server: viser.ViserServer):
@@ -125,9 +128,13 @@ class _CameraFollow:
             return
         position, look_at = default_camera(view)
         with self._lock:
-            self._state[client.client_id] = {"follow": True, "offset": position - look_at,
-                                             "look_ats": deque([look_at.copy()], maxlen=60), "synced": False,
-                                             "since": time.monotonic()}
+            self._state[client.client_id] = {
+                "follow": True,
+                "offset": position - look_at,
+                "look_ats": deque([look_at.copy()], maxlen=60),
+                "synced": False,
+                "since": time.monotonic(),
+            }
         client.camera.look_at = look_at
         client.camera.position = position
         client.camera.look_at = look_at
@@ -139,6 +146,11 @@ class _CameraFollow:
             if state is None or not state["follow"]:
                 return
             position, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
+            initial = self.server.initial_camera
+            if np.allclose(position, initial.position, atol=1e-3) and np.allclose(
+                look_at, initial.look_at, atol=1e-3
+            ):
+                return  # a late report of the page's initial camera (it can arrive after we moved it)
             orbit_error = np.linalg.norm(position - look_at - state["offset"])
             pan_error = min(np.linalg.norm(look_at - p) for p in state["look_ats"])
             tolerance = max(self.tolerance_m, self.tolerance_rel * float(np.linalg.norm(state["offset"])))
@@ -147,8 +159,12 @@ class _CameraFollow:
                 state["synced"] = matches or time.monotonic() - state["since"] > self.sync_timeout_s
             elif not matches:
                 state["follow"] = False
-                log.debug("client %s moved the camera: stop following (orbit %.3f m, pan %.3f m) %s %s %s",
-                          camera.client.client_id, orbit_error, pan_error, look_at, state["look_ats"][0], state["look_ats"][-1])
+                log.debug(
+                    "client %s moved the camera: stop following (orbit %.3f m, pan %.3f m)",
+                    camera.client.client_id,
+                    orbit_error,
+                    pan_error,
+                )
 
     def following(self, client_id: int) -> bool:
         state = self._state.get(client_id)
@@ -185,8 +201,13 @@ class _CameraFollow:
 class ControlPanel:
     """The control panel of the viser GUI (shared by all browsers)."""
 
-    def __init__(self, server: viser.ViserServer, session: LiveSession, terrains: TerrainService,
-                 recorder: LiveRecorder):
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        session: LiveSession,
+        terrains: TerrainService,
+        recorder: LiveRecorder,
+    ):
         self.server = server
         self.session = session
         self.terrains = terrains
@@ -195,22 +216,35 @@ class ControlPanel:
         self._seen: dict[str, object] = {}
         self._timing_key: int | None = None
         gui = server.gui
-        gui.configure_theme(control_width="large", dark_mode=False, show_logo=False,
-                            brand_color=(40, 90, 200))
+        gui.configure_theme(
+            control_width="large", dark_mode=False, show_logo=False, brand_color=(40, 90, 200)
+        )
         self.status = gui.add_markdown("starting ...", order=0)
 
         with gui.add_folder("Drive", order=10):
             self.vx = gui.add_slider("vx [m/s]", -VELOCITY_LIMIT, VELOCITY_LIMIT, 0.01, 0.0)
             self.vy = gui.add_slider("vy [m/s]", -VELOCITY_LIMIT, VELOCITY_LIMIT, 0.01, 0.0)
-            self.stop_button = gui.add_button("Stop (x)", icon=viser.Icon.HAND_STOP,
-                                              hint="vx = vy = 0. Keys: I/K vx +-0.05, J/L vy +-0.05, X stop, P pause "
-                                                   "(W/A/S/D/Q/E and arrows move the camera)")
+            self.stop_button = gui.add_button(
+                "Stop (x)",
+                icon=viser.Icon.HAND_STOP,
+                hint="vx = vy = 0. Keys: I/K vx +-0.05, J/L vy +-0.05, X stop, P pause "
+                "(W/A/S/D/Q/E and arrows move the camera)",
+            )
             self.run_button = gui.add_button("Pause", icon=viser.Icon.PLAYER_PAUSE)
             self.reset_button = gui.add_button("Reset", icon=viser.Icon.REFRESH, color="red")
-            self.speed = gui.add_slider("Sim speed", SPEED_RANGE[0], SPEED_RANGE[1], 0.1, 1.0,
-                                        hint="simulated seconds per wall-clock second")
-            self.recenter = gui.add_button("Re-center camera", icon=viser.Icon.FOCUS_CENTERED,
-                                           hint="The camera follows the robot until you move it")
+            self.speed = gui.add_slider(
+                "Sim speed",
+                SPEED_RANGE[0],
+                SPEED_RANGE[1],
+                0.1,
+                1.0,
+                hint="simulated seconds per wall-clock second",
+            )
+            self.recenter = gui.add_button(
+                "Re-center camera",
+                icon=viser.Icon.FOCUS_CENTERED,
+                hint="The camera follows the robot until you move it",
+            )
             self.shadows = gui.add_checkbox("Shadows", True, hint="Turn off for faster drawing without a GPU")
         with gui.add_folder("Push", order=20):
             self.push_force = gui.add_slider("Force [N]", 0.5, PUSH_FORCE_LIMIT, 0.5, 5.0)
@@ -219,9 +253,13 @@ class ControlPanel:
         with gui.add_folder("Robot and planner", order=40):
             self.gait = gui.add_dropdown("Gait", GAITS, initial_value="walk")
             self.planner = gui.add_dropdown("Planner", PLANNERS, initial_value="contactnet")
-            self.noise = gui.add_checkbox("Joint-velocity noise", False, hint="Gaussian, variance 0.01 (rad/s)^2")
+            self.noise = gui.add_checkbox(
+                "Joint-velocity noise", False, hint="Gaussian, variance 0.01 (rad/s)^2"
+            )
         with gui.add_folder("Terrain", order=45, expand_by_default=False):
-            self.terrain_pick = gui.add_dropdown("Terrain", self._terrain_options(), initial_value="stepping_stones")
+            self.terrain_pick = gui.add_dropdown(
+                "Terrain", self._terrain_options(), initial_value="stepping_stones"
+            )
             self.removed = gui.add_number("Random: removed", 80, min=0, max=300, step=1, visible=False)
             self.seed = gui.add_number("Random: seed", 0, min=0, max=2**31 - 1, step=1, visible=False)
             self.load_button = gui.add_button("Load terrain", icon=viser.Icon.UPLOAD)
@@ -233,24 +271,44 @@ class ControlPanel:
                 data=(np.zeros(2),) + (np.zeros(2),) * 8,
                 series=(
                     uplot.Series(label="t [s]"),
-                    *(uplot.Series(label=leg, stroke=color, width=0, fill=_hex_rgba(color, 0.85), fillTo=3 - i,
-                                   points={"show": False})
-                      for i, (leg, color) in enumerate(zip(LEG_NAMES, LEG_COLORS, strict=True))),
-                    *(uplot.Series(label=f"{leg} plan", stroke=color, width=0, fill=_hex_rgba(color, 0.3),
-                                   fillTo=3 - i, points={"show": False})
-                      for i, (leg, color) in enumerate(zip(LEG_NAMES, LEG_COLORS, strict=True))),
+                    *(
+                        uplot.Series(
+                            label=leg,
+                            stroke=color,
+                            width=0,
+                            fill=_hex_rgba(color, 0.85),
+                            fillTo=3 - i,
+                            points={"show": False},
+                        )
+                        for i, (leg, color) in enumerate(zip(LEG_NAMES, LEG_COLORS, strict=True))
+                    ),
+                    *(
+                        uplot.Series(
+                            label=f"{leg} plan",
+                            stroke=color,
+                            width=0,
+                            fill=_hex_rgba(color, 0.3),
+                            fillTo=3 - i,
+                            points={"show": False},
+                        )
+                        for i, (leg, color) in enumerate(zip(LEG_NAMES, LEG_COLORS, strict=True))
+                    ),
                 ),
                 title="Gait schedule: FL FR HL HR top to bottom; bar = stance",
                 scales={"x": uplot.Scale(time=False), "y": uplot.Scale(range=(-0.1, 4.0), auto=False)},
-                legend=uplot.Legend(show=False), aspect=1.6,
+                legend=uplot.Legend(show=False),
+                aspect=1.6,
             )
             self.timing_plot = gui.add_uplot(
                 data=(np.zeros(1), np.zeros(1), np.zeros(1)),
-                series=(uplot.Series(label="t [s]"),
-                        uplot.Series(label="planner ms", stroke="#e8590c", width=2),
-                        uplot.Series(label="optimizer ms", stroke="#1c7ed6", width=2)),
+                series=(
+                    uplot.Series(label="t [s]"),
+                    uplot.Series(label="planner ms", stroke="#e8590c", width=2),
+                    uplot.Series(label="optimizer ms", stroke="#1c7ed6", width=2),
+                ),
                 title="Planner and optimizer time per plan [ms]",
-                scales={"x": uplot.Scale(time=False), "y": uplot.Scale(auto=True)}, aspect=1.6,
+                scales={"x": uplot.Scale(time=False), "y": uplot.Scale(auto=True)},
+                aspect=1.6,
             )
         self._wire()
 
@@ -264,6 +322,7 @@ class ControlPanel:
             exc = future.exception()
             if exc is not None and client is not None:
                 client.add_notification(title, str(exc), color="red", auto_close_seconds=8.0)
+
         return done
 
     def _send(self, command, client=None, title: str = "Command failed") -> Future:
@@ -296,8 +355,11 @@ class ControlPanel:
         def _(event) -> None:
             direction = {"+x": (1, 0), "-x": (-1, 0), "+y": (0, 1), "-y": (0, -1)}[self.push_buttons.value]
             f = float(self.push_force.value)
-            self._send(ApplyPush(f * direction[0], f * direction[1], float(self.push_duration.value)), event.client,
-                       "Push failed")
+            self._send(
+                ApplyPush(f * direction[0], f * direction[1], float(self.push_duration.value)),
+                event.client,
+                "Push failed",
+            )
 
         @self.gait.on_update
         def _(event) -> None:
@@ -330,7 +392,9 @@ class ControlPanel:
                     self.terrains.load(name)
             except Exception as exc:  # noqa: BLE001 - shown to the user
                 if event.client is not None:
-                    event.client.add_notification("Terrain not loaded", str(exc), color="red", auto_close_seconds=8)
+                    event.client.add_notification(
+                        "Terrain not loaded", str(exc), color="red", auto_close_seconds=8
+                    )
 
         @self.record_button.on_click
         def _(event) -> None:
@@ -339,8 +403,11 @@ class ControlPanel:
                     info = self.recorder.stop()
                     if event.client is not None:
                         event.client.add_notification(
-                            "Recording saved", f"{info.name} ({info.size_bytes / 1e6:.1f} MB): see the front page",
-                            color="green", auto_close_seconds=8)
+                            "Recording saved",
+                            f"{info.name} ({info.size_bytes / 1e6:.1f} MB): see the front page",
+                            color="green",
+                            auto_close_seconds=8,
+                        )
                 else:
                     self.recorder.start()
             except Exception as exc:  # noqa: BLE001 - shown to the user
@@ -403,24 +470,32 @@ class ControlPanel:
             self.vx.value = round(vx, 2)
         if self._changed("vy", vy):
             self.vy.value = round(vy, 2)
-        for key, handle, value in (("speed", self.speed, s.speed), ("gait", self.gait, s.gait),
-                                   ("planner", self.planner, s.planner), ("noise", self.noise, s.noise)):
+        for key, handle, value in (
+            ("speed", self.speed, s.speed),
+            ("gait", self.gait, s.gait),
+            ("planner", self.planner, s.planner),
+            ("noise", self.noise, s.noise),
+        ):
             if self._changed(key, value):
                 handle.value = value
         paused = s.paused or s.done is not None
         if self._changed("paused", (paused, s.done)):
             self.run_button.label = ("Run again" if s.done else "Run") if paused else "Pause"
             self.run_button.icon = viser.Icon.PLAYER_PLAY if paused else viser.Icon.PLAYER_PAUSE
-        if self._changed("terrain_version", view.terrain_version):
-            options = self._terrain_options()
-            if tuple(self.terrain_pick.options) != options:
-                self.terrain_pick.options = options
+        options = self._terrain_options()  # new files appear after "Save terrain" or a PUT
+        if tuple(self.terrain_pick.options) != options:
+            self.terrain_pick.options = options
         self._refresh_record_button()
         status = self.recorder.status()
-        text = (f"**recording** {status['name']}: {status['duration_s']:.1f} s, {status['frames']} frames"
-                if status["recording"] else
-                (f"last saved: {status['last_saved']}" if status["last_saved"] else
-                 "Recordings are listed on the front page."))
+        text = (
+            f"**recording** {status['name']}: {status['duration_s']:.1f} s, {status['frames']} frames"
+            if status["recording"]
+            else (
+                f"last saved: {status['last_saved']}"
+                if status["last_saved"]
+                else "Recordings are listed on the front page."
+            )
+        )
         if self._changed("record_info", text):
             self.record_info.content = text
         t, past, planned = gait_chart(view)

@@ -106,7 +106,9 @@ class SetTerrain:
     label: str
 
 
-Command = SetVelocity | ApplyPush | Reset | SetPaused | SetSpeed | SetGait | SetPlanner | SetNoise | SetTerrain
+Command = (
+    SetVelocity | ApplyPush | Reset | SetPaused | SetSpeed | SetGait | SetPlanner | SetNoise | SetTerrain
+)
 
 
 def check_command(command: Command) -> None:
@@ -120,10 +122,14 @@ def check_command(command: Command) -> None:
         if not (finite(command.vx, command.vy) and max(abs(command.vx), abs(command.vy)) <= VELOCITY_LIMIT):
             raise ValueError(f"velocity must be finite with |vx|, |vy| <= {VELOCITY_LIMIT} m/s")
     elif isinstance(command, ApplyPush):
-        if not (finite(command.fx, command.fy, command.duration_s)
-                and math.hypot(command.fx, command.fy) <= PUSH_FORCE_LIMIT + 1e-9
-                and 0.0 < command.duration_s <= PUSH_DURATION_LIMIT):
-            raise ValueError(f"push needs |f| <= {PUSH_FORCE_LIMIT} N and 0 < duration <= {PUSH_DURATION_LIMIT} s")
+        if not (
+            finite(command.fx, command.fy, command.duration_s)
+            and math.hypot(command.fx, command.fy) <= PUSH_FORCE_LIMIT + 1e-9
+            and 0.0 < command.duration_s <= PUSH_DURATION_LIMIT
+        ):
+            raise ValueError(
+                f"push needs |f| <= {PUSH_FORCE_LIMIT} N and 0 < duration <= {PUSH_DURATION_LIMIT} s"
+            )
     elif isinstance(command, SetSpeed):
         if not (finite(command.speed) and SPEED_RANGE[0] <= command.speed <= SPEED_RANGE[1]):
             raise ValueError(f"speed must be in [{SPEED_RANGE[0]}, {SPEED_RANGE[1]}]")
@@ -149,7 +155,13 @@ def default_planner_factory(name: str, gait: GaitSpec) -> tuple[Any, str, str | 
     except NotBuiltError:
         if name == "heuristic":
             raise
-        return make_planner("heuristic", gait), "heuristic", f"the {name} planner is not built yet: using heuristic"
+        note = f"the {name} planner is not built yet: using heuristic"
+    except Exception as exc:  # noqa: BLE001 - e.g. a missing or bad model file: keep the tool usable
+        if name == "heuristic":
+            raise
+        log.warning("could not build the %s planner: %s", name, exc)
+        note = f"the {name} planner could not be built ({exc}): using heuristic"
+    return make_planner("heuristic", gait), "heuristic", note
 
 
 # ---- what viewers see ----------------------------------------------------------------------------
@@ -270,7 +282,7 @@ class ViewTracker:
         if n and np.linalg.norm(com - self._com_buffer[n - 1]) < COM_PATH_STEP_M:
             return
         if n == len(self._com_buffer):
-            keep = self._com_buffer[n // 2: n] if n >= COM_PATH_POINTS else self._com_buffer[:n]
+            keep = self._com_buffer[n // 2 : n] if n >= COM_PATH_POINTS else self._com_buffer[:n]
             self._com_buffer = np.zeros((max(2 * len(keep), 256), 3))
             self._com_buffer[: len(keep)] = keep
             n = len(keep)
@@ -287,8 +299,13 @@ class ViewTracker:
             leg = np.asarray(getattr(ranked, "leg", np.full(len(xy), -1)), dtype=int)
             chosen = getattr(ranked, "chosen", None)
             chosen_t = () if chosen is None else tuple(np.atleast_1d(chosen).astype(int).tolist())
-            return CandidateView(xy_world=xy, safe=np.asarray(ranked.safe, dtype=bool), leg=leg,
-                                 rank=np.asarray(ranked.rank, dtype=int), chosen=chosen_t)
+            return CandidateView(
+                xy_world=xy,
+                safe=np.asarray(ranked.safe, dtype=bool),
+                leg=leg,
+                rank=np.asarray(ranked.rank, dtype=int),
+                chosen=chosen_t,
+            )
         step = snap.planned_steps[0]
         legs = list(step.legs)
         base_xy = np.asarray(snap.q[:2], dtype=float)
@@ -315,14 +332,14 @@ def gait_chart(view: LiveView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     dt = view.gait.node_dt_s
     now_node = view.stance_history_node0 + len(view.stance_history) - 1
     plan_node0 = int(round(view.plan_t0_s / dt))
-    future = view.planned_contact[max(0, now_node + 1 - plan_node0):]
+    future = view.planned_contact[max(0, now_node + 1 - plan_node0) :]
     nodes = len(view.stance_history) + len(future)
     if nodes == 0:
         return np.zeros(2), np.zeros((2, 4)), np.zeros((2, 4))
     past = np.zeros((nodes, 4))
     planned = np.zeros((nodes, 4))
     past[: len(view.stance_history)] = view.stance_history
-    planned[len(view.stance_history):] = future
+    planned[len(view.stance_history) :] = future
     edges = (view.stance_history_node0 + np.arange(nodes + 1)) * dt
     t = np.stack([edges[:-1], edges[1:]], axis=1).ravel()
     return t, np.repeat(past, 2, axis=0), np.repeat(planned, 2, axis=0)
@@ -359,9 +376,12 @@ class _Stats:
 class LiveSession:
     """A Locomotion run in real time in its own thread (see the module docstring)."""
 
-    def __init__(self, config: SessionConfig,
-                 planner_factory: Callable[[str, GaitSpec], tuple[Any, str, str | None]] = default_planner_factory,
-                 robot_cache_dir=None):
+    def __init__(
+        self,
+        config: SessionConfig,
+        planner_factory: Callable[[str, GaitSpec], tuple[Any, str, str | None]] = default_planner_factory,
+        robot_cache_dir=None,
+    ):
         self.config = config
         self._planner_factory = planner_factory
         self._robot_cache_dir = robot_cache_dir
@@ -380,7 +400,9 @@ class LiveSession:
         if not self._ready.wait(timeout):
             raise TimeoutError("the live session did not start in time")
         if self._startup_error is not None:
-            raise RuntimeError(f"the live session failed to start: {self._startup_error}") from self._startup_error
+            raise RuntimeError(
+                f"the live session failed to start: {self._startup_error}"
+            ) from self._startup_error
         return self
 
     def stop(self, timeout: float = 10.0) -> None:
@@ -553,8 +575,11 @@ class LiveSession:
             self._vel = (float(command.vx), float(command.vy))
             loco.set_command(*self._vel)
         elif isinstance(command, ApplyPush):
-            push = Push(t0_s=loco.t_s, duration_s=float(command.duration_s),
-                        force_world=(float(command.fx), float(command.fy), 0.0))
+            push = Push(
+                t0_s=loco.t_s,
+                duration_s=float(command.duration_s),
+                force_world=(float(command.fx), float(command.fy), 0.0),
+            )
             loco.push(push)
             self._pushes.append(push)
         elif isinstance(command, Reset):
@@ -580,8 +605,13 @@ class LiveSession:
         if self._running and not was_running:
             self._anchor()
 
-    def _rebuild(self, gait: str | None = None, planner: str | None = None, noise: bool | None = None,
-                 terrain: tuple[Terrain, str] | None = None) -> None:
+    def _rebuild(
+        self,
+        gait: str | None = None,
+        planner: str | None = None,
+        noise: bool | None = None,
+        terrain: tuple[Terrain, str] | None = None,
+    ) -> None:
         """New settings need a new Locomotion; on failure the old settings and world stay."""
         old = (self._gait_name, self._planner_name, self._noise, self._terrain, self._terrain_label)
         if gait is not None:
@@ -621,13 +651,30 @@ class LiveSession:
             if push.active(t):
                 push_force += push.force_world
         status = SessionStatus(
-            running=self._running, paused=self._paused, done=self._done, speed=self._speed,
-            real_time_factor=rtf if self._running else 0.0, terrain=self._terrain_label, gait=self._gait_name,
-            planner=self._planner_name, planner_active=self._planner_active, planner_note=self._planner_note,
-            noise=self._noise, pushes=len(self._pushes), error=self._error,
+            running=self._running,
+            paused=self._paused,
+            done=self._done,
+            speed=self._speed,
+            real_time_factor=rtf if self._running else 0.0,
+            terrain=self._terrain_label,
+            gait=self._gait_name,
+            planner=self._planner_name,
+            planner_active=self._planner_active,
+            planner_note=self._planner_note,
+            noise=self._noise,
+            pushes=len(self._pushes),
+            error=self._error,
         )
         self._seq += 1
-        self._view = LiveView(seq=self._seq, snapshot=snap, status=status, terrain=self._terrain,
-                              terrain_version=self._terrain_version, gait=loco.gait, push_force_world=push_force,
-                              wall_time_s=time.monotonic(), **parts)
+        self._view = LiveView(
+            seq=self._seq,
+            snapshot=snap,
+            status=status,
+            terrain=self._terrain,
+            terrain_version=self._terrain_version,
+            gait=loco.gait,
+            push_force_world=push_force,
+            wall_time_s=time.monotonic(),
+            **parts,
+        )
         self._last_publish = wall

@@ -71,8 +71,14 @@ class SceneRecorder:
     `server`: a viser server to draw on and serialize; by default a headless one on a free
     loopback port, owned (and stopped) by the recorder. Use from one thread."""
 
-    def __init__(self, server: viser.ViserServer | None = None, *, urdf_path: Path | None = None,
-                 rate_hz: float = DEFAULT_RATE_HZ, max_duration_s: float = MAX_DURATION_S):
+    def __init__(
+        self,
+        server: viser.ViserServer | None = None,
+        *,
+        urdf_path: Path | None = None,
+        rate_hz: float = DEFAULT_RATE_HZ,
+        max_duration_s: float = MAX_DURATION_S,
+    ):
         if not 0.5 <= rate_hz <= 60.0:
             raise ValueError(f"rate_hz must be in [0.5, 60], got {rate_hz}")
         self._own_server = server is None
@@ -143,15 +149,35 @@ def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
     for push in loco.sim.pushes:
         if push.active(t):
             push_force += push.force_world
-    done = f"fell: {loco.fall_reason}" if loco.fall_reason else ("goal reached" if loco.reached_goal else None)
+    done = (
+        f"fell: {loco.fall_reason}" if loco.fall_reason else ("goal reached" if loco.reached_goal else None)
+    )
     planner = getattr(loco.planner, "name", type(loco.planner).__name__)
-    status = SessionStatus(running=not done, paused=False, done=done, speed=1.0, real_time_factor=0.0,
-                           terrain=label or loco.terrain.name, gait=loco.gait.name, planner=planner,
-                           planner_active=planner, planner_note=None,
-                           noise=loco.sim.config.joint_vel_noise_var > 0, pushes=len(loco.sim.pushes))
-    return LiveView(seq=loco.tick, snapshot=snap, status=status, terrain=loco.terrain, terrain_version=0,
-                    gait=loco.gait, push_force_world=push_force, wall_time_s=time.monotonic(),
-                    **tracker.update(snap))
+    status = SessionStatus(
+        running=not done,
+        paused=False,
+        done=done,
+        speed=1.0,
+        real_time_factor=0.0,
+        terrain=label or loco.terrain.name,
+        gait=loco.gait.name,
+        planner=planner,
+        planner_active=planner,
+        planner_note=None,
+        noise=loco.sim.config.joint_vel_noise_var > 0,
+        pushes=len(loco.sim.pushes),
+    )
+    return LiveView(
+        seq=loco.tick,
+        snapshot=snap,
+        status=status,
+        terrain=loco.terrain,
+        terrain_version=0,
+        gait=loco.gait,
+        push_force_world=push_force,
+        wall_time_s=time.monotonic(),
+        **tracker.update(snap),
+    )
 
 
 def viser_html(data: bytes, dark_mode: bool = False) -> str:
@@ -162,8 +188,10 @@ def viser_html(data: bytes, dark_mode: bool = False) -> str:
     build the page from the saved bytes instead, any time later.
     """
     client_html = (Path(viser.__file__).parent / "client" / "build" / "index.html").read_text()
-    script = (f'<script>window.__VISER_EMBED_DATA__="{base64.b64encode(data).decode("ascii")}";'
-              f"window.__VISER_EMBED_CONFIG__={{darkMode:{'true' if dark_mode else 'false'}}};</script>")
+    script = (
+        f'<script>window.__VISER_EMBED_DATA__="{base64.b64encode(data).decode("ascii")}";'
+        f"window.__VISER_EMBED_CONFIG__={{darkMode:{'true' if dark_mode else 'false'}}};</script>"
+    )
     head_end = client_html.index("</head>")
     return client_html[:head_end] + script + client_html[head_end:]
 
@@ -183,7 +211,9 @@ class RecordingStore:
 
     def path(self, name: str) -> Path:
         if not isinstance(name, str) or not RECORDING_NAME.fullmatch(name):
-            raise ValueError(f"invalid recording name {name!r}: expected letters, digits, '_', '-' and .viser")
+            raise ValueError(
+                f"invalid recording name {name!r}: expected letters, digits, '_', '-' and .viser"
+            )
         return self.directory / name
 
     def list(self) -> list[RecordingInfo]:
@@ -217,7 +247,9 @@ class RecordingStore:
 class LiveRecorder:
     """Start/stop recordings of the live session; `feed(view)` is called by the viewer's update loop."""
 
-    def __init__(self, store: RecordingStore, urdf_path: Path | None = None, rate_hz: float = DEFAULT_RATE_HZ):
+    def __init__(
+        self, store: RecordingStore, urdf_path: Path | None = None, rate_hz: float = DEFAULT_RATE_HZ
+    ):
         self.store = store
         self.urdf_path = urdf_path
         self.rate_hz = rate_hz

@@ -41,7 +41,7 @@ TERRAIN_COLOR = (181, 160, 120)
 SAFE_COLOR = np.array([0, 115, 40], dtype=np.uint8)
 UNSAFE_COLOR = np.array([185, 0, 0], dtype=np.uint8)
 CHOSEN_COLOR = np.array([255, 185, 0], dtype=np.uint8)
-STEP_COLORS = np.array([[255, 120, 0], [255, 165, 70], [255, 205, 140]], dtype=np.uint8)
+STEP_COLORS = np.array([[255, 80, 0], [255, 130, 0], [255, 180, 40]], dtype=np.uint8)
 UNSAFE_STEP_COLOR = np.array([200, 0, 120], dtype=np.uint8)
 PLANNED_COM_COLOR = (0, 160, 255)
 ACTUAL_COM_COLOR = (190, 30, 190)
@@ -65,12 +65,15 @@ def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product of wxyz quaternions, broadcast over leading axes."""
     aw, ax, ay, az = np.moveaxis(a, -1, 0)
     bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack([
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ], axis=-1)
+    return np.stack(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ],
+        axis=-1,
+    )
 
 
 def cluster_decimate(mesh: trimesh.Trimesh, cell_m: float) -> trimesh.Trimesh:
@@ -93,9 +96,14 @@ def load_display_urdf(urdf_path: Path):
     software-rendering browser (no GPU) spends most of each frame on the robot's triangles."""
     import yourdfpy
 
-    urdf = yourdfpy.URDF.load(urdf_path, build_scene_graph=True, load_meshes=True,
-                              build_collision_scene_graph=False, load_collision_meshes=False,
-                              filename_handler=partial(yourdfpy.filename_handler_magic, dir=urdf_path.parent))
+    urdf = yourdfpy.URDF.load(
+        urdf_path,
+        build_scene_graph=True,
+        load_meshes=True,
+        build_collision_scene_graph=False,
+        load_collision_meshes=False,
+        filename_handler=partial(yourdfpy.filename_handler_magic, dir=urdf_path.parent),
+    )
     for name, mesh in list(urdf.scene.geometry.items()):
         urdf.scene.geometry[name] = cluster_decimate(mesh, ROBOT_MESH_CELL_M)
     return urdf
@@ -112,8 +120,12 @@ class _RobotPose:
 
     def __init__(self, server: viser.ViserServer, urdf_path: Path):
         self.root = server.scene.add_frame(ROBOT_ROOT, show_axes=False)
-        self.urdf = ViserUrdf(server, load_display_urdf(urdf_path), root_node_name=ROBOT_ROOT,
-                              mesh_color_override=(0.32, 0.34, 0.40))
+        self.urdf = ViserUrdf(
+            server,
+            load_display_urdf(urdf_path),
+            root_node_name=ROBOT_ROOT,
+            mesh_color_override=(0.32, 0.34, 0.40),
+        )
         names = self.urdf.get_actuated_joint_names()
         self.cfg_from_pin = np.array([JOINT_NAMES.index(n) for n in names])
         self.urdf.update_cfg(np.zeros(len(names)))  # sets every joint frame's fixed position
@@ -165,6 +177,13 @@ def _segments(points: np.ndarray) -> np.ndarray:
     return np.stack([points[:-1], points[1:]], axis=1)
 
 
+def _on_ground(points: np.ndarray, z: float) -> np.ndarray:
+    """CoM positions projected on the ground (inside the body a CoM path is hidden by the robot)."""
+    projected = np.array(points, dtype=np.float32)
+    projected[:, 2] = z
+    return projected
+
+
 class LiveScene:
     """Scene nodes of one session on one viser server; `update(view)` sends what changed."""
 
@@ -175,25 +194,36 @@ class LiveScene:
         self.robot = _RobotPose(server, urdf_path)
         disk = trimesh.creation.cylinder(radius=DISK_RADIUS_M, height=DISK_HEIGHT_M, sections=20)
         self.disks = scene.add_batched_meshes_simple(
-            "/plan/candidates", disk.vertices, disk.faces,
+            "/plan/candidates",
+            disk.vertices,
+            disk.faces,
             batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (DISK_POOL, 1)),
             batched_positions=np.tile(HIDDEN_POS, (DISK_POOL, 1)),
             batched_scales=np.ones((DISK_POOL, 3), dtype=np.float32),
-            batched_colors=np.tile(SAFE_COLOR, (DISK_POOL, 1)), lod="off", cast_shadow=False,
+            batched_colors=np.tile(SAFE_COLOR, (DISK_POOL, 1)),
+            lod="off",
+            cast_shadow=False,
         )
         ball = trimesh.creation.icosphere(subdivisions=2, radius=0.018)
         self.steps = scene.add_batched_meshes_simple(
-            "/plan/steps", ball.vertices, ball.faces,
+            "/plan/steps",
+            ball.vertices,
+            ball.faces,
             batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (STEP_POOL, 1)),
             batched_positions=np.tile(HIDDEN_POS, (STEP_POOL, 1)),
-            batched_colors=np.tile(STEP_COLORS[0], (STEP_POOL, 1)), lod="off", cast_shadow=False,
+            batched_colors=np.tile(STEP_COLORS[0], (STEP_POOL, 1)),
+            lod="off",
+            cast_shadow=False,
         )
-        self.planned_com = scene.add_line_segments("/plan/com", _segments(np.zeros((0, 3))), PLANNED_COM_COLOR,
-                                                   thickness=0.006)
-        self.forces = scene.add_line_segments("/forces/feet", np.tile(HIDDEN_POS, (4, 2, 1)), FORCE_COLOR,
-                                              thickness=0.007)
-        self.push = scene.add_line_segments("/forces/push", np.tile(HIDDEN_POS, (1, 2, 1)), PUSH_COLOR,
-                                            thickness=0.014)
+        self.planned_com = scene.add_line_segments(
+            "/plan/com", _segments(np.zeros((0, 3))), PLANNED_COM_COLOR, thickness=0.006
+        )
+        self.forces = scene.add_line_segments(
+            "/forces/feet", np.tile(HIDDEN_POS, (4, 2, 1)), FORCE_COLOR, thickness=0.007
+        )
+        self.push = scene.add_line_segments(
+            "/forces/push", np.tile(HIDDEN_POS, (1, 2, 1)), PUSH_COLOR, thickness=0.014
+        )
         self._com_chunks: list[viser.LineSegmentsHandle] = []
         self._com_drawn = 0
         self._com_first: np.ndarray | None = None
@@ -220,8 +250,8 @@ class LiveScene:
             com_plan = snap.com_plan
             if self._com_plan_last is None or not np.array_equal(com_plan, self._com_plan_last):
                 self._com_plan_last = com_plan
-                self.planned_com.points = _segments(com_plan)
-            self._draw_com_path(view.com_path)
+                self.planned_com.points = _segments(_on_ground(com_plan, view.terrain.surface_z + 0.004))
+            self._draw_com_path(view.com_path, view.terrain.surface_z + 0.003)
 
     # ---- pieces ------------------------------------------------------------------------------------
     def _draw_terrain(self, view: LiveView) -> None:
@@ -233,15 +263,31 @@ class LiveScene:
         z = terrain.surface_z
         minx, miny, maxx, maxy = terrain.bounds
         nodes = [
-            scene.add_mesh_simple("/terrain/mesh", mesh.vertices, mesh.faces, color=TERRAIN_COLOR,
-                                  flat_shading=True, cast_shadow=False),
+            scene.add_mesh_simple(
+                "/terrain/mesh",
+                mesh.vertices,
+                mesh.faces,
+                color=TERRAIN_COLOR,
+                flat_shading=True,
+                cast_shadow=False,
+            ),
             scene.add_line_segments(
                 "/terrain/goal",
-                np.array([[[terrain.goal_x, miny - 0.05, z + 0.002], [terrain.goal_x, maxy + 0.05, z + 0.002]]]),
-                GOAL_COLOR, thickness=0.008),
-            scene.add_grid("/terrain/floor", width=max(maxx - minx, 1.0) + 1.0, height=max(maxy - miny, 1.0) + 1.0,
-                           position=((minx + maxx) / 2, (miny + maxy) / 2, z - 0.45), cell_size=0.1,
-                           section_size=0.5, shadow_opacity=0.0),
+                np.array(
+                    [[[terrain.goal_x, miny - 0.05, z + 0.002], [terrain.goal_x, maxy + 0.05, z + 0.002]]]
+                ),
+                GOAL_COLOR,
+                thickness=0.008,
+            ),
+            scene.add_grid(
+                "/terrain/floor",
+                width=max(maxx - minx, 1.0) + 1.0,
+                height=max(maxy - miny, 1.0) + 1.0,
+                position=((minx + maxx) / 2, (miny + maxy) / 2, z - 0.45),
+                cell_size=0.1,
+                section_size=0.5,
+                shadow_opacity=0.0,
+            ),
         ]
         self._terrain_nodes = nodes
         self._terrain_version = view.terrain_version
@@ -298,11 +344,12 @@ class LiveScene:
         else:
             self.push.points = np.tile(HIDDEN_POS, (1, 2, 1))
 
-    def _draw_com_path(self, path: np.ndarray) -> None:
+    def _draw_com_path(self, path: np.ndarray, z: float) -> None:
         n = len(path)
         first = path[0] if n else None
         restart = n < self._com_drawn or (
-            first is not None and self._com_first is not None and not np.array_equal(first, self._com_first))
+            first is not None and self._com_first is not None and not np.array_equal(first, self._com_first)
+        )
         if restart or (n == 0 and self._com_chunks):
             for chunk in self._com_chunks:
                 chunk.remove()
@@ -314,12 +361,15 @@ class LiveScene:
         last_chunk = (n - 2) // COM_CHUNK
         first_dirty = max(0, (self._com_drawn - 2) // COM_CHUNK) if self._com_drawn >= 2 else 0
         for c in range(first_dirty, last_chunk + 1):
-            segment = _segments(path[c * COM_CHUNK: min(n, (c + 1) * COM_CHUNK + 1)])
+            segment = _segments(_on_ground(path[c * COM_CHUNK : min(n, (c + 1) * COM_CHUNK + 1)], z))
             if c < len(self._com_chunks):
                 self._com_chunks[c].points = segment
             else:
-                self._com_chunks.append(self.server.scene.add_line_segments(
-                    f"/com_path/{c}", segment, ACTUAL_COM_COLOR, thickness=0.004))
+                self._com_chunks.append(
+                    self.server.scene.add_line_segments(
+                        f"/com_path/{c}", segment, ACTUAL_COM_COLOR, thickness=0.004
+                    )
+                )
         self._com_drawn = n
 
 

@@ -74,8 +74,12 @@ class _Strict(BaseModel):
 class VelocityCommand(_Strict):
     """Commanded base velocity in the robot's horizontal frame."""
 
-    vx: float = Field(..., ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, forward")
-    vy: float = Field(0.0, ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, left")
+    vx: float = Field(
+        ..., ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, forward"
+    )
+    vy: float = Field(
+        0.0, ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, left"
+    )
 
 
 class PushCommand(_Strict):
@@ -89,7 +93,9 @@ class PushCommand(_Strict):
     def _magnitude(self) -> PushCommand:
         magnitude = math.hypot(self.fx, self.fy)
         if magnitude > PUSH_FORCE_LIMIT:
-            raise ValueError(f"fx, fy: push force |(fx, fy)| = {magnitude:.3g} N exceeds {PUSH_FORCE_LIMIT:g} N")
+            raise ValueError(
+                f"fx, fy: push force |(fx, fy)| = {magnitude:.3g} N exceeds {PUSH_FORCE_LIMIT:g} N"
+            )
         return self
 
 
@@ -103,8 +109,13 @@ class SettingsCommand(_Strict):
     gait: Literal["walk", "trot"] | None = None
     planner: Literal["contactnet", "fixed", "heuristic"] | None = None
     noise: bool | None = Field(None, description="Gaussian joint-velocity noise, variance 0.01 (rad/s)^2")
-    speed: float | None = Field(None, ge=SPEED_RANGE[0], le=SPEED_RANGE[1], allow_inf_nan=False,
-                                description="simulated seconds per wall-clock second")
+    speed: float | None = Field(
+        None,
+        ge=SPEED_RANGE[0],
+        le=SPEED_RANGE[1],
+        allow_inf_nan=False,
+        description="simulated seconds per wall-clock second",
+    )
 
 
 class TerrainSelect(_Strict):
@@ -198,15 +209,35 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
     s, snap = view.status, view.snapshot
     q = snap.q
     return State(
-        t_s=snap.t_s, running=s.running, paused=s.paused, done=s.done, fell=snap.fell, fall_reason=snap.fall_reason,
-        reached_goal=snap.reached_goal, speed=s.speed, real_time_factor=s.real_time_factor, terrain=s.terrain,
-        gait=s.gait, planner=s.planner, planner_active=s.planner_active, planner_note=s.planner_note,
-        noise=s.noise, vel_cmd=snap.vel_cmd_xy, base_position=tuple(float(v) for v in q[:3]),
-        com_position=tuple(float(v) for v in snap.com_pos), com_velocity=tuple(float(v) for v in snap.com_vel),
-        stance=tuple(bool(v) for v in snap.stance), foot_contact=tuple(bool(v) for v in snap.foot_contact),
-        steps=snap.steps, rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
-        last_planner_ms=snap.last_planner_ms, last_trajopt_ms=snap.last_trajopt_ms, pushes=s.pushes,
-        push_force=tuple(float(v) for v in view.push_force_world), error=s.error, recording=recording,
+        t_s=snap.t_s,
+        running=s.running,
+        paused=s.paused,
+        done=s.done,
+        fell=snap.fell,
+        fall_reason=snap.fall_reason,
+        reached_goal=snap.reached_goal,
+        speed=s.speed,
+        real_time_factor=s.real_time_factor,
+        terrain=s.terrain,
+        gait=s.gait,
+        planner=s.planner,
+        planner_active=s.planner_active,
+        planner_note=s.planner_note,
+        noise=s.noise,
+        vel_cmd=snap.vel_cmd_xy,
+        base_position=tuple(float(v) for v in q[:3]),
+        com_position=tuple(float(v) for v in snap.com_pos),
+        com_velocity=tuple(float(v) for v in snap.com_vel),
+        stance=tuple(bool(v) for v in snap.stance),
+        foot_contact=tuple(bool(v) for v in snap.foot_contact),
+        steps=snap.steps,
+        rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
+        last_planner_ms=snap.last_planner_ms,
+        last_trajopt_ms=snap.last_trajopt_ms,
+        pushes=s.pushes,
+        push_force=tuple(float(v) for v in view.push_force_world),
+        error=s.error,
+        recording=recording,
         viser_port=viser_port,
     )
 
@@ -245,17 +276,33 @@ class ContactnetApp:
     def __init__(self, config: AppConfig):
         self.config = config
         terrain, label = self._initial_terrain(config.terrain)
-        self.session = LiveSession(SessionConfig(
-            terrain=terrain, terrain_label=label, gait=config.gait, planner=config.planner,
-            vx=config.vx, vy=config.vy, paused=config.paused)).start()
+        self.session = LiveSession(
+            SessionConfig(
+                terrain=terrain,
+                terrain_label=label,
+                gait=config.gait,
+                planner=config.planner,
+                vx=config.vx,
+                vy=config.vy,
+                paused=config.paused,
+            )
+        ).start()
         try:
             urdf = default_urdf()
-            self.terrains = TerrainService(self.session, TerrainStore(config.terrains_dir or terrains_dir()),
-                                           terrain, label)
+            self.terrains = TerrainService(
+                self.session, TerrainStore(config.terrains_dir or terrains_dir()), terrain, label
+            )
             self.recordings = RecordingStore(config.recordings_dir)
             self.recorder = LiveRecorder(self.recordings, urdf, rate_hz=config.record_hz)
-            self.viewer = Viewer(self.session, self.terrains, self.recorder, urdf, host=config.host,
-                                 port=config.viser_port, scene_hz=config.scene_hz)
+            self.viewer = Viewer(
+                self.session,
+                self.terrains,
+                self.recorder,
+                urdf,
+                host=config.host,
+                port=config.viser_port,
+                scene_hz=config.scene_hz,
+            )
         except BaseException:
             self.session.stop()
             raise
@@ -287,7 +334,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
     api = FastAPI(
         title="contactnet",
         description="Drive, push and inspect the live Solo12 session; manage terrains and recordings. "
-                    "The 3D view is at / (viser, port given by GET /api/info).",
+        "The 3D view is at / (viser, port given by GET /api/info).",
         version="0.1.0",
     )
 
@@ -377,8 +424,10 @@ def create_api(app: ContactnetApp) -> FastAPI:
     @api.get("/api/terrains", response_model=TerrainList, tags=["terrains"])
     def list_terrains() -> TerrainList:
         names = app.terrains.store.names()
-        return TerrainList(terrains=[TerrainEntry(name=n, shipped=is_shipped(n), url=f"/api/terrains/{n}")
-                                     for n in names], current=app.terrains.label)
+        return TerrainList(
+            terrains=[TerrainEntry(name=n, shipped=is_shipped(n), url=f"/api/terrains/{n}") for n in names],
+            current=app.terrains.label,
+        )
 
     @api.get("/api/terrains/{name}", tags=["terrains"])
     def get_terrain(name: TerrainName) -> dict[str, Any]:
@@ -390,17 +439,36 @@ def create_api(app: ContactnetApp) -> FastAPI:
         except EditError as exc:
             raise HTTPException(422, str(exc)) from None
 
-    @api.put("/api/terrains/{name}", response_model=Saved, tags=["terrains"], openapi_extra={
-        "requestBody": {"required": True, "content": {"application/json": {"schema": {
-            "type": "object", "description": "a terrain (DESIGN.md 'Terrain file'); at most 1 MB",
-            "required": ["name", "start", "goal_x", "regions"]}}}}})
-    async def put_terrain(name: TerrainName, request: Request,
-                          overwrite: Annotated[bool, Query(description="confirm replacing a shipped terrain")] = False
-                          ) -> Saved:
+    @api.put(
+        "/api/terrains/{name}",
+        response_model=Saved,
+        tags=["terrains"],
+        openapi_extra={
+            "requestBody": {
+                "required": True,
+                "content": {
+                    "application/json": {
+                        "schema": {
+                            "type": "object",
+                            "description": "a terrain (DESIGN.md 'Terrain file'); at most 1 MB",
+                            "required": ["name", "start", "goal_x", "regions"],
+                        }
+                    }
+                },
+            }
+        },
+    )
+    async def put_terrain(
+        name: TerrainName,
+        request: Request,
+        overwrite: Annotated[bool, Query(description="confirm replacing a shipped terrain")] = False,
+    ) -> Saved:
         """Save a terrain under `name` in terrains/ (validated; nothing is written if it is invalid)."""
         declared = request.headers.get("content-length")
         if declared is not None and declared.isdigit() and int(declared) > MAX_UPLOAD_BYTES:
-            raise HTTPException(413, f"terrain file is {declared} bytes; the limit is {MAX_UPLOAD_BYTES} bytes")
+            raise HTTPException(
+                413, f"terrain file is {declared} bytes; the limit is {MAX_UPLOAD_BYTES} bytes"
+            )
         body = bytearray()
         async for chunk in request.stream():
             body += chunk
@@ -418,8 +486,14 @@ def create_api(app: ContactnetApp) -> FastAPI:
     # ---- recordings ---------------------------------------------------------------------------------
     def entry(name: str, size: int, modified: float) -> RecordingEntry:
         url = f"/api/recordings/{name}"
-        return RecordingEntry(name=name, size_bytes=size, modified=modified, download_url=url,
-                              html_url=f"{url}/html", play_url=f"/viewer/?playbackPath={url}")
+        return RecordingEntry(
+            name=name,
+            size_bytes=size,
+            modified=modified,
+            download_url=url,
+            html_url=f"{url}/html",
+            play_url=f"/viewer/?playbackPath={url}",
+        )
 
     @api.get("/api/recordings", response_model=list[RecordingEntry], tags=["recordings"])
     def list_recordings() -> list[RecordingEntry]:
@@ -472,8 +546,9 @@ class BackgroundServer:
     """uvicorn in a thread (tests and benchmarks)."""
 
     def __init__(self, api: FastAPI, host: str, port: int):
-        self.server = uvicorn.Server(uvicorn.Config(api, host=host, port=port, log_level="warning",
-                                                    lifespan="off"))
+        self.server = uvicorn.Server(
+            uvicorn.Config(api, host=host, port=port, log_level="warning", lifespan="off")
+        )
         self.thread = threading.Thread(target=self.server.run, name="uvicorn", daemon=True)
         self.thread.start()
         while not self.server.started:
@@ -488,12 +563,20 @@ class BackgroundServer:
 
 def serve(config: AppConfig) -> int:
     """Run the tool until interrupted (Ctrl-C)."""
-    logging.basicConfig(level=os.environ.get("CONTACTNET_LOG", "INFO"), stream=sys.stderr,
-                        format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    logging.basicConfig(
+        level=os.environ.get("CONTACTNET_LOG", "INFO"),
+        stream=sys.stderr,
+        format="%(asctime)s %(name)s %(levelname)s: %(message)s",
+    )
+    logging.getLogger("websockets").setLevel(logging.WARNING)
     app = ContactnetApp(config)
     try:
-        print(f"contactnet: open http://{config.host}:{config.port}/  (3D view: viser on port {app.viser_port}; "
-              f"API docs: http://{config.host}:{config.port}/docs)", file=sys.stderr, flush=True)
+        print(
+            f"contactnet: open http://{config.host}:{config.port}/  "
+            f"(3D view: viser on port {app.viser_port}; API docs: http://{config.host}:{config.port}/docs)",
+            file=sys.stderr,
+            flush=True,
+        )
         uvicorn.Server(uvicorn.Config(app.api, host=config.host, port=config.port, log_level="warning")).run()
     finally:
         app.close()

@@ -43,8 +43,16 @@ class UpdateStats:
 
 
 class Viewer:
-    def __init__(self, session: LiveSession, terrains: TerrainService, recorder: LiveRecorder, urdf_path: Path,
-                 host: str = "127.0.0.1", port: int = 8080, scene_hz: float = 30.0):
+    def __init__(
+        self,
+        session: LiveSession,
+        terrains: TerrainService,
+        recorder: LiveRecorder,
+        urdf_path: Path,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        scene_hz: float = 30.0,
+    ):
         self.session = session
         self.recorder = recorder
         with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner even when not verbose
@@ -84,7 +92,7 @@ class Viewer:
                     cpu0 = time.thread_time()
                     self.scene.update(view)
                     self.stats.add(time.thread_time() - cpu0)
-                    self.recorder.feed(view)
+                self.recorder.feed(view)  # cheap when no frame is due (also records a paused scene once)
                 if view is not None and now >= next_camera:
                     next_camera = now + 0.1
                     self.panel.camera.step(view)

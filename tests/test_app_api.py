@@ -19,8 +19,16 @@ def app(tmp_path_factory):
     terrains = tmp_path_factory.mktemp("terrains")
     for path in terrains_dir().glob("*.json"):
         shutil.copy(path, terrains / path.name)
-    instance = ContactnetApp(AppConfig(terrain="flat", planner="heuristic", vx=0.0, viser_port=free_port(),
-                                       terrains_dir=terrains, recordings_dir=tmp_path_factory.mktemp("rec")))
+    instance = ContactnetApp(
+        AppConfig(
+            terrain="flat",
+            planner="heuristic",
+            vx=0.0,
+            viser_port=free_port(),
+            terrains_dir=terrains,
+            recordings_dir=tmp_path_factory.mktemp("rec"),
+        )
+    )
     yield instance
     instance.close()
 
@@ -52,23 +60,26 @@ def test_command_moves_the_robot(client):
     client.post("/api/command", json={"vx": 0.0, "vy": 0.0})
 
 
-@pytest.mark.parametrize("path, body, field", [
-    ("/api/command", {"vx": 0.31}, "vx"),
-    ("/api/command", {"vx": 0.0, "vy": -0.5}, "vy"),
-    ("/api/command", {"vx": "fast"}, "vx"),
-    ("/api/command", {"vx": True}, "vx"),
-    ("/api/command", {}, "vx"),
-    ("/api/command", {"vx": 0.1, "vz": 1.0}, "vz"),
-    ("/api/push", {"fx": 25.0}, "fx"),
-    ("/api/push", {"fy": -20.5}, "fy"),
-    ("/api/push", {"fx": 5.0, "duration": 0.0}, "duration"),
-    ("/api/push", {"fx": 5.0, "duration": 5.5}, "duration"),
-    ("/api/settings", {"speed": 3.0}, "speed"),
-    ("/api/settings", {"gait": "gallop"}, "gait"),
-    ("/api/settings", {"planner": "oracle"}, "planner"),
-    ("/api/session/terrain", {"name": "../etc/passwd"}, "name"),
-    ("/api/session/terrain", {"name": "random", "removed": 301}, "removed"),
-])
+@pytest.mark.parametrize(
+    "path, body, field",
+    [
+        ("/api/command", {"vx": 0.31}, "vx"),
+        ("/api/command", {"vx": 0.0, "vy": -0.5}, "vy"),
+        ("/api/command", {"vx": "fast"}, "vx"),
+        ("/api/command", {"vx": True}, "vx"),
+        ("/api/command", {}, "vx"),
+        ("/api/command", {"vx": 0.1, "vz": 1.0}, "vz"),
+        ("/api/push", {"fx": 25.0}, "fx"),
+        ("/api/push", {"fy": -20.5}, "fy"),
+        ("/api/push", {"fx": 5.0, "duration": 0.0}, "duration"),
+        ("/api/push", {"fx": 5.0, "duration": 5.5}, "duration"),
+        ("/api/settings", {"speed": 3.0}, "speed"),
+        ("/api/settings", {"gait": "gallop"}, "gait"),
+        ("/api/settings", {"planner": "oracle"}, "planner"),
+        ("/api/session/terrain", {"name": "../etc/passwd"}, "name"),
+        ("/api/session/terrain", {"name": "random", "removed": 301}, "removed"),
+    ],
+)
 def test_out_of_range_values_get_422_naming_the_field(client, path, body, field):
     before = client.get("/api/state").json()
     response = client.post(path, json=body)
@@ -76,18 +87,30 @@ def test_out_of_range_values_get_422_naming_the_field(client, path, body, field)
     assert ("body", field) in detail_locations(response)
     after = client.get("/api/state").json()
     assert (after["vel_cmd"], after["pushes"], after["speed"], after["gait"]) == (
-        before["vel_cmd"], before["pushes"], before["speed"], before["gait"])
+        before["vel_cmd"],
+        before["pushes"],
+        before["speed"],
+        before["gait"],
+    )
 
 
-@pytest.mark.parametrize("raw, field", [
-    (b'{"vx": NaN}', "vx"), (b'{"vx": 0.1, "vy": Infinity}', "vy"), (b'{"vx": -Infinity}', "vx"),
-])
+@pytest.mark.parametrize(
+    "raw, field",
+    [
+        (b'{"vx": NaN}', "vx"),
+        (b'{"vx": 0.1, "vy": Infinity}', "vy"),
+        (b'{"vx": -Infinity}', "vx"),
+    ],
+)
 def test_non_finite_values_get_422(client, raw, field):
     response = client.post("/api/command", content=raw, headers={"content-type": "application/json"})
     assert response.status_code == 422
     assert ("body", field) in detail_locations(response)
-    response = client.post("/api/push", content=raw.replace(b"vx", b"fx").replace(b"vy", b"fy"),
-                           headers={"content-type": "application/json"})
+    response = client.post(
+        "/api/push",
+        content=raw.replace(b"vx", b"fx").replace(b"vy", b"fy"),
+        headers={"content-type": "application/json"},
+    )
     assert response.status_code == 422
 
 
@@ -159,12 +182,19 @@ def test_path_traversal_is_refused(client, app, name):
 def test_bad_and_huge_uploads_change_nothing(client, app):
     directory = app.terrains.store.directory
     files = {p.name: p.read_bytes() for p in directory.iterdir()}
-    bad = client.put("/api/terrains/broken", content=b'{"name": "x", "start": [0, 0], "goal_x": 1, "regions": '
-                     b'[{"shape": "rect", "center": [0, 0], "size": [0.1]}]}',
-                     headers={"content-type": "application/json"})
+    bad = client.put(
+        "/api/terrains/broken",
+        content=b'{"name": "x", "start": [0, 0], "goal_x": 1, "regions": '
+        b'[{"shape": "rect", "center": [0, 0], "size": [0.1]}]}',
+        headers={"content-type": "application/json"},
+    )
     assert bad.status_code == 422 and "regions[0].size" in bad.json()["detail"]
-    assert client.put("/api/terrains/broken", content=b"{not json",
-                      headers={"content-type": "application/json"}).status_code == 422
+    assert (
+        client.put(
+            "/api/terrains/broken", content=b"{not json", headers={"content-type": "application/json"}
+        ).status_code
+        == 422
+    )
     huge = json.dumps({"name": "x", "pad": "y" * 1_100_000}).encode()
     response = client.put("/api/terrains/huge", content=huge, headers={"content-type": "application/json"})
     assert response.status_code == 413 and "limit" in response.json()["detail"]
@@ -196,3 +226,59 @@ def test_pages(client):
     viewer = client.get("/viewer/")
     assert viewer.status_code == 200 and "<html" in viewer.text.lower()
     assert client.get("/static/app.js").status_code == 200
+
+
+def test_clicks_in_the_3d_view_edit_the_terrain(client, app):
+    """The editor's click path without a browser: a ray from above hits the plane z = surface_z."""
+    from types import SimpleNamespace
+
+    from app import editor
+    from app.editing import ray_to_plane
+
+    assert ray_to_plane((0.3, 0.1, 1.0), (0.0, 0.0, -1.0), 0.0) == pytest.approx((0.3, 0.1))
+    assert ray_to_plane((0.3, 0.1, 1.0), (0.0, 0.0, 1.0), 0.0) is None  # looking up
+    assert ray_to_plane((0.3, 0.1, 1.0), (1.0, 0.0, 0.0), 0.0) is None  # parallel
+    client.post("/api/session/terrain", json={"name": "stepping_stones"})
+    panel = app.viewer.editor
+    before = Terrain.from_dict(app.terrains.current).steppable.area
+    version = app.session.view.terrain_version
+
+    def click(x: float, y: float) -> None:
+        panel._on_click(
+            SimpleNamespace(ray_origin=(x - 0.5, y, 1.0), ray_direction=(0.5, 0.0, -1.0), client=None)
+        )
+
+    panel.tool.value = "punch hole"
+    click(0.12, 0.12)
+    assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(before - 0.0025)
+    assert app.session.view.terrain_version == version + 1
+    assert client.get("/api/state").json()["terrain"] == "stepping_stones (edited)"
+    panel.tool.value = "add star"
+    click(0.7, 0.4)
+    assert app.terrains.current["regions"][-1]["shape"] == "star"
+    panel.tool.value = "select stone"
+    click(0.7, 0.4)
+    assert panel._selected == len(app.terrains.current["regions"]) - 1
+    panel._gizmo.position = (0.8, 0.45, 0.01)  # as if dragged
+    panel._on_moved(SimpleNamespace(phase="end", client=None))
+    assert editor.region_pose(app.terrains.current["regions"][-1])[0] == pytest.approx((0.8, 0.45))
+    panel._on_delete(SimpleNamespace(client=None))
+    panel._on_undo(SimpleNamespace(client=None))
+    assert app.terrains.current["regions"][-1]["shape"] == "star"
+    for _ in range(3):
+        panel._on_undo(SimpleNamespace(client=None))
+    assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(before)
+    panel.tool.value = "off"
+    client.post("/api/session/terrain", json={"name": "flat"})
+    client.post("/api/pause", json={"paused": False})
+
+
+def test_serve_command_line(capsys):
+    from contactnet.cli import EXIT_USER_ERROR, build_parser, cmd_serve, main
+
+    args = build_parser().parse_args(["serve", "--port", "8123", "--viser-port", "8124", "--gait", "trot"])
+    assert args.func is cmd_serve and (args.port, args.viser_port, args.gait) == (8123, 8124, "trot")
+    assert main(["serve", "--terrain", "no_such_terrain"]) == EXIT_USER_ERROR  # before anything starts
+    assert "no_such_terrain" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["serve", "--port", "70000"])

@@ -67,7 +67,12 @@ def test_punch_in_a_grid_removes_the_cell_and_fill_restores_it(field):
 def test_fill_in_a_hole_adds_a_square_and_filling_solid_ground_changes_nothing(stones):
     filled = editor.fill_hole(stones, (0.71, 0.41))  # off every stone
     assert area(filled) == pytest.approx(area(stones) + 0.05**2, abs=1e-9)
-    assert filled["regions"][-1] == {"shape": "rect", "center": [0.725, 0.425], "size": [0.05, 0.05], "yaw": 0.0}
+    assert filled["regions"][-1] == {
+        "shape": "rect",
+        "center": [0.725, 0.425],
+        "size": [0.05, 0.05],
+        "yaw": 0.0,
+    }
     assert editor.fill_hole(stones, (0.0, 0.0)) == stones
 
 
@@ -142,7 +147,9 @@ def test_undo_history(stones):
         history.undo()
 
 
-@pytest.mark.parametrize("name", ["../evil", "a/b", "a.b", "", ".hidden", "x" * 65, "white space", "..", "C:\\x"])
+@pytest.mark.parametrize(
+    "name", ["../evil", "a/b", "a.b", "", ".hidden", "x" * 65, "white space", "..", "C:\\x"]
+)
 def test_bad_names_are_refused(name):
     with pytest.raises(EditError, match="invalid terrain name"):
         editor.validate_name(name)
@@ -169,15 +176,21 @@ def test_store_round_trip_and_shipped_files(tmp_path, stones):
         store.load("missing")
 
 
-@pytest.mark.parametrize("content, message", [
-    (b"{", "not valid JSON"),
-    (b"\xff\xfe", "not UTF-8"),
-    (b"[1, 2]", "JSON object"),
-    (b'{"name": "x", "start": [0, 0], "goal_x": 1, "regions": []}', "regions"),
-    (b'{"name": "x", "start": [0, 0], "goal_x": 1, "regions": [{"shape": "circle", "center": [0, 0], '
-     b'"radius": NaN}]}', "radius"),
-    (b" " * (editor.MAX_UPLOAD_BYTES + 1), "limit"),
-])
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (b"{", "not valid JSON"),
+        (b"\xff\xfe", "not UTF-8"),
+        (b"[1, 2]", "JSON object"),
+        (b'{"name": "x", "start": [0, 0], "goal_x": 1, "regions": []}', "regions"),
+        (
+            b'{"name": "x", "start": [0, 0], "goal_x": 1, "regions": [{"shape": "circle", "center": [0, 0], '
+            b'"radius": NaN}]}',
+            "radius",
+        ),
+        (b" " * (editor.MAX_UPLOAD_BYTES + 1), "limit"),
+    ],
+)
 def test_bad_uploads_are_refused_with_a_message(content, message):
     with pytest.raises(EditError, match=message):
         editor.parse_upload(content, source="upload.json")

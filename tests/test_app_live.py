@@ -27,8 +27,10 @@ from contactnet.terrain import flat, stepping_stones
 
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
-    live = LiveSession(SessionConfig(terrain=flat(), terrain_label="flat", planner="heuristic", vx=0.0),
-                       robot_cache_dir=tmp_path_factory.mktemp("cache")).start()
+    live = LiveSession(
+        SessionConfig(terrain=flat(), terrain_label="flat", planner="heuristic", vx=0.0),
+        robot_cache_dir=tmp_path_factory.mktemp("cache"),
+    ).start()
     yield live
     live.stop()
 
@@ -72,11 +74,22 @@ def test_pause_stops_the_clock_and_reset_restarts(session):
     assert session.view.status.running and session.view.snapshot.t_s < 0.1
 
 
-@pytest.mark.parametrize("command", [
-    SetVelocity(0.5, 0.0), SetVelocity(float("nan"), 0.0), SetVelocity(0.0, float("inf")),
-    ApplyPush(21.0, 0.0, 1.0), ApplyPush(15.0, 15.0, 1.0), ApplyPush(1.0, 0.0, 0.0), ApplyPush(1.0, 0.0, 6.0),
-    SetSpeed(0.0), SetGait("gallop"), SetPlanner("oracle"), SetTerrain("flat", "flat"),
-])
+@pytest.mark.parametrize(
+    "command",
+    [
+        SetVelocity(0.5, 0.0),
+        SetVelocity(float("nan"), 0.0),
+        SetVelocity(0.0, float("inf")),
+        ApplyPush(21.0, 0.0, 1.0),
+        ApplyPush(15.0, 15.0, 1.0),
+        ApplyPush(1.0, 0.0, 0.0),
+        ApplyPush(1.0, 0.0, 6.0),
+        SetSpeed(0.0),
+        SetGait("gallop"),
+        SetPlanner("oracle"),
+        SetTerrain("flat", "flat"),
+    ],
+)
 def test_bad_commands_never_reach_the_simulation(session, command):
     future = session.submit(command)
     with pytest.raises(ValueError):
@@ -185,8 +198,10 @@ def test_recorder_from_a_plain_loop(robot, tmp_path):
     from contactnet.sim import Push
 
     terrain = flat()
-    with Locomotion(robot, terrain, WALK, HeuristicPlanner(WALK), vel_cmd_xy=(0.1, 0.0)) as loco, \
-            SceneRecorder(rate_hz=10.0) as recorder:
+    with (
+        Locomotion(robot, terrain, WALK, HeuristicPlanner(WALK), vel_cmd_xy=(0.1, 0.0)) as loco,
+        SceneRecorder(rate_hz=10.0) as recorder,
+    ):
         loco.push(Push(0.5, 0.5, (5.0, 0.0, 0.0)))
         tracker = ViewTracker(robot, terrain, WALK)
         recorded = 0
@@ -199,3 +214,57 @@ def test_recorder_from_a_plain_loop(robot, tmp_path):
     assert int.from_bytes(data[:8], "little") > len(data) > 10_000  # zstd-compressed .viser payload
     html = viser_html(data)
     assert "__VISER_EMBED_DATA__" in html and len(html) > len(data)
+
+
+def test_camera_follows_until_the_user_moves_it(session):
+    """The follow logic with a fake browser: our own (late, repeated) camera reports keep it on; an
+    orbit or a pan by the user switches it off; re-centring switches it on again."""
+    import asyncio
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from app.gui import _CameraFollow
+
+    class Camera:
+        def __init__(self, client):
+            self.client, self.position, self.look_at = client, np.zeros(3), np.zeros(3)
+
+    class Client:
+        client_id = 7
+
+        def __init__(self):
+            self.camera = Camera(self)
+
+    client = Client()
+    initial = SimpleNamespace(position=np.array([9.0, 9.0, 9.0]), look_at=np.array([8.0, 8.0, 8.0]))
+    server = SimpleNamespace(
+        on_client_connect=lambda f: f,
+        on_client_disconnect=lambda f: f,
+        initial_camera=initial,
+        get_clients=lambda: {7: client},
+    )
+    follow = _CameraFollow(server)
+
+    def report(position, look_at):
+        camera = Camera(client)
+        camera.position, camera.look_at = np.asarray(position, float), np.asarray(look_at, float)
+        asyncio.run(follow._on_camera(camera))
+
+    session.call(Reset())
+    view = session.view
+    follow.step(view)
+    follow.recenter(client)
+    ours = (client.camera.position.copy(), client.camera.look_at.copy())
+    report(initial.position, initial.look_at)  # the page's initial camera, reported late: ignored
+    report(*ours)  # synced
+    moved = view.snapshot.q.copy()
+    moved[0] += 0.02
+    follow.step(replace(view, snapshot=replace(view.snapshot, q=moved)))
+    assert client.camera.position[0] == pytest.approx(ours[0][0] + 0.02)
+    report(*ours)  # a report from before our last step
+    report(client.camera.position, client.camera.look_at)
+    assert follow.following(7)
+    report(client.camera.position + [0.0, 0.0, 0.2], client.camera.look_at)  # the user orbits
+    assert not follow.following(7)
+    follow.recenter(client)
+    assert follow.following(7)
