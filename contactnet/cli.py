@@ -104,12 +104,31 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def make_planner(name: str, gait):
-    from contactnet.planner import HeuristicPlanner
+PLANNER_NAMES = ("contactnet", "fixed", "heuristic", "oracle")
+
+
+def make_planner(name: str, gait, robot=None, model: str | Path | None = None):  # noqa: ANN001
+    """The planner called ``name`` for ``gait``. ``contactnet`` and ``fixed`` load ``model`` (default: the
+    shipped ``contactnet/models/{gait}.pt``); a missing or broken file raises ``ModelFileError``."""
+    from contactnet import planner as planners
 
     if name == "heuristic":
-        return HeuristicPlanner(gait)
-    raise NotBuiltError(f"the {name!r} planner is not built yet (issue 4); use --planner heuristic")
+        return planners.HeuristicPlanner(gait)
+    if robot is None:
+        from contactnet.robot import Solo12
+
+        robot = Solo12.load()
+    nominal = robot.foot_nominal_base[:, :2]
+    if name == "oracle":
+        return planners.OraclePlanner(gait, nominal)
+    if name in ("contactnet", "fixed"):
+        from contactnet.network import default_model_path, load_model
+
+        path = default_model_path(gait.name) if model is None else Path(model)
+        loaded = load_model(path, expect_gait=gait.name, expect_n_actions=gait.n_actions)
+        cls = planners.ContactNetPlanner if name == "contactnet" else planners.FixedGaitPlanner
+        return cls(gait, nominal, loaded)
+    raise UserError(f"unknown planner {name!r}: choose one of {', '.join(PLANNER_NAMES)}")
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -129,9 +148,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     terrain = resolve(args.terrain, removed=args.removed, seed=args.seed)
     gait = gait_by_name(args.gait)
-    planner = make_planner(args.planner, gait)
+    robot = Solo12.load()
+    planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed)
-    with Locomotion(Solo12.load(), terrain, gait, planner, sim_config, vel_cmd_xy=(args.vx, args.vy)) as loco:
+    with Locomotion(robot, terrain, gait, planner, sim_config, vel_cmd_xy=(args.vx, args.vy)) as loco:
         for push in pushes:
             loco.push(push)
         chunk_s = 0.32
@@ -238,7 +258,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--removed", type=int, default=None, help="squares removed from the random field")
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--gait", choices=["walk", "trot"], required=True)
-    sim.add_argument("--planner", choices=["contactnet", "fixed", "heuristic", "oracle"], required=True)
+    sim.add_argument("--planner", choices=list(PLANNER_NAMES), required=True)
+    sim.add_argument("--model", metavar="FILE.pt", help="model of contactnet/fixed (default: the shipped one)")
     sim.add_argument("--vx", type=_bounded_float("--vx", -0.3, 0.3), default=0.05, help="m/s")
     sim.add_argument("--vy", type=_bounded_float("--vy", -0.3, 0.3), default=0.0, help="m/s")
     sim.add_argument("--duration", type=_bounded_float("--duration", 0.1, 3600), default=60.0, help="s")

@@ -339,6 +339,17 @@ def kin_penalty(distance_m: np.ndarray, threshold_m: float, ramp_m: float) -> np
 # ----------------------------------------------------------------------------------------------------
 
 
+def candidate_footholds_world(gait: GaitSpec, grid_centres_world: np.ndarray, yaw_rad: float,
+                              foot_pos_world: np.ndarray) -> np.ndarray:
+    """(N_a, 4, 2) every foot's xy after each action of ``gait``: the swing legs on their grid cell
+    (grid centred on ``grid_centres_world`` (4, 2), turned by the heading), the others where they are.
+    The one definition of the candidate geometry, shared by the ranking cost and the planners."""
+    swing, offsets = gait.action_table
+    landing = np.asarray(grid_centres_world, dtype=float)[None] + offsets @ rotation_2d(yaw_rad).T
+    feet = np.asarray(foot_pos_world, dtype=float)[:, 0:2]
+    return np.where(swing[..., None], landing, feet[None])
+
+
 def rotation_2d(yaw_rad: float) -> np.ndarray:
     c, s = np.cos(yaw_rad), np.sin(yaw_rad)
     return np.array([[c, -s], [s, c]])
@@ -405,10 +416,8 @@ class RankingCost:
 
     def candidate_footholds(self, state: CostState) -> np.ndarray:
         """(N_a, 4, 2) every foot's xy after each action: swing legs on their cell, the others where they are."""
-        swing, offsets = self.gait.action_table
-        landing = self.grid_centres_world(state)[None] + offsets @ rotation_2d(state.yaw_rad).T
-        feet = np.asarray(state.foot_pos_world, dtype=float)[:, 0:2]
-        return np.where(swing[..., None], landing, feet[None])
+        return candidate_footholds_world(self.gait, self.grid_centres_world(state), state.yaw_rad,
+                                         state.foot_pos_world)
 
     def _foot_plans(self, state: CostState) -> np.ndarray:
         """(N_a, N, 4, 3) foot contact points of every action's plan (swing feet: landed from touchdown)."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -87,6 +88,7 @@ class Snapshot:
     last_planner_ms: float
     last_trajopt_ms: float
     steps: int
+    candidates: Any = None  # the ranking planner's CandidateRanking of the current step (None: no ranking)
 
 
 @dataclass
@@ -405,6 +407,7 @@ class Locomotion:
             last_planner_ms=1e3 * self.planner_times_s[-1] if self.planner_times_s else 0.0,
             last_trajopt_ms=1e3 * self.trajopt_times_s[-1] if self.trajopt_times_s else 0.0,
             steps=len(self.records),
+            candidates=getattr(self.planner, "last_candidates", None),
         )
 
     def summary(self) -> dict:

@@ -62,6 +62,28 @@ def network_input(ctx: PlanningContext) -> np.ndarray:
     ).astype(np.float64)
 
 
+def network_input_of_state(state) -> np.ndarray:  # noqa: ANN001 - contactnet.cost.CostState (import cycle)
+    """``network_input`` of a ``CostState`` (a measured one or one predicted a step ahead): the planner's
+    steps 2 and 3 feed the predicted state, with the chosen footholds, back into the network."""
+    c, s = np.cos(state.yaw_rad), np.sin(state.yaw_rad)
+    com = state.com_pos_world
+    feet = state.foot_pos_world
+    vel = state.com_vel_world
+    cmd = state.vel_cmd_world
+    u = np.empty(N_INPUTS)
+    dx = feet[:, 0] - com[0]
+    dy = feet[:, 1] - com[1]
+    u[0:8:2] = c * dx + s * dy
+    u[1:8:2] = -s * dx + c * dy
+    u[8] = com[2] - state.surface_z
+    u[9] = c * vel[0] + s * vel[1]
+    u[10] = -s * vel[0] + c * vel[1]
+    u[11] = vel[2]
+    u[12] = c * cmd[0] + s * cmd[1]
+    u[13] = -s * cmd[0] + c * cmd[1]
+    return u
+
+
 # The paper's top-5 accuracy (percent), train / test (Sec. IV-A).
 PAPER_TOP5 = {"walk": (93.48, 90.81), "trot": (99.48, 97.7)}
 

@@ -130,6 +130,10 @@ class OraclePlanner:
     ``discarded=N_a``, ``safe=True``): the body keeps moving, so the next plan sees new candidates. Only
     when no group stands on safe ground does it step in place with the cheapest group and ``safe=False``.
 
+    ``evaluated_steps`` (default all): how many of the plan's steps are chosen by V; later ones only fill
+    the optimizer's horizon (``continue_cyclically``). Data generation evaluates step 1 only, the one
+    it records and executes, which makes it three times cheaper; the next plan starts afresh anyway.
+
     ``last_costs`` is the ``CostBreakdown`` of step 1 and ``last_state`` its ``CostState``, so data
     generation can record (u_r, V) without evaluating again.
     """
@@ -143,6 +147,7 @@ class OraclePlanner:
         weights=None,  # noqa: ANN001 - contactnet.cost.CostWeights (default: the gait's tuned weights)
         margin_m: float | None = None,
         model=None,  # noqa: ANN001 - contactnet.trajopt.SrbdModel (default: SrbdModel())
+        evaluated_steps: int | None = None,
     ) -> None:
         from contactnet.cost import CostWeights, RankingCost
         from contactnet.robot import FOOT_RADIUS_M
@@ -151,12 +156,18 @@ class OraclePlanner:
         self.weights = weights if weights is not None else CostWeights.for_gait(gait.name)
         self.margin_m = 0.5 * FOOT_RADIUS_M if margin_m is None else float(margin_m)
         self.cost = RankingCost(gait, robot_nominal_foot_xy_base, self.weights, model=model)
+        self.evaluated_steps = gait.steps_per_plan if evaluated_steps is None else int(evaluated_steps)
+        if not 1 <= self.evaluated_steps <= gait.steps_per_plan:
+            raise ValueError(f"evaluated_steps must be in 1..{gait.steps_per_plan}, got {evaluated_steps}")
+        self.hip_ref_xy_base = np.array(robot_nominal_foot_xy_base, dtype=float).reshape(4, 2)
         self.last_costs = None
         self.last_state = None
+        self.last_candidates: CandidateRanking | None = None
 
     def reset(self) -> None:
         self.last_costs = None
         self.last_state = None
+        self.last_candidates = None
 
     def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
         from contactnet.cost import CostState, predicted_state
@@ -164,39 +175,250 @@ class OraclePlanner:
         state = CostState.from_context(ctx)
         steps = []
         for j in range(self.gait.steps_per_plan):
+            if j >= self.evaluated_steps:
+                step = self.continue_cyclically(state, steps[-1].legs)
+                steps.append(step)
+                state = predicted_state(state, step.footholds_xy_world, step.legs, self.gait.step_duration_s)
+                continue
             costs = self.cost.evaluate(state)
             if j == 0:
                 self.last_costs, self.last_state = costs, state
+            candidates = self.last_candidates
             step = self.choose(costs, state, ctx.terrain)
+            if j > 0:
+                self.last_candidates = candidates  # the viewer shows the step executed now
             steps.append(step)
             state = predicted_state(state, step.footholds_xy_world, step.legs, self.gait.step_duration_s)
         return steps
 
+    def continue_cyclically(self, state, previous_legs: tuple[int, ...]) -> PlannedStep:  # noqa: ANN001
+        """A step past ``evaluated_steps``: the group after ``previous_legs`` in the gait's cyclic order,
+        landing at its hip reference shifted by the commanded velocity over half a stance (the Raibert
+        nominal). It only fills the optimizer's horizon; the next plan re-evaluates from the new state."""
+        gait = self.gait
+        cyclic = gait.cyclic_order
+        group = gait.swing_groups.index(tuple(previous_legs)) if tuple(previous_legs) in gait.swing_groups else -1
+        following = cyclic[(cyclic.index(group) + 1) % len(cyclic)] if group in cyclic else cyclic[0]
+        legs = gait.swing_groups[following]
+        vel = np.asarray(state.vel_cmd_world, dtype=float)
+        half_stance = 0.5 * (len(cyclic) * gait.step_duration_s - gait.swing_duration_s)
+        touchdown_s = (gait.n_stance_pre + gait.n_swing) * gait.node_dt_s
+        base = np.asarray(state.base_xy_world, dtype=float) + vel * touchdown_s
+        hips = base + rotate_xy(self.hip_ref_xy_base, state.yaw_rad)
+        return PlannedStep(legs=legs, footholds_xy_world=hips[list(legs)] + vel * half_stance)
+
     def choose(self, costs, state, terrain: Terrain) -> PlannedStep:  # noqa: ANN001 - cost types
         """The cheapest safe action of one evaluated state (or the step in place, see the class doc)."""
-        swing, _ = self.gait.action_table
         order = costs.ranking()
-        landing = costs.footholds_xy_world[swing]  # (N_a * legs_per_step, 2), row-major by action
-        safe = terrain.is_safe(landing, self.margin_m).reshape(len(swing), -1).all(axis=1)
-        safe_ranks = np.flatnonzero(safe[order])
-        if len(safe_ranks):
-            rank = int(safe_ranks[0])
+        step = first_safe_step(self.gait, order, costs.footholds_xy_world, state.foot_pos_world, terrain,
+                               self.margin_m)
+        self.last_candidates = CandidateRanking(self.gait, order, costs.footholds_xy_world, terrain,
+                                                self.margin_m, step.action_index)
+        return step
+
+
+# ----------------------------------------------------------------------------------------------------
+# Choosing from a ranking: shared by the oracle, ContactNet and the fixed gait
+# ----------------------------------------------------------------------------------------------------
+
+SAFETY_CHUNK = 8  # actions checked per terrain query while walking down a ranking
+
+
+def first_safe_step(
+    gait: GaitSpec,
+    order: np.ndarray,
+    footholds_xy_world: np.ndarray,
+    foot_pos_world: np.ndarray,
+    terrain: Terrain,
+    margin_m: float,
+) -> PlannedStep:
+    """Walk down ``order`` (action indices, best first) to the first action whose swinging legs all land on
+    safe ground (``terrain.is_safe`` with ``margin_m``); ``footholds_xy_world`` (N_a, 4, 2) are every
+    foot's xy after each action. The ranking is checked in chunks of ``SAFETY_CHUNK`` actions, so the
+    usual case (one of the best few is safe) costs one small terrain query however many holes there are.
+
+    ``rank`` is the chosen action's position in ``order`` and ``discarded`` how many better-ranked actions
+    were unsafe (the same number). No safe action in ``order``: step in place (see ``OraclePlanner``).
+    """
+    swing, _ = gait.action_table
+    order = np.asarray(order)
+    legs_per_step = gait.legs_per_step
+    for start in range(0, len(order), SAFETY_CHUNK):
+        chunk = order[start : start + SAFETY_CHUNK]
+        landing = footholds_xy_world[chunk][swing[chunk]]  # (len(chunk) * legs_per_step, 2), by action
+        safe = terrain.is_safe(landing, margin_m).reshape(len(chunk), legs_per_step).all(axis=1)
+        hits = np.flatnonzero(safe)
+        if len(hits):
+            rank = start + int(hits[0])
             index = int(order[rank])
-            legs = self.gait.swing_groups[self.gait.decode(index).group]
-            return PlannedStep(
-                legs=legs,
-                footholds_xy_world=costs.footholds_xy_world[index, list(legs)].copy(),
-                action_index=index,
-                rank=rank,
-                discarded=rank,
-            )
-        groups = list(dict.fromkeys(self.gait.decode(int(a)).group for a in order))
-        feet_xy = np.asarray(state.foot_pos_world, dtype=float)[:, 0:2]
-        for group in groups:
-            legs = self.gait.swing_groups[group]
-            if terrain.is_safe(feet_xy[list(legs)], 0.0).all():
-                return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(),
-                                   discarded=len(order))
-        legs = self.gait.swing_groups[groups[0]]
-        return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(), discarded=len(order),
-                           safe=False)
+            legs = gait.swing_groups[int(index) // gait.actions_per_group]
+            return PlannedStep(legs=legs, footholds_xy_world=footholds_xy_world[index, list(legs)].copy(),
+                               action_index=index, rank=rank, discarded=rank)
+    return step_in_place(gait, order, foot_pos_world, terrain)
+
+
+def step_in_place(gait: GaitSpec, order: np.ndarray, foot_pos_world: np.ndarray, terrain: Terrain) -> PlannedStep:
+    """No safe candidate: lift a group of legs and put them back where they are. Groups are tried in the
+    order their best action appears in ``order``; the first whose feet stand on safe ground is used
+    (``safe=True``), else the first group with ``safe=False``."""
+    groups = list(dict.fromkeys(int(a) // gait.actions_per_group for a in np.asarray(order)))
+    feet_xy = np.asarray(foot_pos_world, dtype=float)[:, 0:2]
+    for group in groups:
+        legs = gait.swing_groups[group]
+        if terrain.is_safe(feet_xy[list(legs)], 0.0).all():
+            return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(), discarded=len(order))
+    legs = gait.swing_groups[groups[0]]
+    return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(), discarded=len(order), safe=False)
+
+
+class CandidateRanking:
+    """What a ranking planner saw for the step it executes now, for viewers: every candidate cell of every
+    leg (world XY), whether it is safe, its best rank among the actions that use it, and the chosen
+    cells. Built lazily (``cells()``): planning itself never pays for it."""
+
+    def __init__(self, gait: GaitSpec, order: np.ndarray, footholds_xy_world: np.ndarray, terrain: Terrain,
+                 margin_m: float, chosen_action: int | None) -> None:
+        self.gait = gait
+        self.order = np.asarray(order)
+        self.footholds_xy_world = footholds_xy_world
+        self.terrain = terrain
+        self.margin_m = float(margin_m)
+        self.chosen_action = chosen_action
+        self._cells: tuple | None = None
+
+    def cells(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[int, ...]]:
+        """(xy_world (C, 2), safe (C,), leg (C,), rank (C,), chosen cell indices), C = 4 x cells per leg.
+        Cells no ranked action uses get rank len(order)."""
+        if self._cells is None:
+            gait = self.gait
+            n_cells = gait.cells_per_leg
+            xy = np.full((4, n_cells, 2), np.nan)
+            rank = np.full((4, n_cells), len(self.order), dtype=int)
+            chosen: list[int] = []
+            for position, index in enumerate(self.order):
+                action = gait.decode(int(index))
+                for leg, cell in zip(action.legs, action.cells, strict=True):
+                    if rank[leg, cell] == len(self.order):
+                        rank[leg, cell] = position
+                        xy[leg, cell] = self.footholds_xy_world[index, leg]
+                    if index == self.chosen_action:
+                        chosen.append(leg * n_cells + cell)
+            used = ~np.isnan(xy[..., 0])
+            xy_used = xy[used]
+            leg_ids = np.repeat(np.arange(4), n_cells).reshape(4, n_cells)[used]
+            flat_index = np.cumsum(used.ravel()) - 1
+            chosen_used = tuple(int(flat_index[c]) for c in chosen)
+            self._cells = (xy_used, self.terrain.is_safe(xy_used, self.margin_m), leg_ids, rank[used], chosen_used)
+        return self._cells
+
+    @property
+    def xy_world(self) -> np.ndarray:
+        return self.cells()[0]
+
+    @property
+    def safe(self) -> np.ndarray:
+        return self.cells()[1]
+
+    @property
+    def leg(self) -> np.ndarray:
+        return self.cells()[2]
+
+    @property
+    def rank(self) -> np.ndarray:
+        return self.cells()[3]
+
+    @property
+    def chosen(self) -> tuple[int, ...]:
+        return self.cells()[4]
+
+
+# ----------------------------------------------------------------------------------------------------
+# ContactNet
+# ----------------------------------------------------------------------------------------------------
+
+
+class ContactNetPlanner:
+    """The paper's planner: the network ranks every candidate action and the best safe one is taken.
+
+    Three successive evaluations per call (``gait.steps_per_plan``): step 1 from the measured state, steps 2
+    and 3 from the state predicted at the end of the previous step (the CoM moved by the commanded
+    velocity, the chosen footholds fed into the next input: ``contactnet.cost.predicted_state``, as the
+    oracle does). Each walks down the network's ranking to the first candidate whose landing points are
+    safe (``terrain.is_safe`` with ``margin_m``, default half the foot radius like the oracle). Inference
+    is a numpy forward pass (``NumpyContactNet``), no torch on the hot path.
+
+    ``model``: a ``contactnet.network.LoadedModel`` of this gait.
+    """
+
+    name = "contactnet"
+
+    def __init__(self, gait: GaitSpec, robot_nominal_foot_xy_base: np.ndarray, model,  # noqa: ANN001
+                 margin_m: float | None = None) -> None:
+        from contactnet.robot import FOOT_RADIUS_M
+
+        if model.gait != gait.name or model.n_actions != gait.n_actions:
+            raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} actions), "
+                             f"not {gait.name} ({gait.n_actions})")
+        self.gait = gait
+        self.model = model
+        self.hip_ref_xy_base = np.array(robot_nominal_foot_xy_base, dtype=float).reshape(4, 2)
+        self.margin_m = 0.5 * FOOT_RADIUS_M if margin_m is None else float(margin_m)
+        self.last_candidates: CandidateRanking | None = None
+
+    def reset(self) -> None:
+        self.last_candidates = None
+
+    def _order(self, scores: np.ndarray, step_index: int) -> np.ndarray:
+        """Action indices best first (higher score = cheaper)."""
+        return np.argsort(-scores, kind="stable")
+
+    def _advance(self) -> None:
+        """Called once per plan (the fixed gait moves on to the next group)."""
+
+    def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
+        from contactnet.cost import CostState, candidate_footholds_world, predicted_state, rotation_2d
+        from contactnet.network import network_input_of_state
+
+        state = CostState.from_context(ctx)
+        steps = []
+        for j in range(self.gait.steps_per_plan):
+            scores = self.model.scores(network_input_of_state(state))
+            order = self._order(scores, j)
+            centres = state.base_xy_world + self.hip_ref_xy_base @ rotation_2d(state.yaw_rad).T
+            footholds = candidate_footholds_world(self.gait, centres, state.yaw_rad, state.foot_pos_world)
+            step = first_safe_step(self.gait, order, footholds, state.foot_pos_world, ctx.terrain, self.margin_m)
+            if j == 0:
+                self.last_candidates = CandidateRanking(self.gait, order, footholds, ctx.terrain, self.margin_m,
+                                                        step.action_index)
+            steps.append(step)
+            if j + 1 < self.gait.steps_per_plan:
+                state = predicted_state(state, step.footholds_xy_world, step.legs, self.gait.step_duration_s)
+        self._advance()
+        return steps
+
+
+class FixedGaitPlanner(ContactNetPlanner):
+    """The paper's fixed-gait baseline: the same network, restricted to a prescribed cyclic leg order (walk:
+    HL, FL, HR, FR; trot: alternating diagonal pairs). Only the footholds are chosen (the best safe cell of
+    the leg whose turn it is); with no safe cell that leg swings in place."""
+
+    name = "fixed"
+
+    def __init__(self, gait: GaitSpec, robot_nominal_foot_xy_base: np.ndarray, model,  # noqa: ANN001
+                 margin_m: float | None = None) -> None:
+        super().__init__(gait, robot_nominal_foot_xy_base, model, margin_m)
+        self._next_group = 0
+
+    def reset(self) -> None:
+        super().reset()
+        self._next_group = 0
+
+    def _order(self, scores: np.ndarray, step_index: int) -> np.ndarray:
+        cyclic = self.gait.cyclic_order
+        group = cyclic[(self._next_group + step_index) % len(cyclic)]
+        first = group * self.gait.actions_per_group
+        own = scores[first : first + self.gait.actions_per_group]
+        return first + np.argsort(-own, kind="stable")
+
+    def _advance(self) -> None:
+        self._next_group = (self._next_group + 1) % len(self.gait.cyclic_order)
