@@ -17,6 +17,11 @@ headless server on a free loopback port is enough, so a plain loop can record to
 stops recordings of the live session (from the GUI or REST) and is fed by the viewer's update
 loop. The viser client plays a file with `?playbackPath=URL` (play, pause, scrub);
 `viser_html(data)` wraps a recording into one HTML file that plays anywhere.
+
+`FileRecording` is what `contactnet simulate --record FILE.viser` uses: it checks the path and
+reserves a temporary file next to it before the simulation starts (a bad path fails at once, not
+after a long run), records frames as the loop goes, and replaces the target atomically at the end.
+`read_recording(data)` checks that bytes are a .viser recording and says what is in it.
 """
 
 from __future__ import annotations
@@ -24,20 +29,25 @@ from __future__ import annotations
 import base64
 import contextlib
 import io
+import os
 import re
 import socket
+import tempfile
 import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import viser
+import zstandard
 
 from app.live import LiveView, SessionStatus, ViewTracker
 from app.scene import LiveScene
 
 DEFAULT_RATE_HZ = 12.0
+FRAME_SLACK_S = 5e-4
 MAX_DURATION_S = 600.0  # a recording stops itself after 10 simulated minutes (memory bound)
 RECORDING_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")
 
@@ -102,11 +112,17 @@ class SceneRecorder:
             raise RuntimeError("this recording is finished")
         t = float(view.snapshot.t_s)
         if self._serializer is None:
+            position, look_at = overview_camera(view.terrain)
+            camera = self.server.initial_camera  # recorded: where playback starts looking from
+            camera.up = (0.0, 0.0, 1.0)
+            camera.look_at = tuple(look_at)
+            camera.position = tuple(position)
             self.scene.update(view)
             self._serializer = self.server.get_scene_serializer()
         else:
             period = 1.0 / self.rate_hz
-            if self._last_t is not None and 0.0 <= t - self._last_t < period - 1e-9:
+            # Half a tick of slack: a loop stepping by whole 1 ms ticks reaches 1/12 s at 83 ms.
+            if self._last_t is not None and 0.0 <= t - self._last_t < period - FRAME_SLACK_S:
                 return False
             if self.full:
                 return False
@@ -139,6 +155,14 @@ class SceneRecorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def overview_camera(terrain) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001 - a Terrain
+    """(position, look_at) of a camera that sees the whole terrain from behind and to the right."""
+    minx, miny, maxx, maxy = terrain.bounds
+    look_at = np.array([(minx + maxx) / 2, (miny + maxy) / 2, terrain.surface_z])
+    extent = max(maxx - minx, maxy - miny, 0.5)
+    return look_at + extent * np.array([-0.35, -0.75, 0.55]), look_at
 
 
 def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
@@ -177,6 +201,158 @@ def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
         push_force_world=push_force,
         wall_time_s=time.monotonic(),
         **tracker.update(snap),
+    )
+
+
+class RecordingPathError(ValueError):
+    """A recording cannot be written where asked (one-line message)."""
+
+
+def reserve_output(path: str | os.PathLike) -> tuple[Path, Path]:
+    """Check that a .viser file can be written at `path` and create the temporary file (same folder,
+    hidden) that `FileRecording.save` later renames onto it. Returns (path, temporary path)."""
+    path = Path(path)
+    if path.suffix != ".viser":
+        raise RecordingPathError(f"recording file {path}: the name must end in .viser")
+    if path.is_dir():
+        raise RecordingPathError(f"recording file {path}: is a folder")
+    folder = path.parent
+    if not folder.exists():
+        raise RecordingPathError(f"recording file {path}: folder {folder} does not exist")
+    if not folder.is_dir():
+        raise RecordingPathError(f"recording file {path}: {folder} is not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise RecordingPathError(
+            f"recording file {path}: cannot write in {folder} ({exc.strerror or type(exc).__name__})"
+        ) from None
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; a recording is an ordinary file
+    return path, Path(tmp)
+
+
+class FileRecording:
+    """Records a `Locomotion` driven by a plain loop into one .viser file.
+
+    The constructor checks the path and reserves a temporary file (`RecordingPathError` if it
+    cannot); call `add(loco)` whenever the loop has advanced (a frame is kept every 1 / rate_hz
+    simulated seconds: step the loop by `period_s`), then `save()`; `close()` (or leaving the
+    `with` block) removes the temporary file if nothing was saved."""
+
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        rate_hz: float = DEFAULT_RATE_HZ,
+        max_duration_s: float = MAX_DURATION_S,
+        urdf_path: Path | None = None,
+    ):
+        self.path, self._tmp = reserve_output(path)
+        self.rate_hz = rate_hz
+        self._max_duration_s = max_duration_s
+        self._urdf_path = urdf_path
+        self._recorder: SceneRecorder | None = None
+        self._tracker: ViewTracker | None = None
+        self.size_bytes = 0
+
+    @property
+    def period_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+    @property
+    def frames(self) -> int:
+        return self._recorder.frames if self._recorder else 0
+
+    @property
+    def duration_s(self) -> float:
+        return self._recorder.duration_s if self._recorder else 0.0
+
+    @property
+    def full(self) -> bool:
+        """True once the recording reached max_duration_s (later frames are dropped)."""
+        return self._recorder is not None and self._recorder.full
+
+    def add(self, loco) -> bool:  # noqa: ANN001 - a contactnet.locomotion.Locomotion
+        """Record the loop's current state if a frame is due; True if recorded."""
+        if self._recorder is None:
+            self._recorder = SceneRecorder(
+                urdf_path=self._urdf_path, rate_hz=self.rate_hz, max_duration_s=self._max_duration_s
+            )
+            self._tracker = ViewTracker(loco.robot, loco.terrain, loco.gait)
+        return self._recorder.add(view_of(loco, self._tracker))
+
+    def save(self) -> Path:
+        """Write the recording (temporary file, then an atomic rename onto the path)."""
+        if self._recorder is None:
+            raise RuntimeError("nothing recorded")
+        data = self._recorder.finish()
+        self._tmp.write_bytes(data)
+        self._tmp.replace(self.path)
+        self.size_bytes = len(data)
+        return self.path
+
+    def close(self) -> None:
+        if self._recorder is not None:
+            self._recorder.close()
+        self._tmp.unlink(missing_ok=True)
+
+    def __enter__(self) -> FileRecording:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+@dataclass(frozen=True)
+class RecordingContents:
+    """What a .viser file holds (see `read_recording`)."""
+
+    duration_s: float
+    viser_version: str
+    messages: int
+    node_names: frozenset[str]  # scene nodes created in it
+    message_types: frozenset[str]
+
+
+def read_recording(data: bytes, max_size: int = 2**31) -> RecordingContents:
+    """Decode a .viser recording (viser's `StateSerializer.serialize` format: the payload size, then
+    zstd of [msgpack length, msgpack {durationSeconds, messages, viserVersion, binaryBufferLengths},
+    binary buffers]); ValueError if the bytes are not one."""
+    if len(data) < 16:
+        raise ValueError("not a .viser recording: too short")
+    inner_size = int.from_bytes(data[:8], "little")
+    if not 0 < inner_size <= max_size:
+        raise ValueError(f"not a .viser recording: payload size {inner_size}")
+    try:
+        inner = zstandard.ZstdDecompressor().decompress(data[8:], max_output_size=inner_size)
+    except zstandard.ZstdError as exc:
+        raise ValueError(f"not a .viser recording: {exc}") from None
+    if len(inner) != inner_size:
+        raise ValueError(f"not a .viser recording: payload is {len(inner)} bytes, header says {inner_size}")
+    header_size = int.from_bytes(inner[:8], "little")
+    try:
+        header = msgspec.msgpack.decode(inner[8 : 8 + header_size])
+    except msgspec.DecodeError as exc:
+        raise ValueError(f"not a .viser recording: {exc}") from None
+    if not isinstance(header, dict) or not {"durationSeconds", "messages", "viserVersion"} <= header.keys():
+        raise ValueError("not a .viser recording: header keys missing")
+    messages = header["messages"]
+    buffers = sum(header.get("binaryBufferLengths", ()))
+    if buffers > inner_size:
+        raise ValueError("not a .viser recording: binary buffers exceed the payload")
+    times = [t for t, _ in messages]
+    if any(b < a for a, b in zip(times, times[1:], strict=False)):
+        raise ValueError("not a .viser recording: message times go backwards")
+    return RecordingContents(
+        duration_s=float(header["durationSeconds"]),
+        viser_version=str(header["viserVersion"]),
+        messages=len(messages),
+        node_names=frozenset(
+            m["name"] for _, m in messages if m.get("type") not in ("RemoveSceneNodeMessage",) and "name" in m
+        ),
+        message_types=frozenset(m.get("type", "") for _, m in messages),
     )
 
 

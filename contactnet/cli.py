@@ -4,6 +4,7 @@ one line on stderr and exit code 2, never a traceback."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -140,8 +141,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from contactnet.sim import Push, SimConfig
     from contactnet.terrain import resolve
 
-    if args.record:
-        raise NotBuiltError("--record is not built yet (issue 5)")
     try:
         pushes = [Push.parse(text) for text in args.push]
     except ValueError as exc:
@@ -151,16 +150,34 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     robot = Solo12.load()
     planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed)
-    with Locomotion(robot, terrain, gait, planner, sim_config, vel_cmd_xy=(args.vx, args.vy)) as loco:
+    with contextlib.ExitStack() as stack:
+        recording = None
+        if args.record:  # the scene over time, as the web tool draws it (app/recordings.py)
+            from app.recordings import FileRecording, RecordingPathError
+
+            try:  # checks the path now: a bad one fails before the simulation, not after it
+                recording = stack.enter_context(FileRecording(args.record))
+            except RecordingPathError as exc:
+                raise UserError(str(exc)) from None
+        loco = stack.enter_context(Locomotion(robot, terrain, gait, planner, sim_config, vel_cmd_xy=(args.vx, args.vy)))
         for push in pushes:
             loco.push(push)
-        chunk_s = 0.32
+        chunk_s = recording.period_s if recording else 0.32
+        if recording:
+            recording.add(loco)
         with tqdm(total=round(args.duration, 2), unit="sim s", file=sys.stderr, disable=None, leave=False) as bar:
             while loco.t_s < args.duration - 1e-9 and not loco.done:
                 before = loco.t_s
                 loco.run_for(min(chunk_s, args.duration - loco.t_s))
+                if recording:
+                    recording.add(loco)
                 bar.update(round(loco.t_s - before, 3))
         result = loco.summary()
+        if recording:
+            where = recording.save()
+            note = " (stopped recording at its limit)" if recording.full else ""
+            print(f"recording: {where} ({recording.size_bytes / 1e6:.2f} MB, {recording.frames} frames, "
+                  f"{recording.duration_s:.1f} s{note})", file=sys.stderr if args.json else sys.stdout)
     if args.json:
         print(json.dumps(result))
     else:

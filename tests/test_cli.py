@@ -94,7 +94,6 @@ def test_bad_options_exit_2(args, capsys):
         ["experiment", "random", "--out", "x"],
         ["bench", "planner"],
         ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "contactnet"],
-        ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--record", "x.viser"],
     ],
 )
 def test_unbuilt_subcommands_say_so(args, capsys):
