@@ -135,15 +135,114 @@ def bench_terrain(repeats: int = 2000) -> list[dict]:
     return benchmark_is_safe(repeats=repeats)
 
 
+def bench_cost() -> list[dict]:
+    from contactnet.cost import benchmark
+    from contactnet.robot import Solo12
+
+    return benchmark(hip_ref_xy_base=Solo12.load().foot_nominal_base[:, :2])
+
+
+def planning_contexts(gait, terrain, hip_ref_xy_base: np.ndarray, n: int, seed: int = 0) -> list:  # noqa: ANN001
+    """``n`` walking states spread over the random field (x in 0.3..1.7 m), perturbed feet, random commands."""
+    from contactnet.planner import PlanningContext, rotate_xy
+    from contactnet.robot import FOOT_RADIUS_M
+
+    rng = np.random.default_rng(seed)
+    contexts = []
+    for _ in range(n):
+        base = np.array([rng.uniform(0.3, 1.7), rng.uniform(-0.05, 0.05)])
+        yaw = float(rng.uniform(-0.1, 0.1))
+        feet = np.zeros((4, 3))
+        feet[:, :2] = base + rotate_xy(hip_ref_xy_base, yaw) + rng.uniform(-0.04, 0.04, (4, 2))
+        feet[:, 2] = terrain.surface_z + FOOT_RADIUS_M
+        cmd = rng.uniform(-0.1, 0.1, 2)
+        vel = np.array([*rotate_xy(cmd, yaw), 0.0]) + rng.normal(0.0, 0.02, 3)
+        contexts.append(PlanningContext(
+            com_pos_world=np.array([base[0], base[1], terrain.surface_z + 0.215]), com_vel_world=vel,
+            yaw_rad=yaw, foot_pos_world=feet, hip_ref_xy_base=np.asarray(hip_ref_xy_base, dtype=float),
+            base_xy_world=base, vel_cmd_xy=cmd, terrain=terrain, gait=gait,
+            rpy=np.array([0.0, 0.0, yaw]),
+        ))
+    return contexts
+
+
+def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool = True) -> list[dict]:
+    """One planning call (3 network evaluations + safety checks) of ContactNet and the fixed gait, on the
+    paper's random field with 0 and with 100 of its 300 squares removed; the ratio of the medians says
+    whether planning time grows with terrain complexity. The network's forward pass alone is the
+    reference in the same run. Uses the shipped models (random weights when a model is missing, said so
+    in the ``model`` column)."""
+    from contactnet.cli import make_planner
+    from contactnet.gait import TROT, WALK
+    from contactnet.network import ContactNet, Normalizer, NumpyContactNet, default_model_path, network_input
+    from contactnet.robot import Solo12
+    from contactnet.terrain import random_field
+    from contactnet.trajopt import _pin_single_core
+
+    robot = Solo12.load()
+    hips = robot.foot_nominal_base[:, :2]
+    restore = _pin_single_core() if single_core else None
+    rows = []
+    try:
+        for gait in (WALK, TROT):
+            path = default_model_path(gait.name)
+            model = path if path.exists() else _random_model_file(gait)
+            for name in ("contactnet", "fixed"):
+                medians = {}
+                for holes in (0, 100):
+                    terrain = random_field(holes, 0)
+                    contexts = planning_contexts(gait, terrain, hips, n_contexts)
+                    planner = make_planner(name, gait, robot, model=model)
+                    it = iter(range(10**9))
+                    ranks: list[int] = []
+
+                    def call(planner=planner, contexts=contexts, it=it, ranks=ranks) -> None:
+                        steps = planner.plan(contexts[next(it) % len(contexts)])
+                        if steps[0].rank is not None:
+                            ranks.append(steps[0].rank)
+
+                    times = np.asarray(time_calls(call, repeats)) * 1e6
+                    medians[holes] = float(np.median(times))
+                    rows.append({
+                        "gait": gait.name, "planner": name, "holes": holes,
+                        "median_us": medians[holes], "p99_us": float(np.percentile(times, 99)),
+                        "vs_0_holes": medians[holes] / medians[0],
+                        "mean_rank": float(np.mean(ranks)) if ranks else None,
+                        "model": "shipped" if path.exists() else "random weights",
+                    })
+            net = NumpyContactNet.from_torch(ContactNet(gait.n_actions), Normalizer.fit(np.random.default_rng(0).normal(size=(10, 14))))
+            u = network_input(planning_contexts(gait, random_field(0, 0), hips, 1)[0])
+            times = np.asarray(time_calls(lambda net=net, u=u: net.scores(u), repeats)) * 1e6
+            rows.append({"gait": gait.name, "planner": "network forward pass only (reference)", "holes": None,
+                         "median_us": float(np.median(times)), "p99_us": float(np.percentile(times, 99))})
+    finally:
+        if restore is not None:
+            restore()
+    return rows
+
+
+def _random_model_file(gait) -> str:  # noqa: ANN001
+    """A model file with random weights (for timing only, when no trained model is shipped)."""
+    import tempfile
+
+    from contactnet.network import ContactNet, Normalizer, save_model
+
+    rng = np.random.default_rng(0)
+    folder = tempfile.mkdtemp(prefix="contactnet-bench-")
+    u = np.column_stack([rng.uniform(-0.3, 0.3, (100, 8)), rng.uniform(0.18, 0.25, 100), rng.uniform(-0.1, 0.1, (100, 5))])
+    path = f"{folder}/{gait.name}.pt"
+    save_model(path, ContactNet(gait.n_actions), Normalizer.fit(u), {"gait": gait.name, "note": "random weights for timing"})
+    return path
+
+
 BENCHMARKS: dict[str, Callable[[], list[dict]]] = {
     "sim": bench_sim,
     "terrain": bench_terrain,
     "trajopt": bench_trajopt,
+    "cost": bench_cost,
+    "planner": bench_planner,
 }
-NOT_BUILT = {
-    "planner": "the ContactNet planner (issue: ContactNet ranking, data generation, training)",
-    "cost": "the ranking cost (issue: ContactNet ranking, data generation, training)",
-}
+NOT_BUILT: dict[str, str] = {}
 
 
 def format_table(rows: list[dict]) -> str:

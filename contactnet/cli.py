@@ -27,6 +27,7 @@ USER_ERROR_CLASSES = (
     ("contactnet.datagen", "DatasetDirError"),
     ("contactnet.train", "DatasetError"),
     ("contactnet.network", "ModelFileError"),
+    ("contactnet.experiment", "ExperimentError"),
 )
 
 
@@ -47,6 +48,30 @@ def _bounded_float(name: str, low: float, high: float):
         if not (low <= value <= high):  # also rejects nan
             raise argparse.ArgumentTypeError(f"{name} must be in [{low}, {high}], got {text}")
         return value
+
+    return parse
+
+
+def _choices(name: str, allowed: tuple[str, ...]):
+    def parse(text: str) -> tuple[str, ...]:
+        items = tuple(t.strip() for t in text.split(",") if t.strip())
+        bad = [t for t in items if t not in allowed]
+        if bad or not items:
+            raise argparse.ArgumentTypeError(f"{name}: expected a comma-separated list of {', '.join(allowed)}, got {text!r}")
+        return items
+
+    return parse
+
+
+def _int_list(name: str, low: int, high: int):
+    def parse(text: str) -> tuple[int, ...]:
+        try:
+            items = tuple(int(t) for t in text.split(",") if t.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: expected comma-separated whole numbers, got {text!r}") from None
+        if not items or any(not low <= v <= high for v in items):
+            raise argparse.ArgumentTypeError(f"{name}: every value must be in {low}..{high}, got {text!r}")
+        return items
 
     return parse
 
@@ -126,7 +151,7 @@ def make_planner(name: str, gait, robot=None, model: str | Path | None = None): 
         from contactnet.network import default_model_path, load_model
 
         path = default_model_path(gait.name) if model is None else Path(model)
-        loaded = load_model(path, expect_gait=gait.name, expect_n_actions=gait.n_actions)
+        loaded = load_model(path, expect_gait=gait.name, expect_n_actions=gait.n_actions, dtype="float32")
         cls = planners.ContactNetPlanner if name == "contactnet" else planners.FixedGaitPlanner
         return cls(gait, nominal, loaded)
     raise UserError(f"unknown planner {name!r}: choose one of {', '.join(PLANNER_NAMES)}")
@@ -216,7 +241,8 @@ def cmd_datagen(args: argparse.Namespace) -> int:
     from contactnet.datagen import DatagenConfig, generate
 
     config = DatagenConfig(gait=args.gait, episodes=args.episodes, seed=args.seed,
-                           episodes_per_shard=args.episodes_per_shard)
+                           episodes_per_shard=args.episodes_per_shard,
+                           instances_per_episode=args.instances_per_episode)
     try:
         manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet)
     except KeyboardInterrupt:
@@ -242,11 +268,28 @@ def cmd_train(args: argparse.Namespace) -> int:
     )
 
 
-def cmd_not_built(what: str, issue: str):
-    def run(args: argparse.Namespace) -> int:
-        raise NotBuiltError(f"{what} is not built yet ({issue})")
+def cmd_experiment(args: argparse.Namespace) -> int:
+    from contactnet.experiment import format_summary, run_experiment, trials_of
 
-    return run
+    model_dir = args.model_dir
+    if model_dir is not None and not Path(model_dir).is_dir():
+        raise UserError(f"--model-dir {model_dir}: not a directory")
+    trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
+                       model_dir=model_dir)
+    for planner in {t.planner for t in trials} & {"contactnet", "fixed"}:  # fail now, not in a worker
+        for gait in {t.gait for t in trials}:
+            from contactnet.gait import gait_by_name
+
+            make_planner(planner, gait_by_name(gait), model=None if model_dir is None else Path(model_dir) / f"{gait}.pt")
+    try:
+        summary = run_experiment(args.name, args.out, trials, workers=args.workers, progress=not args.quiet)
+    except KeyboardInterrupt:
+        print(f"contactnet: interrupted; finished trials are kept in {args.out}: run the same command to resume",
+              file=sys.stderr)
+        return 130
+    print(format_summary(summary))
+    print(f"wrote {Path(args.out) / 'summary.json'} and {Path(args.out) / 'success.png'}")
+    return 0
 
 
 # ---- parser ------------------------------------------------------------------------------------
@@ -294,6 +337,8 @@ def build_parser() -> argparse.ArgumentParser:
     datagen.add_argument("--workers", type=_positive_int("--workers", 256))
     datagen.add_argument("--seed", type=int, default=0)
     datagen.add_argument("--episodes-per-shard", type=_positive_int("--episodes-per-shard", 1000), default=5)
+    datagen.add_argument("--instances-per-episode", type=_positive_int("--instances-per-episode", 1000), default=30,
+                         help="the paper's 30; fewer for quick trials")
     datagen.add_argument("--quiet", action="store_true", help="no progress bar")
     datagen.set_defaults(func=cmd_datagen)
 
@@ -314,11 +359,22 @@ def build_parser() -> argparse.ArgumentParser:
     train.set_defaults(func=cmd_train)
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
-    experiment.add_argument("name")
-    experiment.add_argument("--trials", type=_positive_int("--trials", 10**5))
+    experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "random"])
+    experiment.add_argument("--trials", type=_positive_int("--trials", 10**5),
+                            help="seeds per setting (default: 20 on random, 1 on the fixed scenes)")
     experiment.add_argument("--workers", type=_positive_int("--workers", 256))
     experiment.add_argument("--out", required=True)
-    experiment.set_defaults(func=cmd_not_built("contactnet experiment", "issue 4"))
+    experiment.add_argument("--gaits", type=_choices("--gaits", ("walk", "trot")), default=None,
+                            help="comma-separated (default: walk; walk,trot on random)")
+    experiment.add_argument("--planners", type=_choices("--planners", PLANNER_NAMES), default=None,
+                            help="comma-separated (default: contactnet,fixed,heuristic)")
+    experiment.add_argument("--removed", type=_int_list("--removed", 0, 300), default=(80,),
+                            help="squares removed on random, comma-separated (default 80)")
+    experiment.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
+                            help="joint-velocity noise variance")
+    experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
+    experiment.add_argument("--quiet", action="store_true", help="no progress bar")
+    experiment.set_defaults(func=cmd_experiment)
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
     bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain"])

@@ -58,6 +58,10 @@ class DatagenConfig:
         gait_by_name(self.gait)
         if not 1 <= self.episodes <= 10**6:
             raise ValueError(f"episodes must be in 1..1000000, got {self.episodes}")
+        if not 1 <= self.instances_per_episode <= 1000:
+            raise ValueError(f"instances_per_episode must be in 1..1000, got {self.instances_per_episode}")
+        if not 1 <= self.oracle_evaluated_steps <= 3:
+            raise ValueError(f"oracle_evaluated_steps must be in 1..3, got {self.oracle_evaluated_steps}")
         if not 1 <= self.episodes_per_shard <= 1000:
             raise ValueError(f"episodes_per_shard must be in 1..1000, got {self.episodes_per_shard}")
 

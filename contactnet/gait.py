@@ -127,6 +127,15 @@ class GaitSpec:
         offsets.flags.writeable = False
         return swing, offsets
 
+    @cached_property
+    def action_cells(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every action's swinging legs and their grid cells: two (N_a, legs_per_step) int arrays."""
+        legs = np.array([self.decode(i).legs for i in range(self.n_actions)], dtype=np.intp)
+        cells = np.array([self.decode(i).cells for i in range(self.n_actions)], dtype=np.intp)
+        legs.flags.writeable = False
+        cells.flags.writeable = False
+        return legs, cells
+
     def decode(self, index: int) -> Action:
         if not 0 <= index < self.n_actions:
             raise IndexError(f"{self.name}: action {index} outside 0..{self.n_actions - 1}")

@@ -210,10 +210,11 @@ class OraclePlanner:
     def choose(self, costs, state, terrain: Terrain) -> PlannedStep:  # noqa: ANN001 - cost types
         """The cheapest safe action of one evaluated state (or the step in place, see the class doc)."""
         order = costs.ranking()
-        step = first_safe_step(self.gait, order, costs.footholds_xy_world, state.foot_pos_world, terrain,
-                               self.margin_m)
-        self.last_candidates = CandidateRanking(self.gait, order, costs.footholds_xy_world, terrain,
-                                                self.margin_m, step.action_index)
+        legs, _ = self.gait.action_cells
+        landing = costs.footholds_xy_world[np.arange(self.gait.n_actions)[:, None], legs]
+        step = first_safe_step(self.gait, order, landing, state.foot_pos_world, terrain, self.margin_m)
+        self.last_candidates = CandidateRanking(self.gait, order, landing, terrain, self.margin_m,
+                                                step.action_index)
         return step
 
 
@@ -227,34 +228,39 @@ SAFETY_CHUNK = 8  # actions checked per terrain query while walking down a ranki
 def first_safe_step(
     gait: GaitSpec,
     order: np.ndarray,
-    footholds_xy_world: np.ndarray,
+    landing_xy_world: np.ndarray,
     foot_pos_world: np.ndarray,
     terrain: Terrain,
     margin_m: float,
 ) -> PlannedStep:
     """Walk down ``order`` (action indices, best first) to the first action whose swinging legs all land on
-    safe ground (``terrain.is_safe`` with ``margin_m``); ``footholds_xy_world`` (N_a, 4, 2) are every
-    foot's xy after each action. The ranking is checked in chunks of ``SAFETY_CHUNK`` actions, so the
-    usual case (one of the best few is safe) costs one small terrain query however many holes there are.
+    safe ground (``terrain.is_safe`` with ``margin_m``); ``landing_xy_world`` (N_a, legs_per_step, 2) are
+    the landing points of every action's swinging legs (``gait.action_cells`` order). The ranking is
+    checked in chunks of ``SAFETY_CHUNK`` actions, so the usual case (one of the best few is safe) costs
+    one small terrain query however many holes there are.
 
     ``rank`` is the chosen action's position in ``order`` and ``discarded`` how many better-ranked actions
     were unsafe (the same number). No safe action in ``order``: step in place (see ``OraclePlanner``).
     """
-    swing, _ = gait.action_table
     order = np.asarray(order)
-    legs_per_step = gait.legs_per_step
     for start in range(0, len(order), SAFETY_CHUNK):
         chunk = order[start : start + SAFETY_CHUNK]
-        landing = footholds_xy_world[chunk][swing[chunk]]  # (len(chunk) * legs_per_step, 2), by action
-        safe = terrain.is_safe(landing, margin_m).reshape(len(chunk), legs_per_step).all(axis=1)
+        landing = landing_xy_world[chunk]  # (len(chunk), legs_per_step, 2)
+        safe = terrain.is_safe(landing.reshape(-1, 2), margin_m).reshape(landing.shape[:2]).all(axis=1)
         hits = np.flatnonzero(safe)
         if len(hits):
             rank = start + int(hits[0])
             index = int(order[rank])
-            legs = gait.swing_groups[int(index) // gait.actions_per_group]
-            return PlannedStep(legs=legs, footholds_xy_world=footholds_xy_world[index, list(legs)].copy(),
-                               action_index=index, rank=rank, discarded=rank)
+            legs = gait.swing_groups[index // gait.actions_per_group]
+            return PlannedStep(legs=legs, footholds_xy_world=landing[hits[0]].copy(), action_index=index,
+                               rank=rank, discarded=rank)
     return step_in_place(gait, order, foot_pos_world, terrain)
+
+
+def landing_points(gait: GaitSpec, cell_xy_world: np.ndarray) -> np.ndarray:
+    """(N_a, legs_per_step, 2) landing points of every action from the (4, cells_per_leg, 2) grid cells."""
+    legs, cells = gait.action_cells
+    return cell_xy_world[legs, cells]
 
 
 def step_in_place(gait: GaitSpec, order: np.ndarray, foot_pos_world: np.ndarray, terrain: Terrain) -> PlannedStep:
@@ -276,11 +282,11 @@ class CandidateRanking:
     leg (world XY), whether it is safe, its best rank among the actions that use it, and the chosen
     cells. Built lazily (``cells()``): planning itself never pays for it."""
 
-    def __init__(self, gait: GaitSpec, order: np.ndarray, footholds_xy_world: np.ndarray, terrain: Terrain,
+    def __init__(self, gait: GaitSpec, order: np.ndarray, landing_xy_world: np.ndarray, terrain: Terrain,
                  margin_m: float, chosen_action: int | None) -> None:
         self.gait = gait
         self.order = np.asarray(order)
-        self.footholds_xy_world = footholds_xy_world
+        self.landing_xy_world = landing_xy_world  # (N_a, legs_per_step, 2)
         self.terrain = terrain
         self.margin_m = float(margin_m)
         self.chosen_action = chosen_action
@@ -295,12 +301,12 @@ class CandidateRanking:
             xy = np.full((4, n_cells, 2), np.nan)
             rank = np.full((4, n_cells), len(self.order), dtype=int)
             chosen: list[int] = []
+            action_legs, action_cells = gait.action_cells
             for position, index in enumerate(self.order):
-                action = gait.decode(int(index))
-                for leg, cell in zip(action.legs, action.cells, strict=True):
+                for j, (leg, cell) in enumerate(zip(action_legs[index], action_cells[index], strict=True)):
                     if rank[leg, cell] == len(self.order):
                         rank[leg, cell] = position
-                        xy[leg, cell] = self.footholds_xy_world[index, leg]
+                        xy[leg, cell] = self.landing_xy_world[index, j]
                     if index == self.chosen_action:
                         chosen.append(leg * n_cells + cell)
             used = ~np.isnan(xy[..., 0])
@@ -376,23 +382,43 @@ class ContactNetPlanner:
         """Called once per plan (the fixed gait moves on to the next group)."""
 
     def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
-        from contactnet.cost import CostState, candidate_footholds_world, predicted_state, rotation_2d
-        from contactnet.network import network_input_of_state
-
-        state = CostState.from_context(ctx)
+        """Three steps. The state is carried in a few arrays rather than ``CostState`` objects (this is the
+        hot path); ``tests/test_planner.py`` checks it against ``network_input_of_state`` and
+        ``predicted_state`` step by step."""
+        gait = self.gait
+        c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
+        to_world = np.array([[c, -s], [s, c]])  # heading frame -> world; row vectors @ to_world = to heading
+        hips_world = self.hip_ref_xy_base @ to_world.T
+        offsets_world = gait.cell_offsets_xy @ to_world.T
+        action_legs, action_cells = gait.action_cells
+        feet_xy = np.array(ctx.foot_pos_world, dtype=float)[:, 0:2]
+        com_xy = np.array(ctx.com_pos_world[0:2], dtype=float)
+        base_xy = np.array(ctx.base_xy_world, dtype=float)
+        cmd_world = to_world @ np.asarray(ctx.vel_cmd_xy, dtype=float)
+        shift = cmd_world * gait.step_duration_s
+        u = np.empty(14)
+        u[8] = ctx.com_pos_world[2] - ctx.terrain.surface_z
+        u[9:11] = np.asarray(ctx.com_vel_world[0:2], dtype=float) @ to_world
+        u[11] = ctx.com_vel_world[2]
+        u[12:14] = ctx.vel_cmd_xy
         steps = []
-        for j in range(self.gait.steps_per_plan):
-            scores = self.model.scores(network_input_of_state(state))
-            order = self._order(scores, j)
-            centres = state.base_xy_world + self.hip_ref_xy_base @ rotation_2d(state.yaw_rad).T
-            footholds = candidate_footholds_world(self.gait, centres, state.yaw_rad, state.foot_pos_world)
-            step = first_safe_step(self.gait, order, footholds, state.foot_pos_world, ctx.terrain, self.margin_m)
+        for j in range(gait.steps_per_plan):
+            u[0:8] = ((feet_xy - com_xy) @ to_world).ravel()
+            order = self._order(self.model.scores(u), j)
+            cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
+            landing = cells[action_legs, action_cells]
+            step = first_safe_step(gait, order, landing, feet_xy, ctx.terrain, self.margin_m)
             if j == 0:
-                self.last_candidates = CandidateRanking(self.gait, order, footholds, ctx.terrain, self.margin_m,
+                self.last_candidates = CandidateRanking(gait, order, landing, ctx.terrain, self.margin_m,
                                                         step.action_index)
             steps.append(step)
-            if j + 1 < self.gait.steps_per_plan:
-                state = predicted_state(state, step.footholds_xy_world, step.legs, self.gait.step_duration_s)
+            # The state a step later, as contactnet.cost.predicted_state predicts it.
+            feet_xy[list(step.legs)] = step.footholds_xy_world
+            com_xy += shift
+            base_xy += shift
+            u[8] = ctx.com_height_ref_m
+            u[9:11] = ctx.vel_cmd_xy
+            u[11] = 0.0
         self._advance()
         return steps
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from contactnet.cli import EXIT_NOT_BUILT, EXIT_USER_ERROR, main
+from contactnet.cli import EXIT_USER_ERROR, main
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -88,19 +88,6 @@ def test_bad_options_exit_2(args, capsys):
     assert "Traceback" not in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(
-    "args",
-    [
-        ["experiment", "random", "--out", "x"],
-        ["bench", "planner"],
-        ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "contactnet"],
-    ],
-)
-def test_unbuilt_subcommands_say_so(args, capsys):
-    assert main(args) == EXIT_NOT_BUILT
-    assert "not built yet" in capsys.readouterr().err
-
-
 @pytest.mark.slow
 def test_bench_sim_json():
     result = run_cli("bench", "sim", "--json")
@@ -128,3 +115,40 @@ def test_train_and_datagen_bad_paths_are_user_errors(tmp_path, capsys):
     assert main(["datagen", "--gait", "walk", "--episodes", "1", "--out", str(a_file)]) == EXIT_USER_ERROR
     assert "taken" in capsys.readouterr().err
     assert a_file.read_text() == "x"
+
+
+@pytest.mark.parametrize("planner", ["contactnet", "fixed"])
+def test_simulate_with_a_missing_or_broken_model_names_the_file(planner, tmp_path, capsys):
+    missing = tmp_path / "nope.pt"
+    args = ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", planner, "--model", str(missing)]
+    assert main(args) == EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "nope.pt" in err and "no such file" in err and "Traceback" not in err
+    broken = tmp_path / "walk.pt"
+    broken.write_text("{ not a model")
+    assert main(args[:-1] + [str(broken)]) == EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "walk.pt" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["experiment", "moon", "--out", "x"], "invalid choice"),
+        (["experiment", "random", "--out", "x", "--removed", "400"], "0..300"),
+        (["experiment", "random", "--out", "x", "--gaits", "gallop"], "--gaits"),
+        (["experiment", "random", "--out", "x", "--planners", "contactnet,magic"], "--planners"),
+    ],
+)
+def test_experiment_argument_errors(args, message, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == EXIT_USER_ERROR
+    assert message in capsys.readouterr().err
+
+
+def test_experiment_with_a_missing_model_dir_fails_before_running(tmp_path, capsys):
+    code = main(["experiment", "narrow_stones", "--out", str(tmp_path / "out"), "--model-dir", str(tmp_path / "no")])
+    assert code == EXIT_USER_ERROR
+    assert "--model-dir" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

@@ -1,0 +1,224 @@
+"""The paper's experiments (Sec. IV), run in PyBullet: `contactnet experiment NAME --out DIR`.
+
+- ``stepping_stones``: walk at vx = 0.05 m/s across the 8 stones (Fig. 2, 4).
+- ``narrow_stones``: the 3 narrow stones where the fixed cyclic gait fails and the acyclic ContactNet
+  gait succeeds (Fig. 6).
+- ``random``: the 1.5 x 0.5 m field of 300 squares with ``removed`` squares missing, one terrain per
+  seed (Fig. 5, Table I); walk and trot.
+
+Every trial is one `Locomotion` run (the same loop as `contactnet simulate`) until the goal, a fall or a
+time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Trials run in worker
+processes; each finished trial is appended to ``DIR/trials.jsonl`` at once, so an interrupted experiment
+resumes with the trials still missing. At the end: ``summary.json``, a table on stdout, and
+``success.png`` (the success rates, looked at before they are quoted).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+EXPERIMENTS = ("stepping_stones", "narrow_stones", "random")
+DEFAULT_PLANNERS = {
+    "stepping_stones": ("contactnet", "fixed", "heuristic"),
+    "narrow_stones": ("contactnet", "fixed", "heuristic"),
+    "random": ("contactnet", "fixed", "heuristic"),
+}
+DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "random": ("walk", "trot")}
+
+
+class ExperimentError(ValueError):
+    """A bad experiment request or output directory (one-line message)."""
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One run: a terrain, a gait, a planner, a seed (sim noise and, for ``random``, the terrain)."""
+
+    experiment: str
+    terrain: str
+    removed: int | None
+    seed: int
+    gait: str
+    planner: str
+    vx: float = 0.05
+    noise: float = 0.0
+    model_dir: str | None = None
+
+    @property
+    def key(self) -> str:
+        removed = "" if self.removed is None else f"/{self.removed}"
+        return f"{self.terrain}{removed}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
+
+
+def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
+              planners: tuple[str, ...] | None = None, removed: tuple[int, ...] = (80,), noise: float = 0.0,
+              vx: float = 0.05, model_dir: str | None = None) -> list[Trial]:
+    """The trials of experiment ``name`` (default: 1 trial per setting on the fixed scenes, 20 seeds on
+    ``random``)."""
+    if name not in EXPERIMENTS:
+        raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
+    gaits = gaits or DEFAULT_GAITS[name]
+    planners = planners or DEFAULT_PLANNERS[name]
+    n = trials or (20 if name == "random" else 1)
+    out = []
+    for gait in gaits:
+        for planner in planners:
+            if name == "random":
+                out += [Trial(name, "random", k, seed, gait, planner, vx, noise, model_dir)
+                        for k in removed for seed in range(n)]
+            else:
+                out += [Trial(name, name, None, seed, gait, planner, vx, noise, model_dir) for seed in range(n)]
+    return out
+
+
+def run_trial(trial: Trial) -> dict:
+    """Run one trial in this process and return its record (the trial, the simulate summary, facts)."""
+    from contactnet.cli import make_planner
+    from contactnet.gait import gait_by_name
+    from contactnet.locomotion import Locomotion
+    from contactnet.robot import Solo12
+    from contactnet.sim import SimConfig
+    from contactnet.terrain import resolve
+
+    terrain = resolve(trial.terrain, removed=trial.removed, seed=trial.seed)
+    gait = gait_by_name(trial.gait)
+    robot = Solo12.load()
+    model = None if trial.model_dir is None else Path(trial.model_dir) / f"{trial.gait}.pt"
+    planner = make_planner(trial.planner, gait, robot, model=model)
+    distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
+    limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
+    config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed)
+    with Locomotion(robot, terrain, gait, planner, config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
+        summary = loco.run(limit_s)
+    summary.pop("gait_sequence", None)  # long; the table does not need it
+    return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary}
+
+
+def _worker(trial: Trial) -> dict:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    import torch
+
+    torch.set_num_threads(1)
+    return run_trial(trial)
+
+
+def _read_done(path: Path) -> dict[str, dict]:
+    done: dict[str, dict] = {}
+    if not path.exists():
+        return done
+    for number, line in enumerate(path.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+            done[record["key"]] = record
+        except (json.JSONDecodeError, KeyError, TypeError):
+            if number < len(path.read_text().splitlines()):
+                raise ExperimentError(f"{path}: line {number} is not a trial record") from None
+            # a last line cut by a kill: drop it, the trial runs again
+    return done
+
+
+def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
+                   progress: bool = True) -> dict:
+    """Run (or resume) ``trials`` into ``out_dir``; returns the summary (also written to summary.json)."""
+    import multiprocessing
+
+    from tqdm import tqdm
+
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ExperimentError(f"{out} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    log = out / "trials.jsonl"
+    done = _read_done(log)
+    wanted = {t.key for t in trials}
+    todo = [t for t in trials if t.key not in done]
+    workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
+    t0 = time.perf_counter()
+    with tqdm(total=len(trials), initial=len(trials) - len(todo), unit="trial", disable=not progress,
+              dynamic_ncols=True) as bar:
+        if todo:
+            pool = multiprocessing.get_context("spawn").Pool(workers)
+            try:
+                with open(log, "a") as file:
+                    for record in pool.imap_unordered(_worker, todo):
+                        file.write(json.dumps(record) + "\n")
+                        file.flush()
+                        done[record["key"]] = record
+                        bar.update(1)
+                        bar.set_postfix(last=f"{record['key']}: {'ok' if record['success'] else 'fail'}")
+                pool.close()
+            except BaseException:
+                pool.terminate()
+                raise
+            finally:
+                pool.join()
+    records = [done[k] for k in (t.key for t in trials) if k in wanted]
+    summary = summarize(name, records, time.perf_counter() - t0)
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    plot_success(summary, out / "success.png")
+    return summary
+
+
+def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
+    """Success rate and the planner's facts per (gait, planner, removed, noise) group."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in records:
+        t = r["trial"]
+        groups.setdefault((t["gait"], t["planner"], t["removed"], t["noise"]), []).append(r)
+    rows = []
+    for (gait, planner, removed, noise), rs in sorted(groups.items(), key=lambda kv: tuple(map(str, kv[0]))):
+        ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
+        rows.append({
+            "gait": gait, "planner": planner, "removed": removed, "noise": noise, "trials": len(rs),
+            "successes": sum(r["success"] for r in rs),
+            "success_rate": sum(r["success"] for r in rs) / len(rs),
+            "falls": sum(r["fell"] for r in rs),
+            "mean_reached_x": float(np.mean([r["reached_x"] for r in rs])),
+            "planner_ms_median": float(np.median([r["planner_ms"]["median"] for r in rs])),
+            "planner_ms_mean": float(np.mean([r["planner_ms"]["mean"] for r in rs])),
+            "rank_chosen_mean": float(np.mean(ranks)) if ranks else 0.0,
+            "rank_chosen_max": max((r["rank_chosen"]["max"] for r in rs), default=0),
+            "unsafe_landings": sum(r["unsafe_landings"] for r in rs),
+            "failed_seeds": [r["trial"]["seed"] for r in rs if not r["success"]],
+        })
+    return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
+
+
+def plot_success(summary: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = summary["rows"]
+    labels = [f"{r['gait']}\n{r['planner']}" + (f"\n{r['removed']} removed" if r["removed"] is not None else "")
+              for r in rows]
+    fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
+    bars = ax.bar(range(len(rows)), [100 * r["success_rate"] for r in rows], color="#3b7dd8")
+    for bar, r in zip(bars, rows, strict=True):
+        ax.text(bar.get_x() + bar.get_width() / 2, bar.get_height() + 1, f"{r['successes']}/{r['trials']}",
+                ha="center", fontsize=8)
+    ax.set_xticks(range(len(rows)), labels, fontsize=8)
+    ax.set_ylim(0, 110)
+    ax.set_ylabel("success %")
+    ax.set_title(f"experiment {summary['experiment']}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def format_summary(summary: dict) -> str:
+    from contactnet.bench import format_table
+
+    keep = ("gait", "planner", "removed", "noise", "successes", "trials", "success_rate", "falls",
+            "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
+    return format_table([{k: r[k] for k in keep} for r in summary["rows"]])

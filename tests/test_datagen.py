@@ -1,0 +1,143 @@
+"""Data generation: the shards and manifest it writes, determinism, resuming after an interruption
+(in the library and with a real Ctrl-C of the command), refusing a foreign directory; and the tiny
+end-to-end pipeline: a few episodes -> a few epochs of training -> load the model -> plan with it."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contactnet.cli import EXIT_USER_ERROR, main, make_planner
+from contactnet.datagen import DatagenConfig, DatasetDirError, generate, shard_name
+from contactnet.gait import WALK
+from contactnet.network import INPUT_NAMES, load_model
+
+pytestmark = pytest.mark.slow  # real episodes in PyBullet with the oracle: seconds each
+
+SMALL = DatagenConfig(gait="walk", episodes=3, instances_per_episode=4, episodes_per_shard=1, seed=7)
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("data") / "walk"
+    generate(out, SMALL, workers=1, progress=False)
+    return out
+
+
+def test_generate_writes_shards_and_a_manifest(dataset):
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    assert manifest["complete"] and manifest["episodes"] == 3 and manifest["gait"] == "walk"
+    assert manifest["shards"] == [shard_name(i) for i in range(3)]
+    assert manifest["input_names"] == list(INPUT_NAMES) and manifest["n_actions"] == WALK.n_actions
+    total = 0
+    for i, name in enumerate(manifest["shards"]):
+        with np.load(dataset / name) as shard:
+            u, V, episode = shard["u"], shard["V"], shard["episode"]
+        assert u.shape[1] == 14 and V.shape == (len(u), WALK.n_actions) and (episode == i).all()
+        assert len(u) == 4 or manifest["falls"] > 0  # 4 instances unless the episode fell
+        assert np.isfinite(u).all() and np.isfinite(V).any(axis=1).all()
+        assert 0.1 < u[:, 8].min() and u[:, 8].max() < 0.35  # CoM height above the ground
+        assert np.abs(u[:, 12:14]).max() <= 0.1  # the commanded velocity is in (-0.1, 0.1)
+        total += len(u)
+    assert manifest["instances"] == total
+    assert not list(dataset.glob(".*tmp*"))
+
+
+def test_resume_regenerates_only_the_missing_shard_identically(dataset, tmp_path):
+    copy = tmp_path / "walk"
+    copy.mkdir()
+    for path in dataset.iterdir():
+        (copy / path.name).write_bytes(path.read_bytes())
+    lost = copy / shard_name(1)
+    with np.load(lost) as shard:
+        before = {k: shard[k].copy() for k in shard.files}
+    lost.unlink()  # as if the run was killed while writing it
+    (copy / f".{shard_name(1)}.tmp123").write_bytes(b"half a shard")
+    kept = {p.name: p.stat().st_mtime_ns for p in copy.glob("shard-*.npz")}
+    manifest = generate(copy, SMALL, workers=1, progress=False)
+    assert manifest["complete"] and manifest["episodes"] == 3
+    assert {p.name: p.stat().st_mtime_ns for p in copy.glob("shard-*.npz") if p.name in kept} == kept
+    with np.load(lost) as shard:  # episodes are seeded by (seed, episode): the same data again
+        for key, value in before.items():
+            np.testing.assert_array_equal(shard[key], value)
+
+
+def test_foreign_or_mismatched_directories_are_refused(dataset, tmp_path, capsys):
+    with pytest.raises(DatasetDirError, match="other settings"):
+        generate(dataset, DatagenConfig(gait="walk", episodes=4, instances_per_episode=4, episodes_per_shard=1,
+                                        seed=7), workers=1, progress=False)
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    code = main(["datagen", "--gait", "walk", "--episodes", "2", "--out", str(foreign), "--quiet"])
+    assert code == EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "not empty" in err and "Traceback" not in err
+    assert (foreign / "notes.txt").read_text() == "mine"
+
+
+def test_config_validation():
+    with pytest.raises(ValueError, match="instances_per_episode"):
+        DatagenConfig(gait="walk", instances_per_episode=0)
+    with pytest.raises(ValueError, match="episodes"):
+        DatagenConfig(gait="walk", episodes=0)
+
+
+def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
+    out = tmp_path / "walk"
+    command = [sys.executable, "-m", "contactnet", "datagen", "--gait", "walk", "--episodes", "6",
+               "--instances-per-episode", "3", "--episodes-per-shard", "1", "--workers", "1", "--seed", "3",
+               "--out", str(out), "--quiet"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               start_new_session=True)
+    manifest_path = out / "manifest.json"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline:
+        if manifest_path.exists() and json.loads(manifest_path.read_text())["episodes"] >= 1:
+            break
+        assert process.poll() is None, process.communicate()
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers included
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "resume" in err and "Traceback" not in err
+    manifest = json.loads(manifest_path.read_text())
+    assert 1 <= manifest["episodes"] < 6 and not manifest["complete"]
+    assert all((out / name).is_file() for name in manifest["shards"])
+    finished = {name: (out / name).stat().st_mtime_ns for name in manifest["shards"]}
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    manifest = json.loads(manifest_path.read_text())
+    assert manifest["complete"] and manifest["episodes"] == 6
+    assert {name: (out / name).stat().st_mtime_ns for name in finished} == finished
+
+
+def test_tiny_pipeline_datagen_train_load_plan(dataset, tmp_path, robot, capsys):
+    model_path = tmp_path / "walk.pt"
+    assert main(["train", "--gait", "walk", "--data", str(dataset), "--out", str(model_path), "--epochs", "5",
+                 "--quiet"]) == 0
+    assert "top-5" in capsys.readouterr().out
+    model = load_model(model_path, expect_gait="walk")
+    assert model.n_actions == WALK.n_actions and model.metadata["training"]["epochs_done"] == 5
+    from contactnet.bench import planning_contexts
+    from contactnet.terrain import random_field
+
+    planner = make_planner("contactnet", WALK, robot, model=model_path)
+    terrain = random_field(120, 0)
+    for ctx in planning_contexts(WALK, terrain, robot.foot_nominal_base[:, :2], 30, seed=2):
+        steps = planner.plan(ctx)
+        assert len(steps) == WALK.steps_per_plan
+        for step in steps:
+            assert step.footholds_xy_world.shape == (len(step.legs), 2)
+            if step.action_index is not None:
+                assert terrain.is_safe(step.footholds_xy_world, planner.margin_m).all()
+            else:  # stepped in place: only when no candidate at all was safe
+                assert step.discarded == WALK.n_actions

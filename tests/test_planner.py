@@ -1,0 +1,191 @@
+"""Planners that rank: ContactNet and the fixed gait (the network's ranking, first safe candidate), the
+shared walk down a ranking, and the candidate view for the web tool. The fast planner is checked
+against a plain reference built from the library's generic pieces (CostState, predicted_state, one
+is_safe query per action)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactnet.bench import planning_contexts
+from contactnet.cli import make_planner
+from contactnet.cost import CostState, candidate_footholds_world, predicted_state
+from contactnet.gait import TROT, WALK
+from contactnet.network import (
+    ContactNet,
+    ModelFileError,
+    Normalizer,
+    load_model,
+    network_input,
+    network_input_of_state,
+    save_model,
+)
+from contactnet.planner import (
+    SAFETY_CHUNK,
+    ContactNetPlanner,
+    FixedGaitPlanner,
+    PlannedStep,
+    first_safe_step,
+    rotate_xy,
+)
+from contactnet.terrain import Terrain, flat, random_field
+
+
+def random_model(path, gait, seed: int = 0):
+    torch = pytest.importorskip("torch")
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    u = np.column_stack([rng.uniform(-0.3, 0.3, (200, 8)), rng.uniform(0.18, 0.25, 200),
+                         rng.uniform(-0.1, 0.1, (200, 5))])
+    save_model(path, ContactNet(gait.n_actions), Normalizer.fit(u), {"gait": gait.name})
+    return path
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("models")
+    return {gait.name: random_model(folder / f"{gait.name}.pt", gait) for gait in (WALK, TROT)}
+
+
+def reference_plan(planner: ContactNetPlanner, ctx, restrict_group=None) -> list[PlannedStep]:
+    """The slow, obvious version: CostState objects, float64 inputs from network_input_of_state, the full
+    (N_a, 4, 2) candidate array, one safety query per action in ranking order."""
+    gait = planner.gait
+    state = CostState.from_context(ctx)
+    swing, _ = gait.action_table
+    steps = []
+    for j in range(gait.steps_per_plan):
+        scores = planner.model.scores(network_input_of_state(state))
+        order = np.argsort(-scores, kind="stable")
+        if restrict_group is not None:
+            group = gait.cyclic_order[(restrict_group + j) % len(gait.cyclic_order)]
+            order = [a for a in order if a // gait.actions_per_group == group]
+        centres = state.base_xy_world + rotate_xy(planner.hip_ref_xy_base, state.yaw_rad)
+        footholds = candidate_footholds_world(gait, centres, state.yaw_rad, state.foot_pos_world)
+        chosen = None
+        for rank, index in enumerate(order):
+            legs = np.flatnonzero(swing[index])
+            if all(ctx.terrain.is_safe(footholds[index, leg][None], planner.margin_m)[0] for leg in legs):
+                chosen = PlannedStep(legs=tuple(int(leg) for leg in legs), footholds_xy_world=footholds[index, legs],
+                                     action_index=int(index), rank=rank, discarded=rank)
+                break
+        if chosen is None:  # no safe candidate: the planner steps in place; compare no further
+            steps.append(None)
+            break
+        steps.append(chosen)
+        state = predicted_state(state, chosen.footholds_xy_world, chosen.legs, gait.step_duration_s)
+    return steps
+
+
+def test_network_input_of_state_matches_network_input(robot):
+    for ctx in planning_contexts(TROT, random_field(30, 1), robot.foot_nominal_base[:, :2], 10, seed=3):
+        np.testing.assert_allclose(network_input_of_state(CostState.from_context(ctx)), network_input(ctx),
+                                   atol=1e-12)
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_contactnet_planner_matches_the_reference(robot, models, gait):
+    planner = make_planner("contactnet", gait, robot, model=models[gait.name])
+    terrain = random_field(200, 2)  # two thirds of the squares gone: rankings are walked deep
+    deep = 0
+    for ctx in planning_contexts(gait, terrain, robot.foot_nominal_base[:, :2], 40, seed=1):
+        fast = planner.plan(ctx)
+        slow = reference_plan(planner, ctx)
+        for a, b in zip(fast, slow, strict=False):
+            if b is None:
+                assert a.action_index is None and a.discarded == gait.n_actions
+                continue
+            assert a.legs == b.legs and a.action_index == b.action_index
+            assert a.rank == b.rank == a.discarded
+            np.testing.assert_allclose(a.footholds_xy_world, b.footholds_xy_world, atol=1e-12)
+            assert terrain.is_safe(a.footholds_xy_world, planner.margin_m).all()
+            deep += a.rank >= SAFETY_CHUNK
+    assert deep > 0, "some choice should need more than one chunk of the ranking"
+
+
+def test_fixed_gait_follows_the_cyclic_order_and_the_reference(robot, models):
+    planner = make_planner("fixed", WALK, robot, model=models["walk"])
+    assert isinstance(planner, FixedGaitPlanner)
+    terrain = random_field(60, 4)
+    contexts = planning_contexts(WALK, terrain, robot.foot_nominal_base[:, :2], 12, seed=5)
+    for k, ctx in enumerate(contexts):
+        expected = reference_plan(planner, ctx, restrict_group=k % 4)
+        steps = planner.plan(ctx)
+        assert [s.legs for s in steps] == [WALK.swing_groups[WALK.cyclic_order[(k + j) % 4]] for j in range(3)]
+        for a, b in zip(steps, expected, strict=False):
+            assert (a.action_index, a.rank) == ((None, None) if b is None else (b.action_index, b.rank))
+    planner.reset()
+    assert planner.plan(contexts[0])[0].legs == WALK.swing_groups[WALK.cyclic_order[0]]
+
+
+def test_fixed_gait_swings_in_place_when_its_leg_has_no_safe_cell(robot, models):
+    planner = make_planner("fixed", WALK, robot, model=models["walk"])
+    ctx = planning_contexts(WALK, flat(), robot.foot_nominal_base[:, :2], 1, seed=0)[0]
+    leg = WALK.swing_groups[WALK.cyclic_order[0]][0]
+    foot = ctx.foot_pos_world[leg, :2]
+    # A ring of ground around the foot: it stands safely, but every cell of its grid is off the ground.
+    terrain = Terrain.from_dict({
+        "name": "island", "start": [float(foot[0]), float(foot[1])], "goal_x": float(foot[0]) + 1.0,
+        "regions": [
+            {"shape": "circle", "center": [float(foot[0]), float(foot[1])], "radius": 0.012},
+            *[{"shape": "circle", "center": [float(x), float(y)], "radius": 0.03}
+              for i, (x, y) in enumerate(ctx.foot_pos_world[:, :2]) if i != leg],
+        ],
+    })
+    ctx = type(ctx)(**{**ctx.__dict__, "terrain": terrain})
+    step = planner.plan(ctx)[0]
+    assert step.legs == (leg,) and step.action_index is None and step.safe
+    np.testing.assert_allclose(step.footholds_xy_world, [foot])
+    assert step.discarded == WALK.actions_per_group
+    # ContactNet, free to choose the leg, takes a safe cell of another leg (deep in its ranking).
+    free = make_planner("contactnet", WALK, robot, model=planner.model.path).plan(ctx)[0]
+    assert free.action_index is not None and free.legs != (leg,) and free.rank > 0
+    assert terrain.is_safe(free.footholds_xy_world, planner.margin_m).all()
+
+
+def test_first_safe_step_walks_past_unsafe_chunks():
+    terrain = flat()
+    order = np.arange(WALK.n_actions)[::-1]
+    landing = np.full((WALK.n_actions, 1, 2), 50.0)  # off the 20 m field: unsafe
+    landing[order[SAFETY_CHUNK + 3]] = [[0.1, 0.2]]
+    landing[order[SAFETY_CHUNK + 5]] = [[0.0, 0.0]]
+    step = first_safe_step(WALK, order, landing, np.zeros((4, 2)), terrain, 0.0)
+    assert step.rank == step.discarded == SAFETY_CHUNK + 3
+    assert step.action_index == order[SAFETY_CHUNK + 3]
+    np.testing.assert_allclose(step.footholds_xy_world, [[0.1, 0.2]])
+    # Nothing safe and the feet off the ground too: step in place, flagged unsafe.
+    nothing = first_safe_step(WALK, order, np.full_like(landing, 50.0), np.full((4, 2), 50.0), terrain, 0.0)
+    assert nothing.action_index is None and not nothing.safe and nothing.discarded == WALK.n_actions
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_candidate_view_ranks_every_cell(robot, models, gait):
+    planner = make_planner("contactnet", gait, robot, model=models[gait.name])
+    terrain = random_field(80, 0)
+    ctx = planning_contexts(gait, terrain, robot.foot_nominal_base[:, :2], 1, seed=7)[0]
+    step = planner.plan(ctx)[0]
+    view = planner.last_candidates
+    assert len(view.xy_world) == 4 * gait.cells_per_leg
+    assert len(set(view.rank.tolist())) > 1 and view.rank.min() == 0
+    assert len(view.chosen) == len(step.legs)
+    for cell in view.chosen:
+        assert view.rank[cell] <= step.rank  # a chosen cell is at least as good as the action using it
+        assert view.safe[cell]
+    chosen_xy = view.xy_world[list(view.chosen)]
+    np.testing.assert_allclose(np.sort(chosen_xy, axis=0), np.sort(step.footholds_xy_world, axis=0))
+    np.testing.assert_array_equal(view.safe, terrain.is_safe(view.xy_world, planner.margin_m))
+
+
+def test_model_errors_are_clear(robot, models, tmp_path):
+    with pytest.raises(ModelFileError, match="no such file"):
+        make_planner("contactnet", WALK, robot, model=tmp_path / "missing.pt")
+    broken = tmp_path / "broken.pt"
+    broken.write_bytes(b"not a model")
+    with pytest.raises(ModelFileError, match="broken.pt"):
+        make_planner("fixed", WALK, robot, model=broken)
+    with pytest.raises(ModelFileError, match="trot"):
+        make_planner("contactnet", WALK, robot, model=models["trot"])
+    loaded = load_model(models["trot"])
+    with pytest.raises(ValueError, match="not walk"):
+        ContactNetPlanner(WALK, robot.foot_nominal_base[:, :2], loaded)
