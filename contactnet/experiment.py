@@ -110,19 +110,24 @@ def _worker(trial: Trial) -> dict:
 
 
 def _read_done(path: Path) -> dict[str, dict]:
+    """The finished trials in the log. A last line cut by a kill is dropped (that trial runs again) and
+    the log rewritten without it; a bad line elsewhere is an error (the file is not ours)."""
     done: dict[str, dict] = {}
     if not path.exists():
         return done
-    for number, line in enumerate(path.read_text().splitlines(), 1):
+    lines = path.read_text().splitlines()
+    for number, line in enumerate(lines, 1):
         if not line.strip():
             continue
         try:
             record = json.loads(line)
             done[record["key"]] = record
         except (json.JSONDecodeError, KeyError, TypeError):
-            if number < len(path.read_text().splitlines()):
+            if number < len(lines):
                 raise ExperimentError(f"{path}: line {number} is not a trial record") from None
-            # a last line cut by a kill: drop it, the trial runs again
+            tmp = path.with_name(f".{path.name}.tmp")
+            tmp.write_text("".join(f"{kept}\n" for kept in lines[:-1]))
+            os.replace(tmp, path)
     return done
 
 
