@@ -22,12 +22,10 @@ $(STAMP): pyproject.toml
 
 setup: $(STAMP)
 
-# Until the web server lands (issue 5), `make serve` runs the best demo the package has:
-# draw the default terrain, then let Solo12 walk and trot in PyBullet (heuristic planner).
+# The web tool on the default terrain (stepping_stones): open http://127.0.0.1:8000/ (the 3D view
+# is viser on port 8080, or the next free one). Ctrl-C stops it.
 serve: setup
-	$(BIN)/contactnet terrain render stepping_stones --out stepping_stones.png
-	$(BIN)/contactnet simulate --terrain flat --gait walk --planner heuristic --vx 0.1 --duration 10
-	$(BIN)/contactnet simulate --terrain flat --gait trot --planner heuristic --vx 0.1 --vy 0.05 --duration 10
+	$(BIN)/contactnet serve --host 127.0.0.1 --port 8000 --viser-port 8080 --terrain stepping_stones
 
 browser:
 	@test -x $(CHROMIUM) || { \
