@@ -256,6 +256,11 @@ class ControlPanel:
             self.noise = gui.add_checkbox(
                 "Joint-velocity noise", False, hint="Gaussian, variance 0.01 (rad/s)^2"
             )
+            self.legend = gui.add_markdown(
+                "Disks: candidate footholds, **green** = best-ranked safe, fading to grey down the "
+                "ranking; **red** = unsafe; **gold** = chosen. Orange balls: the next 3 steps. "
+                "Lines: planned CoM (blue), actual CoM (purple), foot forces (dark blue), push (red)."
+            )
         with gui.add_folder("Terrain", order=45, expand_by_default=False):
             self.terrain_pick = gui.add_dropdown(
                 "Terrain", self._terrain_options(), initial_value="stepping_stones"

@@ -31,6 +31,7 @@ from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -145,21 +146,30 @@ def check_command(command: Command) -> None:
 
 
 # ---- planners ------------------------------------------------------------------------------------
-def default_planner_factory(name: str, gait: GaitSpec) -> tuple[Any, str, str | None]:
-    """(planner, name of the planner actually used, note) - falls back to the heuristic planner
-    when the asked one is not built yet, and says so in the note."""
-    from contactnet.cli import NotBuiltError, make_planner
+def default_planner_factory(
+    name: str, gait: GaitSpec, model_dir: str | Path | None = None
+) -> tuple[Any, str, str | None]:
+    """(planner, name of the planner actually used, note).
 
+    `contactnet` and `fixed` load `{model_dir}/{gait}.pt`, by default the shipped model
+    (`contactnet/models/{gait}.pt`). When that file is missing or cannot be used, the session runs
+    the heuristic planner instead and the note says why (shown in the status panel and the API)."""
+    from contactnet.cli import make_planner
+    from contactnet.network import ModelFileError, default_model_path
+
+    if name == "heuristic":
+        return make_planner("heuristic", gait), "heuristic", None
+    model = default_model_path(gait.name) if model_dir is None else Path(model_dir) / f"{gait.name}.pt"
     try:
-        return make_planner(name, gait), name, None
-    except NotBuiltError:
-        if name == "heuristic":
-            raise
-        note = f"the {name} planner is not built yet: using heuristic"
-    except Exception as exc:  # noqa: BLE001 - e.g. a missing or bad model file: keep the tool usable
-        if name == "heuristic":
-            raise
-        log.warning("could not build the %s planner: %s", name, exc)
+        return make_planner(name, gait, model=model), name, None
+    except ModelFileError as exc:
+        if model.exists():
+            log.warning("the %s model cannot be used: %s", gait.name, exc)
+            note = f"{name} planner unavailable, {exc}: using heuristic"
+        else:
+            note = f"{name} planner: no trained {gait.name} model yet ({model.name} not found): using heuristic"
+    except Exception as exc:  # noqa: BLE001 - keep the tool usable whatever went wrong
+        log.exception("could not build the %s planner", name)
         note = f"the {name} planner could not be built ({exc}): using heuristic"
     return make_planner("heuristic", gait), "heuristic", note
 

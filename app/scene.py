@@ -38,9 +38,15 @@ COM_CHUNK = 200  # points per chunk of the actual CoM path
 
 TERRAIN_DISPLAY_THICKNESS_M = 0.08  # drawn as slabs (the simulation's are 0.4 m deep) over a floor grid
 TERRAIN_COLOR = (181, 160, 120)
-SAFE_COLOR = np.array([0, 115, 40], dtype=np.uint8)
-UNSAFE_COLOR = np.array([185, 0, 0], dtype=np.uint8)
-CHOSEN_COLOR = np.array([255, 185, 0], dtype=np.uint8)
+# Candidate disks (drawn with a toon material, which keeps these colours recognizable).
+BEST_COLOR = np.array([0, 80, 10], dtype=np.float64)  # the best-ranked safe candidate: vivid green
+WORST_COLOR = np.array([150, 150, 150], dtype=np.float64)  # far down the ranking: grey
+RANK_FADE = 8.0  # safe candidates fade toward grey over about this many ranking positions
+SAFE_COLOR = np.array([0, 80, 10], dtype=np.uint8)  # safe, when the planner does not rank
+UNSAFE_COLOR = np.array([200, 0, 0], dtype=np.uint8)
+CHOSEN_COLOR = np.array([255, 190, 0], dtype=np.uint8)
+UNSAFE_SCALE = 0.7
+CHOSEN_SCALE = (1.7, 1.7, 3.0)
 STEP_COLORS = np.array([[255, 80, 0], [255, 130, 0], [255, 180, 40]], dtype=np.uint8)
 UNSAFE_STEP_COLOR = np.array([200, 0, 120], dtype=np.uint8)
 PLANNED_COM_COLOR = (0, 160, 255)
@@ -51,14 +57,36 @@ GOAL_COLOR = (30, 150, 60)
 HIDDEN_POS = np.array([0.0, 0.0, -100.0], dtype=np.float32)
 
 
-def rank_colors(rank: np.ndarray, safe: np.ndarray) -> np.ndarray:
-    """Colours by ranking: the best safe candidates bright blue fading to grey, unsafe ones red."""
-    n = max(int(rank.max()) + 1, 1) if rank.size else 1
-    fade = np.clip(rank / max(n - 1, 1), 0.0, 1.0)[:, None]
-    best, worst = np.array([20, 120, 255.0]), np.array([170, 170, 170.0])
-    colors = (1 - fade) * best + fade * worst
+def disk_style(
+    safe: np.ndarray, rank: np.ndarray | None = None, chosen: tuple[int, ...] = ()
+) -> tuple[np.ndarray, np.ndarray]:
+    """(colors (N, 3) uint8, scales (N, 3)) of candidate disks.
+
+    With a ranking: safe candidates go from vivid green (the best-ranked safe one) to grey by their
+    position among the safe ones (`RANK_FADE`), and shrink a little as they fade; unsafe ones are
+    red and smaller; the chosen one(s) gold, larger and taller. Without one: safe green, unsafe red.
+    """
+    safe = np.asarray(safe, dtype=bool)
+    n = len(safe)
+    colors = np.empty((n, 3), dtype=np.uint8)
+    scales = np.ones((n, 3), dtype=np.float32)
+    if rank is None:
+        colors[:] = np.where(safe[:, None], SAFE_COLOR, UNSAFE_COLOR)
+    else:
+        rank = np.asarray(rank)
+        position = np.zeros(n)
+        safe_index = np.flatnonzero(safe)
+        position[safe_index[np.argsort(rank[safe_index], kind="stable")]] = np.arange(len(safe_index))
+        fade = 1.0 - np.exp(-position / RANK_FADE)
+        colors[:] = np.rint((1.0 - fade)[:, None] * BEST_COLOR + fade[:, None] * WORST_COLOR).astype(np.uint8)
+        scales[:, :2] = (1.0 - 0.3 * fade)[:, None]
     colors[~safe] = UNSAFE_COLOR
-    return colors.astype(np.uint8)
+    scales[~safe, :2] = UNSAFE_SCALE
+    for k in chosen:
+        if 0 <= k < n:
+            colors[k] = CHOSEN_COLOR
+            scales[k] = CHOSEN_SCALE
+    return colors, scales
 
 
 def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -202,7 +230,9 @@ class LiveScene:
             batched_scales=np.ones((DISK_POOL, 3), dtype=np.float32),
             batched_colors=np.tile(SAFE_COLOR, (DISK_POOL, 1)),
             lod="off",
+            material="toon3",  # flat tones: the standard material washes the colours out toward white
             cast_shadow=False,
+            receive_shadow=False,  # a toon disk in the robot's shadow turns black
         )
         ball = trimesh.creation.icosphere(subdivisions=2, radius=0.018)
         self.steps = scene.add_batched_meshes_simple(
@@ -303,14 +333,9 @@ class LiveScene:
             n = min(len(cand.xy_world), DISK_POOL)
             positions[:n, :2] = cand.xy_world[:n]
             positions[:n, 2] = view.terrain.surface_z + 0.5 * DISK_HEIGHT_M + 0.001
-            if cand.rank is not None:
-                colors[:n] = rank_colors(cand.rank[:n], cand.safe[:n])
-            else:
-                colors[:n] = np.where(cand.safe[:n, None], SAFE_COLOR, UNSAFE_COLOR)
-            for k in cand.chosen:
-                if k < n:
-                    colors[k] = CHOSEN_COLOR
-                    scales[k] = (1.5, 1.5, 2.0)
+            rank = None if cand.rank is None else cand.rank[:n]
+            colors[:n], scales[:n] = disk_style(cand.safe[:n], rank, cand.chosen)
+            positions[:n, 2] += 0.5 * DISK_HEIGHT_M * (scales[:n, 2] - 1.0)  # taller disks stand on the ground
         self.disks.batched_positions = positions
         self.disks.batched_colors = colors
         self.disks.batched_scales = scales

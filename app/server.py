@@ -8,6 +8,7 @@ at that port. `contactnet serve` calls `serve()`; tests build a `ContactnetApp` 
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import os
@@ -51,6 +52,7 @@ from app.live import (
     SetPlanner,
     SetSpeed,
     SetVelocity,
+    default_planner_factory,
 )
 from app.recordings import LiveRecorder, RecordingStore, default_urdf, viser_html
 from app.viewer import Viewer
@@ -266,6 +268,7 @@ class AppConfig:
     paused: bool = False
     terrains_dir: Path | None = None
     recordings_dir: Path = Path("recordings")
+    models_dir: Path | None = None  # {gait}.pt of contactnet/fixed; None: the shipped models
     scene_hz: float = 30.0
     record_hz: float = 12.0
 
@@ -285,7 +288,8 @@ class ContactnetApp:
                 vx=config.vx,
                 vy=config.vy,
                 paused=config.paused,
-            )
+            ),
+            planner_factory=functools.partial(default_planner_factory, model_dir=config.models_dir),
         ).start()
         try:
             urdf = default_urdf()

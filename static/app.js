@@ -32,10 +32,11 @@ function stateText(s) {
   else if (s.fell) { state = "FELL: " + s.fall_reason; cls = "state-fell"; }
   else if (s.reached_goal) { state = "GOAL REACHED"; cls = "state-goal"; }
   else if (s.paused) { state = "paused"; cls = "state-paused"; }
-  const planner = s.planner === s.planner_active ? s.planner : `${s.planner_active} (${s.planner} not built yet)`;
+  const planner = s.planner === s.planner_active ? s.planner : `${s.planner_active} (instead of ${s.planner})`;
   const span = document.createElement("span");
   span.className = cls;
   span.textContent = state;
+  $("status").title = s.planner_note || "";
   const rest = document.createTextNode(
     ` · t ${s.t_s.toFixed(2)} s · RTF ${s.real_time_factor.toFixed(2)} · ${s.terrain} · ${s.gait} · ${planner}` +
     ` · x ${s.base_position[0].toFixed(2)} m · cmd (${s.vel_cmd[0].toFixed(2)}, ${s.vel_cmd[1].toFixed(2)}) m/s` +

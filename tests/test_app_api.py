@@ -14,11 +14,26 @@ from app.server import AppConfig, ContactnetApp
 from contactnet.terrain import Terrain, terrains_dir
 
 
+def save_random_model(path, gait: str) -> None:
+    """A model file with random weights (no trained model ships yet)."""
+    import numpy as np
+    import torch
+
+    from contactnet.gait import gait_by_name
+    from contactnet.network import ContactNet, Normalizer, save_model
+
+    torch.manual_seed(0)
+    u = np.random.default_rng(0).normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
+    save_model(path, ContactNet(gait_by_name(gait).n_actions).eval(), Normalizer.fit(u), {"gait": gait})
+
+
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
     terrains = tmp_path_factory.mktemp("terrains")
     for path in terrains_dir().glob("*.json"):
         shutil.copy(path, terrains / path.name)
+    models = tmp_path_factory.mktemp("models")
+    save_random_model(models / "trot.pt", "trot")  # and no walk model: walk falls back to heuristic
     instance = ContactnetApp(
         AppConfig(
             terrain="flat",
@@ -27,6 +42,7 @@ def app(tmp_path_factory):
             viser_port=free_port(),
             terrains_dir=terrains,
             recordings_dir=tmp_path_factory.mktemp("rec"),
+            models_dir=models,
         )
     )
     yield instance
@@ -135,9 +151,18 @@ def test_pause_and_settings(client):
     state = client.post("/api/settings", json={"speed": 0.5, "planner": "contactnet"}).json()
     assert state["speed"] == 0.5
     assert state["planner"] == "contactnet" and state["planner_active"] == "heuristic"
-    assert "not built" in state["planner_note"]
-    state = client.post("/api/settings", json={"speed": 1.0, "planner": "heuristic"}).json()
-    assert state["planner_note"] is None
+    assert "no trained walk model yet" in state["planner_note"]
+    state = client.post("/api/settings", json={"gait": "trot", "noise": True}).json()
+    assert (state["gait"], state["planner_active"], state["noise"]) == ("trot", "contactnet", True)
+    assert state["planner_note"] is None and state["paused"]  # a rebuild keeps the pause
+    client.post("/api/pause", json={"paused": False})
+    wait = time.monotonic() + 20
+    while (state := client.get("/api/state").json())["rank_chosen"] is None and time.monotonic() < wait:
+        time.sleep(0.1)
+    assert state["rank_chosen"] is not None and state["rank_chosen"] >= 0
+    state = client.post("/api/settings", json={"speed": 1.0, "gait": "walk", "noise": False,
+                                               "planner": "heuristic"}).json()
+    assert (state["gait"], state["noise"], state["planner_note"]) == ("walk", False, None)
     assert client.post("/api/reset").json()["running"] is True
 
 

@@ -4,6 +4,7 @@ recorder driven from a plain loop."""
 from __future__ import annotations
 
 import time
+from functools import partial
 
 import numpy as np
 import pytest
@@ -20,15 +21,40 @@ from app.live import (
     SetTerrain,
     SetVelocity,
     ViewTracker,
+    default_planner_factory,
     gait_chart,
 )
 from contactnet.terrain import flat, stepping_stones
+
+
+def save_random_models(folder) -> None:
+    """walk.pt and trot.pt with random weights (no trained model ships yet): the ContactNet planner
+    then ranks candidates at random, and still takes the first safe one."""
+    import torch
+
+    from contactnet.gait import gait_by_name
+    from contactnet.network import ContactNet, Normalizer, save_model
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
+    for gait in ("walk", "trot"):
+        torch.manual_seed(0)
+        save_model(folder / f"{gait}.pt", ContactNet(gait_by_name(gait).n_actions).eval(), Normalizer.fit(u),
+                   {"gait": gait})
+
+
+@pytest.fixture(scope="module")
+def random_models(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("models")
+    save_random_models(folder)
+    return folder
 
 
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
     live = LiveSession(
         SessionConfig(terrain=flat(), terrain_label="flat", planner="heuristic", vx=0.0),
+        planner_factory=partial(default_planner_factory, model_dir=tmp_path_factory.mktemp("no_models")),
         robot_cache_dir=tmp_path_factory.mktemp("cache"),
     ).start()
     yield live
@@ -96,13 +122,99 @@ def test_bad_commands_never_reach_the_simulation(session, command):
         future.result(0)
 
 
-def test_unbuilt_planner_falls_back_to_heuristic(session):
-    session.call(SetPlanner("contactnet"))
-    status = session.view.status
-    assert (status.planner, status.planner_active) == ("contactnet", "heuristic")
-    assert "not built" in status.planner_note
+def test_missing_model_falls_back_to_heuristic(session):
+    for planner in ("contactnet", "fixed"):
+        session.call(SetPlanner(planner))
+        status = session.view.status
+        assert (status.planner, status.planner_active) == (planner, "heuristic")
+        assert "no trained walk model yet (walk.pt not found)" in status.planner_note
     session.call(SetPlanner("heuristic"))
     assert session.view.status.planner_note is None
+
+
+def test_broken_model_falls_back_with_the_reason(tmp_path):
+    from contactnet.gait import WALK
+
+    (tmp_path / "walk.pt").write_bytes(b"not a model")
+    planner, active, note = default_planner_factory("contactnet", WALK, model_dir=tmp_path)
+    assert active == "heuristic" and type(planner).__name__ == "HeuristicPlanner"
+    assert "walk.pt" in note and "not a complete torch file" in note
+
+
+def test_shipped_model_is_the_default(monkeypatch, random_models):
+    """Without a model folder the factory loads contactnet/models/{gait}.pt."""
+    import contactnet.network
+    from contactnet.gait import WALK
+
+    monkeypatch.setattr(contactnet.network, "default_model_path", lambda gait: random_models / f"{gait}.pt")
+    planner, active, note = default_planner_factory("contactnet", WALK)
+    assert (type(planner).__name__, active, note) == ("ContactNetPlanner", "contactnet", None)
+
+
+def test_contactnet_session_shows_the_ranking(random_models, tmp_path):
+    """A ContactNet planner session (random weights) yields ranked candidates with the chosen cell:
+    every candidate ranked before the chosen one is unsafe (the planner takes the first safe one)."""
+    live = LiveSession(
+        SessionConfig(terrain=stepping_stones(), terrain_label="stepping_stones", planner="contactnet"),
+        planner_factory=partial(default_planner_factory, model_dir=random_models),
+        robot_cache_dir=tmp_path,
+    ).start()
+    try:
+        assert live.view.status.planner_active == "contactnet" and live.view.status.planner_note is None
+        view = live.wait_view(lambda v: v.snapshot.steps >= 3 and v.candidates is not None, timeout=60)
+        cand = view.candidates
+        assert cand.rank is not None and len(cand.chosen) == 1
+        n = len(cand.xy_world)
+        assert n == 100 and cand.safe.shape == cand.rank.shape == cand.leg.shape == (n,)  # 4 legs x 25 cells
+        assert sorted(np.bincount(cand.leg).tolist()) == [25] * 4
+        (chosen,) = cand.chosen
+        assert cand.safe[chosen]
+        assert cand.leg[chosen] in view.snapshot.planned_steps[0].legs
+        assert not np.any(cand.safe & (cand.rank < cand.rank[chosen]))
+        assert cand.rank[chosen] == view.snapshot.planned_steps[0].rank
+        np.testing.assert_allclose(
+            cand.xy_world[chosen], view.snapshot.planned_steps[0].footholds_xy_world[0], atol=1e-9
+        )
+        assert set(np.unique(cand.rank).tolist()) == set(range(100))  # walk: one action per cell
+    finally:
+        live.stop()
+    # drawn: one disk per candidate at its place, coloured and sized as disk_style says
+    from app.recordings import default_urdf, quiet_viser_server, stop_quietly
+    from app.scene import HIDDEN_POS, LiveScene, disk_style
+
+    server = quiet_viser_server()
+    try:
+        scene = LiveScene(server, default_urdf())
+        scene.update(view)
+        positions, colors = scene.disks.batched_positions, scene.disks.batched_colors
+        np.testing.assert_allclose(positions[:n, :2], cand.xy_world, atol=1e-6)
+        assert np.all(positions[n:] == HIDDEN_POS)
+        expected_colors, expected_scales = disk_style(cand.safe, cand.rank, cand.chosen)
+        np.testing.assert_array_equal(colors[:n], expected_colors)
+        np.testing.assert_allclose(scene.disks.batched_scales[:n], expected_scales)
+    finally:
+        stop_quietly(server)
+
+
+def test_disk_colours_follow_the_ranking():
+    from app.scene import BEST_COLOR, CHOSEN_COLOR, UNSAFE_COLOR, WORST_COLOR, disk_style
+
+    rank = np.array([5, 0, 1, 9, 2, 40, 3])
+    safe = np.array([True, False, True, True, True, True, False])
+    colors, scales = disk_style(safe, rank, chosen=(2,))
+    np.testing.assert_array_equal(colors[~safe], [UNSAFE_COLOR, UNSAFE_COLOR])
+    np.testing.assert_array_equal(colors[2], CHOSEN_COLOR)  # rank 1, the first safe one
+    assert scales[2, 0] > 1.5 and scales[2, 2] > 2 and np.all(scales[~safe, :2] < 1)
+    # the other safe ones, best first (ranks 2, 5, 9, 40): from the best colour toward grey
+    order = [4, 0, 3, 5]
+    distance_to_best = np.linalg.norm(colors[order].astype(float) - BEST_COLOR, axis=1)
+    assert np.all(np.diff(distance_to_best) > 0) and np.all(np.diff(scales[order, 0]) < 0)
+    colors, _ = disk_style(safe, rank)
+    np.testing.assert_array_equal(colors[2], BEST_COLOR.astype(np.uint8))  # best safe: the full colour
+    colors, _ = disk_style(np.ones(40, dtype=bool), np.arange(40)[::-1])
+    assert np.linalg.norm(colors[0].astype(float) - WORST_COLOR) < 10  # 40th safe one: grey
+    colors, scales = disk_style(safe)  # a planner without a ranking: safe or not
+    assert len({tuple(c) for c in colors[safe]}) == 1 and np.all(colors[~safe] == UNSAFE_COLOR)
 
 
 def test_gait_and_terrain_rebuild_the_world(session):
