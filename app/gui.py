@@ -32,13 +32,14 @@ from app.live import (
     ApplyPush,
     LiveSession,
     LiveView,
+    NudgeVelocity,
     Reset,
     SetGait,
     SetNoise,
-    SetPaused,
     SetPlanner,
     SetSpeed,
     SetVelocity,
+    TogglePause,
     gait_chart,
 )
 from app.recordings import LiveRecorder
@@ -262,8 +263,12 @@ class ControlPanel:
                 "Lines: planned CoM (blue), actual CoM (purple), foot forces (dark blue), push (red)."
             )
         with gui.add_folder("Terrain", order=45, expand_by_default=False):
+            options = self._terrain_options()
             self.terrain_pick = gui.add_dropdown(
-                "Terrain", self._terrain_options(), initial_value="stepping_stones"
+                "Terrain",
+                options,
+                initial_value=terrains.label if terrains.label in options else options[0],
+                hint="Pick, then press Load terrain",
             )
             self.removed = gui.add_number("Random: removed", 80, min=0, max=300, step=1, visible=False)
             self.seed = gui.add_number("Random: seed", 0, min=0, max=2**31 - 1, step=1, visible=False)
@@ -430,9 +435,11 @@ class ControlPanel:
             ("Stop", "X", lambda c: self._set_velocity(0.0, 0.0, c)),
             ("Pause / run", "P", lambda c: self._toggle_pause(c)),
         )
+        self.shortcuts: dict[str, viser.CommandHandle] = {}
         for label, key, action in shortcuts:
             command = gui.add_command(label, hotkey=key, description=f"key {key}")
             command.on_trigger(lambda event, action=action: action(event.client))
+            self.shortcuts[key] = command
 
     def _set_velocity(self, vx: float, vy: float, client=None) -> None:
         vx = float(np.clip(round(vx, 3), -VELOCITY_LIMIT, VELOCITY_LIMIT))
@@ -440,18 +447,10 @@ class ControlPanel:
         self._send(SetVelocity(vx, vy), client)
 
     def _nudge(self, dvx: float, dvy: float, client=None) -> None:
-        view = self.session.view
-        vx, vy = view.snapshot.vel_cmd_xy if view is not None else (0.0, 0.0)
-        self._set_velocity(vx + dvx, vy + dvy, client)
+        self._send(NudgeVelocity(dvx, dvy), client)  # relative: quick presses add up in the session
 
     def _toggle_pause(self, client=None) -> None:
-        view = self.session.view
-        if view is None:
-            return
-        if view.status.done:
-            self._send(Reset(), client)
-        else:
-            self._send(SetPaused(not view.status.paused), client)
+        self._send(TogglePause(), client)  # decided by the session thread: quick presses alternate
 
     def _refresh_record_button(self) -> None:
         recording = self.recorder.recording

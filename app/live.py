@@ -65,6 +65,15 @@ class SetVelocity:
 
 
 @dataclass(frozen=True)
+class NudgeVelocity:
+    """Add (dvx, dvy) to the commanded velocity, clipped to the limits (keyboard shortcuts: applied in
+    order by the session thread, so quick presses add up)."""
+
+    dvx: float
+    dvy: float
+
+
+@dataclass(frozen=True)
 class ApplyPush:
     fx: float
     fy: float
@@ -79,6 +88,11 @@ class Reset:
 @dataclass(frozen=True)
 class SetPaused:
     paused: bool
+
+
+@dataclass(frozen=True)
+class TogglePause:
+    """Pause a running session, run a paused one, restart one that fell or reached the goal."""
 
 
 @dataclass(frozen=True)
@@ -108,7 +122,17 @@ class SetTerrain:
 
 
 Command = (
-    SetVelocity | ApplyPush | Reset | SetPaused | SetSpeed | SetGait | SetPlanner | SetNoise | SetTerrain
+    SetVelocity
+    | NudgeVelocity
+    | ApplyPush
+    | Reset
+    | SetPaused
+    | TogglePause
+    | SetSpeed
+    | SetGait
+    | SetPlanner
+    | SetNoise
+    | SetTerrain
 )
 
 
@@ -122,6 +146,11 @@ def check_command(command: Command) -> None:
     if isinstance(command, SetVelocity):
         if not (finite(command.vx, command.vy) and max(abs(command.vx), abs(command.vy)) <= VELOCITY_LIMIT):
             raise ValueError(f"velocity must be finite with |vx|, |vy| <= {VELOCITY_LIMIT} m/s")
+    elif isinstance(command, NudgeVelocity):
+        if not (
+            finite(command.dvx, command.dvy) and max(abs(command.dvx), abs(command.dvy)) <= 2 * VELOCITY_LIMIT
+        ):
+            raise ValueError(f"velocity change must be finite with |dvx|, |dvy| <= {2 * VELOCITY_LIMIT} m/s")
     elif isinstance(command, ApplyPush):
         if not (
             finite(command.fx, command.fy, command.duration_s)
@@ -167,7 +196,9 @@ def default_planner_factory(
             log.warning("the %s model cannot be used: %s", gait.name, exc)
             note = f"{name} planner unavailable, {exc}: using heuristic"
         else:
-            note = f"{name} planner: no trained {gait.name} model yet ({model.name} not found): using heuristic"
+            note = (
+                f"{name} planner: no trained {gait.name} model yet ({model.name} not found): using heuristic"
+            )
     except Exception as exc:  # noqa: BLE001 - keep the tool usable whatever went wrong
         log.exception("could not build the %s planner", name)
         note = f"the {name} planner could not be built ({exc}): using heuristic"
@@ -584,6 +615,12 @@ class LiveSession:
         if isinstance(command, SetVelocity):
             self._vel = (float(command.vx), float(command.vy))
             loco.set_command(*self._vel)
+        elif isinstance(command, NudgeVelocity):
+            self._vel = tuple(
+                float(np.clip(round(v + d, 3), -VELOCITY_LIMIT, VELOCITY_LIMIT))
+                for v, d in zip(self._vel, (command.dvx, command.dvy), strict=True)
+            )
+            loco.set_command(*self._vel)
         elif isinstance(command, ApplyPush):
             push = Push(
                 t0_s=loco.t_s,
@@ -600,6 +637,11 @@ class LiveSession:
             self._after_restart()
         elif isinstance(command, SetPaused):
             self._paused = bool(command.paused)
+        elif isinstance(command, TogglePause):
+            if self._done is not None or self._error is not None:
+                self._apply(Reset())
+            else:
+                self._paused = not self._paused
         elif isinstance(command, SetSpeed):
             self._speed = float(command.speed)
         elif isinstance(command, SetGait):

@@ -335,7 +335,8 @@ class LiveScene:
             positions[:n, 2] = view.terrain.surface_z + 0.5 * DISK_HEIGHT_M + 0.001
             rank = None if cand.rank is None else cand.rank[:n]
             colors[:n], scales[:n] = disk_style(cand.safe[:n], rank, cand.chosen)
-            positions[:n, 2] += 0.5 * DISK_HEIGHT_M * (scales[:n, 2] - 1.0)  # taller disks stand on the ground
+            # taller disks stand on the ground
+            positions[:n, 2] += 0.5 * DISK_HEIGHT_M * (scales[:n, 2] - 1.0)
         self.disks.batched_positions = positions
         self.disks.batched_colors = colors
         self.disks.batched_scales = scales

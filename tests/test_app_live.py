@@ -12,6 +12,7 @@ import pytest
 from app.live import (
     ApplyPush,
     LiveSession,
+    NudgeVelocity,
     Reset,
     SessionConfig,
     SetGait,
@@ -106,6 +107,8 @@ def test_pause_stops_the_clock_and_reset_restarts(session):
         SetVelocity(0.5, 0.0),
         SetVelocity(float("nan"), 0.0),
         SetVelocity(0.0, float("inf")),
+        NudgeVelocity(float("nan"), 0.0),
+        NudgeVelocity(0.0, 0.7),
         ApplyPush(21.0, 0.0, 1.0),
         ApplyPush(15.0, 15.0, 1.0),
         ApplyPush(1.0, 0.0, 0.0),

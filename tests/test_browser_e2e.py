@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from app.live import SetPaused, SetVelocity
+from app.live import SetPaused, SetPlanner, SetVelocity
 
 CHROMIUM = "/usr/bin/chromium"
 ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
@@ -46,17 +46,22 @@ def wait_for(predicate, timeout: float = 15.0, what: str = "condition"):
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
+    from test_app_live import save_random_models
+
     from app.recordings import free_port
     from app.server import AppConfig, BackgroundServer, ContactnetApp
 
+    models = tmp_path_factory.mktemp("models")
+    save_random_models(models)  # no trained model ships yet: ContactNet with random weights
     app = ContactnetApp(
         AppConfig(
             terrain="stepping_stones",
-            planner="heuristic",
+            planner="contactnet",
             vx=0.05,
             paused=True,
             viser_port=free_port(),
             recordings_dir=tmp_path_factory.mktemp("recordings"),
+            models_dir=models,
         )
     )
     port = free_port()
@@ -91,9 +96,14 @@ def test_page_shows_the_session_and_the_3d_view(live, page):
     viewer.get_by_text("PAUSED").wait_for()
     client_id = wait_for(lambda: list(app.viewer.server.get_clients()), what="viser client")[0]
     app.session.call(SetPaused(False))
-    wait_for(lambda: app.state().t_s > 0.9, what="1 s of walking")
+    wait_for(lambda: app.state().t_s > 1.5, what="1.5 s of walking")
     app.session.call(SetPaused(True))
     viewer.get_by_text("PAUSED").wait_for()
+    state = app.state()
+    assert state.planner_active == "contactnet" and state.rank_chosen is not None
+    candidates = app.session.view.candidates
+    assert candidates.rank is not None and len(candidates.chosen) == 1  # the ranked disks drawn
+    viewer.get_by_text(f"rank chosen {state.rank_chosen}").wait_for()
     time.sleep(1.5)  # let the renderer catch up with the last scene update
     page.screenshot(path=str(ARTIFACTS / "browser_stepping_stones.png"))
     assert app.viewer.panel.camera.following(client_id)
@@ -103,6 +113,7 @@ def test_push_button_and_velocity_keys_drive_the_robot(live, page):
     app, _ = live
     viewer = page.frame_locator("#viewer")
     app.terrains.load("flat")
+    app.session.call(SetPlanner("heuristic"))  # random ContactNet weights do not make a steady walk
     app.session.call(SetVelocity(0.0, 0.0))
     app.session.call(SetPaused(False))
     viewer.get_by_text("terrain flat").wait_for(timeout=20_000)
@@ -122,16 +133,26 @@ def test_push_button_and_velocity_keys_drive_the_robot(live, page):
     page.screenshot(path=str(ARTIFACTS / "browser_flat_walking.png"))
 
 
-def test_recording_plays_back_in_the_browser(live, page):
+def test_recordings_from_the_page_and_the_command_line_play_back(live, page):
+    from contactnet.cli import main
+
     app, url = live
-    app.recorder.start("e2e")
-    wait_for(lambda: app.recorder.status()["frames"] >= 20, timeout=20, what="20 recorded frames")
-    info = app.recorder.stop()
-    app.session.call(SetPaused(True))  # an idle scene lets the software renderer keep up with the clicks
+    folder = app.recordings.directory
+    assert main(["simulate", "--terrain", "stepping_stones", "--gait", "walk", "--planner", "heuristic",
+                 "--duration", "1.0", "--record", str(folder / "cli-run.viser")]) == 0
+    app.session.call(SetPaused(False))
     page.locator("#recordings-toggle").click()
-    page.get_by_text(info.name).wait_for()
-    page.locator("#recording-list a", has_text="Play").first.click()
+    page.locator("#record-button").click()  # the front page's record button
+    wait_for(lambda: app.recorder.status()["frames"] >= 20, timeout=30, what="20 recorded frames")
+    page.locator("#record-button").click()
+    wait_for(lambda: not app.recorder.recording and app.recorder.last_saved, what="the recording saved")
+    app.session.call(SetPaused(True))  # an idle scene lets the software renderer keep up with the clicks
+    page.get_by_text(app.recorder.last_saved).wait_for()
+    entry = page.locator("#recording-list li", has_text="cli-run.viser")
+    entry.wait_for()
+    entry.locator("a", has_text="Play").click()
     page.locator("#playback-bar").wait_for()
+    assert page.locator("#playback-name").inner_text() == "cli-run.viser"
     page.frame_locator("#viewer").get_by_label("Show scene tree").first.wait_for(timeout=60_000)
     time.sleep(2.0)
     page.screenshot(path=str(ARTIFACTS / "browser_playback.png"))

@@ -1,0 +1,322 @@
+"""Every control of the viser panel and the terrain editor, driven the way the browser drives them:
+a websocket client speaking viser's protocol sends the messages the viser page sends (GUI value
+updates, button clicks, hotkey commands, clicks in the 3D view, gizmo drags, file uploads) to the
+real viser server of a real app; the tests check what reaches the live session. (The browser
+test, tests/test_browser_e2e.py, checks a few of these through chromium itself.)"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import threading
+import time
+import uuid
+
+import msgspec
+import numpy as np
+import pytest
+import viser
+from viser import _messages as messages
+from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
+
+from app.recordings import free_port
+from app.server import AppConfig, ContactnetApp
+from contactnet.terrain import Terrain, terrains_dir
+
+
+class ViserProtocolClient:
+    """A stand-in for the viser page: connects like it and sends what its components send."""
+
+    def __init__(self, port: int):
+        self.ws = connect(
+            f"ws://127.0.0.1:{port}", subprotocols=[f"viser-v{viser.__version__}"], max_size=None
+        )
+        self.received = 0
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        # viser counts a page as connected once it reports its camera
+        self.send(messages.ViewerCameraMessage((1.0, 0.0, 0.0, 0.0), (-0.75, -1.0, 0.85), 1.0, 0.01, 100.0,
+                                               720, 1280, (0.25, 0.0, 0.05), (0.0, 0.0, 1.0)))
+
+    def _read(self) -> None:  # drain what the server sends (scene, GUI, notifications)
+        try:
+            for _ in self.ws:
+                self.received += 1
+        except ConnectionClosed:
+            pass
+
+    def send(self, message: messages.Message) -> None:
+        self.ws.send(msgspec.msgpack.encode(message.as_serializable_dict()))
+
+    def set(self, handle, value) -> None:  # noqa: ANN001 - a slider, number, dropdown, checkbox, text
+        self.send(messages.GuiUpdateMessage(handle._impl.uuid, {"value": value}))
+
+    def click(self, button, option: str | None = None) -> None:  # noqa: ANN001 - button (group)
+        self.send(messages.GuiUpdateMessage(button._impl.uuid, {"value": True if option is None else option}))
+
+    def key(self, command) -> None:  # noqa: ANN001 - a hotkey command
+        self.send(messages.CommandTriggerMessage(command._impl.uuid))
+
+    def click_scene(self, xy: tuple[float, float], z: float = 0.0) -> None:
+        """A click in the 3D view on the point (x, y, z), seen from above and behind."""
+        origin = (xy[0] - 0.5, xy[1] - 0.3, z + 1.0)
+        direction = np.array([0.5, 0.3, -1.0]) / np.linalg.norm([0.5, 0.3, -1.0])
+        self.send(messages.ScenePointerMessage("click", origin, tuple(direction), ((0.5, 0.5),), None))
+
+    def drag_gizmo(self, name: str, position: tuple[float, float, float], yaw: float) -> None:
+        wxyz = (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))
+        self.send(messages.TransformControlsDragStartMessage(name))
+        self.send(messages.TransformControlsUpdateMessage(name, wxyz, position))
+        self.send(messages.TransformControlsDragEndMessage(name))
+
+    def upload(self, button, filename: str, content: bytes) -> None:  # noqa: ANN001
+        transfer = str(uuid.uuid4())
+        self.send(messages.FileTransferStartUpload(button._impl.uuid, transfer, filename, "application/json",
+                                                   1, len(content)))
+        self.send(messages.FileTransferPart(button._impl.uuid, transfer, 0, content))
+
+    def close(self) -> None:
+        self.ws.close()
+
+
+def wait_for(predicate, timeout: float = 20.0, what: str = "condition"):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.02)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+@pytest.fixture(scope="module")
+def app(tmp_path_factory):
+    from test_app_live import save_random_models
+
+    terrains = tmp_path_factory.mktemp("terrains")
+    for path in terrains_dir().glob("*.json"):
+        shutil.copy(path, terrains / path.name)
+    models = tmp_path_factory.mktemp("models")
+    save_random_models(models)
+    instance = ContactnetApp(
+        AppConfig(terrain="flat", planner="heuristic", vx=0.0, viser_port=free_port(), terrains_dir=terrains,
+                  recordings_dir=tmp_path_factory.mktemp("recordings"), models_dir=models)
+    )
+    yield instance
+    instance.close()
+
+
+@pytest.fixture(scope="module")
+def browser(app):
+    client = ViserProtocolClient(app.viser_port)
+    wait_for(lambda: app.viewer.server.get_clients(), what="the client to connect")
+    yield client
+    client.close()
+
+
+def state(app):
+    return app.state()
+
+
+def test_velocity_sliders_stop_and_hotkeys(app, browser):
+    panel = app.viewer.panel
+    browser.set(panel.vx, 0.12)
+    browser.set(panel.vy, -0.04)
+    wait_for(lambda: state(app).vel_cmd == (0.12, -0.04), what="the sliders' velocity")
+    browser.click(panel.stop_button)
+    wait_for(lambda: state(app).vel_cmd == (0.0, 0.0), what="Stop")
+    keys = panel.shortcuts
+    for key, expected in (
+        ("I", (0.05, 0.0)), ("I", (0.1, 0.0)), ("J", (0.1, 0.05)), ("L", (0.1, 0.0)), ("L", (0.1, -0.05)),
+        ("K", (0.05, -0.05)), ("X", (0.0, 0.0)),
+    ):
+        browser.key(keys[key])
+        wait_for(lambda expected=expected: state(app).vel_cmd == expected, what=f"key {key} -> {expected}")
+    for _ in range(8):  # the limit holds
+        browser.key(keys["I"])
+    wait_for(lambda: state(app).vel_cmd == (0.3, 0.0), what="vx capped at 0.3")
+    browser.key(keys["X"])
+    wait_for(lambda: state(app).vel_cmd == (0.0, 0.0), what="X")
+
+
+def test_pause_run_reset_and_speed(app, browser):
+    panel = app.viewer.panel
+    browser.key(panel.shortcuts["P"])
+    wait_for(lambda: state(app).paused, what="P pauses")
+    browser.key(panel.shortcuts["P"])
+    wait_for(lambda: not state(app).paused, what="P runs")
+    browser.click(panel.run_button)  # labelled "Pause" while running
+    wait_for(lambda: state(app).paused, what="the Pause button")
+    wait_for(lambda: panel.run_button.label == "Run", what="the button to say Run")
+    browser.click(panel.run_button)
+    wait_for(lambda: not state(app).paused, what="the Run button")
+    wait_for(lambda: state(app).t_s > 0.5, what="0.5 s of simulation")
+    browser.click(panel.reset_button)
+    wait_for(lambda: state(app).t_s < 0.3, what="Reset")
+    browser.set(panel.speed, 0.5)
+    wait_for(lambda: state(app).speed == 0.5, what="speed 0.5")
+    t0, wall0 = state(app).t_s, time.monotonic()
+    time.sleep(1.0)
+    assert (state(app).t_s - t0) / (time.monotonic() - wall0) == pytest.approx(0.5, abs=0.15)
+    browser.set(panel.speed, 1.0)
+    wait_for(lambda: state(app).speed == 1.0, what="speed 1")
+
+
+def test_push_buttons_use_the_force_and_duration_sliders(app, browser):
+    panel = app.viewer.panel
+    browser.set(panel.push_force, 3.0)
+    browser.set(panel.push_duration, 5.0)
+    wait_for(lambda: (panel.push_force.value, panel.push_duration.value) == (3.0, 5.0), what="sliders")
+    pushes = state(app).pushes
+    for direction, total in (("+x", (3, 0)), ("-y", (3, -3)), ("-x", (0, -3)), ("+y", (0, 0))):
+        browser.click(panel.push_buttons, direction)  # 5 s pushes: each adds to those still active
+        wait_for(lambda total=total: np.allclose(state(app).push_force[:2], total), what=f"push {direction}")
+    assert state(app).pushes == pushes + 4
+    browser.click(panel.reset_button)
+    wait_for(lambda: state(app).pushes == 0, what="reset")
+
+
+def test_gait_planner_and_noise(app, browser):
+    panel = app.viewer.panel
+    browser.set(panel.gait, "trot")
+    wait_for(lambda: state(app).gait == "trot", what="trot")
+    browser.set(panel.planner, "contactnet")
+    wait_for(lambda: state(app).planner_active == "contactnet", what="the ContactNet planner")
+    browser.set(panel.noise, True)
+    wait_for(lambda: state(app).noise, what="noise on")
+    s = state(app)
+    assert (s.gait, s.planner, s.planner_note, s.noise) == ("trot", "contactnet", None, True)
+    wait_for(lambda: app.session.view.candidates is not None and app.session.view.candidates.rank is not None,
+             what="ranked candidates")
+    assert len(app.session.view.candidates.chosen) == 2  # trot: two legs per step
+    browser.set(panel.noise, False)
+    browser.set(panel.planner, "heuristic")
+    browser.set(panel.gait, "walk")
+    wait_for(lambda: (state(app).gait, state(app).planner, state(app).noise) == ("walk", "heuristic", False),
+             what="back to walk / heuristic / no noise")
+
+
+def test_terrain_picker_files_and_random_field(app, browser):
+    panel = app.viewer.panel
+    assert panel.terrain_pick.value == "flat"  # the picker starts on the session's terrain
+    browser.set(panel.terrain_pick, "random")
+    wait_for(lambda: panel.removed.visible and panel.seed.visible, what="N and seed to show")
+    browser.set(panel.removed, 50)
+    browser.set(panel.seed, 7)
+    wait_for(lambda: (panel.removed.value, panel.seed.value) == (50, 7), what="N and seed")
+    browser.click(panel.load_button)
+    wait_for(lambda: state(app).terrain == "random (removed 50, seed 7)", what="the random field")
+    cells = [r for r in app.session.view.terrain.to_dict()["regions"] if r["shape"] == "grid"]
+    assert len(cells) == 1 and len(cells[0]["removed"]) == 50
+    browser.set(panel.terrain_pick, "stepping_stones")
+    wait_for(lambda: not panel.removed.visible, what="N and seed to hide")
+    browser.click(panel.load_button)
+    wait_for(lambda: state(app).terrain == "stepping_stones", what="stepping stones")
+    assert state(app).paused  # a new terrain waits for Run
+    browser.set(panel.terrain_pick, "flat")
+    browser.click(panel.load_button)
+    wait_for(lambda: state(app).terrain == "flat", what="flat")
+
+
+def test_record_button(app, browser):
+    panel = app.viewer.panel
+    browser.click(panel.run_button)
+    wait_for(lambda: not state(app).paused, what="running")
+    browser.click(panel.record_button)
+    wait_for(lambda: app.recorder.recording, what="recording")
+    wait_for(lambda: panel.record_button.label == "Stop recording", what="the button to say Stop")
+    wait_for(lambda: app.recorder.status()["frames"] >= 10, what="10 frames")
+    browser.click(panel.record_button)
+    wait_for(lambda: not app.recorder.recording and app.recorder.last_saved, what="the recording to be saved")
+    (entry,) = app.recordings.list()
+    assert entry.name == app.recorder.last_saved and entry.size_bytes > 10_000
+
+
+def test_terrain_editor(app, browser):
+    from app import editor
+
+    panel = app.viewer.editor
+    app.terrains.load("stepping_stones")
+    area = Terrain.from_dict(app.terrains.current).steppable.area
+    n = len(app.terrains.current["regions"])
+
+    browser.set(panel.tool, "punch hole")
+    wait_for(lambda: panel.tool.value == "punch hole", what="the punch tool")
+    browser.click_scene((0.12, 0.12))
+    wait_for(lambda: Terrain.from_dict(app.terrains.current).steppable.area < area - 1e-6, what="a hole")
+    assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(area - 0.0025)
+    assert state(app).terrain == "stepping_stones (edited)"
+    punched = Terrain.from_dict(app.terrains.current).steppable.area
+    browser.set(panel.tool, "fill hole")
+    wait_for(lambda: panel.tool.value == "fill hole", what="the fill tool")
+    browser.click_scene((0.12, 0.12))
+    wait_for(lambda: Terrain.from_dict(app.terrains.current).steppable.area > punched + 1e-6, what="filled")
+    assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(area)
+
+    regions = lambda: app.terrains.current["regions"]  # noqa: E731
+    for shape, xy in (("rect", (0.3, 0.45)), ("circle", (0.6, 0.45)), ("star", (0.9, 0.45))):
+        before = len(regions())
+        browser.set(panel.tool, f"add {shape}")
+        wait_for(lambda shape=shape: panel.tool.value == f"add {shape}", what=f"the {shape} tool")
+        browser.click_scene(xy)
+        wait_for(lambda before=before: len(regions()) == before + 1, what=f"a {shape}")
+        assert regions()[-1]["shape"] == shape
+        assert editor.region_pose(regions()[-1])[0] == pytest.approx(xy, abs=0.03)
+
+    browser.set(panel.tool, "select stone")
+    wait_for(lambda: panel.tool.value == "select stone", what="the select tool")
+    browser.click_scene((0.6, 0.45))
+    star_index = len(regions()) - 1
+    wait_for(lambda: panel._selected == star_index - 1 and panel._gizmo is not None, what="the circle selected")
+    assert not panel.delete_button.disabled
+    browser.drag_gizmo(panel._gizmo.name, (0.65, 0.5, 0.01), 0.3)
+    wait_for(lambda: editor.region_pose(regions()[star_index - 1])[0] == pytest.approx((0.65, 0.5), abs=1e-6),
+             what="the circle moved")
+    browser.click(panel.delete_button)
+    wait_for(lambda: len(regions()) == star_index, what="the circle deleted")
+    assert regions()[-1]["shape"] == "star"
+    browser.click(panel.undo_button)
+    wait_for(lambda: len(regions()) == star_index + 1, what="undo of the delete")
+
+    browser.set(panel.name, "gui_saved")
+    wait_for(lambda: panel.name.value == "gui_saved", what="the name")
+    browser.click(panel.save_button)
+    saved = app.terrains.store.directory / "gui_saved.json"
+    wait_for(saved.exists, what="the saved file")
+    assert Terrain.load(saved).to_dict()["regions"] == app.terrains.current["regions"]
+
+    shipped = app.terrains.store.directory / "flat.json"
+    before = shipped.read_bytes()
+    browser.set(panel.name, "flat")
+    wait_for(lambda: panel.name.value == "flat", what="the name")
+    browser.click(panel.save_button)  # a shipped file without "Overwrite": refused
+    time.sleep(0.5)
+    assert shipped.read_bytes() == before
+
+    browser.set(panel.tool, "off")
+    for _ in range(10):  # all the way back to the loaded terrain
+        browser.click(panel.undo_button)
+    wait_for(lambda: len(regions()) == n and not app.terrains.history.can_undo, what="undo to the start")
+    assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(area)
+
+
+def test_terrain_upload(app, browser):
+    panel = app.viewer.editor
+    narrow = (terrains_dir() / "narrow_stones.json").read_bytes()
+    browser.upload(panel.upload, "narrow.json", narrow)
+    wait_for(lambda: state(app).terrain == "narrow_stones (uploaded)", what="the uploaded terrain")
+    assert app.session.view.terrain.to_dict()["regions"] == Terrain.from_dict(
+        msgspec.json.decode(narrow)).to_dict()["regions"]
+    current = app.terrains.current
+    browser.upload(panel.upload, "bad.json", b'{"name": "x", "regions": [{"shape": "blob"}]}')
+    time.sleep(1.0)
+    assert app.terrains.current == current and state(app).terrain == "narrow_stones (uploaded)"
+
+
+def test_recenter_camera(app, browser):
+    panel = app.viewer.panel
+    client_id = next(iter(app.viewer.server.get_clients()))
+    panel.camera._state[client_id]["follow"] = False  # as after the user orbits
+    browser.click(panel.recenter)
+    wait_for(lambda: panel.camera.following(client_id), what="following again")
