@@ -279,3 +279,34 @@ def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = N
 
 def _make_shard_job(job: tuple[str, DatagenConfig, int]) -> dict:
     return make_shard(*job)
+
+
+def write_sample(src_dir: str | Path, dst_dir: str | Path, n_shards: int = 2) -> dict:
+    """Copy the first ``n_shards`` finished shards of a dataset into ``dst_dir`` with a manifest of their
+    own: the small committed sample (``data/sample/``) that tests train on."""
+    src, dst = Path(src_dir), Path(dst_dir)
+    manifest = read_manifest(src)
+    if manifest is None:
+        raise DatasetDirError(f"{src}: no dataset manifest")
+    names = sorted(manifest["shard_stats"])[:n_shards]
+    if len(names) < n_shards:
+        raise DatasetDirError(f"{src}: only {len(names)} finished shards")
+    dst.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        (dst / name).write_bytes((src / name).read_bytes())
+    stats = {name: manifest["shard_stats"][name] for name in names}
+    settings = manifest["settings"]
+    sample = {
+        **manifest,
+        "shards": names,
+        "episodes": sum(len(range(s["shard"] * settings["episodes_per_shard"],
+                                   min((s["shard"] + 1) * settings["episodes_per_shard"], settings["episodes"])))
+                        for s in stats.values()),
+        "instances": sum(s["instances"] for s in stats.values()),
+        "falls": sum(s["falls"] for s in stats.values()),
+        "complete": True,
+        "shard_stats": stats,
+        "sample_of": {"episodes_planned": manifest["episodes_planned"], "instances": manifest["instances"]},
+    }
+    _write_atomic(dst / "manifest.json", lambda tmp: tmp.write_text(json.dumps(sample, indent=1)))
+    return sample

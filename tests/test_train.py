@@ -259,3 +259,20 @@ def test_train_command_ctrl_c_saves_nothing(tmp_path, walk_data, monkeypatch, ca
     assert "is incomplete (60 of 100 episodes)" in err
     assert train_command("walk", data, out, epochs=10, progress=False, save_partial=True) == 130
     assert load_model(out).metadata["training"]["stopped"] == "interrupted"
+
+
+SAMPLES = Path(__file__).resolve().parent.parent / "data" / "sample"
+
+
+@pytest.mark.parametrize("gait", ["walk", "trot"])
+def test_committed_sample_is_real_oracle_data_that_trains(gait):
+    """data/sample/{gait}: the first shards of the full dataset (contactnet datagen), as committed."""
+    if not (SAMPLES / gait).is_dir():
+        pytest.skip(f"no committed {gait} sample")
+    ds = load_dataset(SAMPLES / gait)
+    assert ds.gait == gait and ds.V.shape == (ds.n_instances, N_ACTIONS[gait]) and ds.n_instances >= 200
+    assert np.isfinite(ds.V).any(axis=1).all()
+    # The oracle executed the cheapest action, so the data are not degenerate: many different best actions.
+    assert len(np.unique(np.nanargmin(np.where(np.isfinite(ds.V), ds.V, np.nan), axis=1))) >= 10
+    result = train(ds, TrainConfig(epochs=40, split="instance", seed=0), progress=False)
+    assert result.metrics["train_top5"] > 0.4  # chance is 1 in 20 (walk) or 1 in 32 (trot)
