@@ -212,6 +212,29 @@ def _on_ground(points: np.ndarray, z: float) -> np.ndarray:
     return projected
 
 
+def arrow_segments(tail: np.ndarray, tip: np.ndarray, head_fraction: float = 0.25) -> np.ndarray:
+    """(3 N, 2, 3) line segments of N arrows: the shaft, then two head strokes per arrow, in the plane of
+    the shaft and the vertical (the horizontal plane for a vertical arrow). Zero-length arrows collapse
+    to a point at their tail."""
+    tail = np.asarray(tail, dtype=float).reshape(-1, 3)
+    tip = np.asarray(tip, dtype=float).reshape(-1, 3)
+    shaft = tip - tail
+    length = np.linalg.norm(shaft, axis=1, keepdims=True)
+    direction = np.divide(shaft, length, out=np.zeros_like(shaft), where=length > 1e-9)
+    side = np.cross(direction, [0.0, 0.0, 1.0])
+    side_norm = np.linalg.norm(side, axis=1, keepdims=True)
+    side = np.where(side_norm > 1e-6, side / np.maximum(side_norm, 1e-12), [1.0, 0.0, 0.0])
+    side = np.cross(side, direction)  # in the vertical plane of the shaft (horizontal for a vertical shaft)
+    head = head_fraction * length
+    back = tip - head * direction
+    left, right = back + 0.5 * head * side, back - 0.5 * head * side
+    segments = np.empty((len(tail), 3, 2, 3))
+    segments[:, 0] = np.stack([tail, tip], axis=1)
+    segments[:, 1] = np.stack([tip, left], axis=1)
+    segments[:, 2] = np.stack([tip, right], axis=1)
+    return segments.reshape(-1, 2, 3).astype(np.float32)
+
+
 class LiveScene:
     """Scene nodes of one session on one viser server; `update(view)` sends what changed."""
 
@@ -249,10 +272,10 @@ class LiveScene:
             "/plan/com", _segments(np.zeros((0, 3))), PLANNED_COM_COLOR, thickness=0.006
         )
         self.forces = scene.add_line_segments(
-            "/forces/feet", np.tile(HIDDEN_POS, (4, 2, 1)), FORCE_COLOR, thickness=0.007
+            "/forces/feet", np.tile(HIDDEN_POS, (4 * 3, 2, 1)), FORCE_COLOR, thickness=0.007
         )
         self.push = scene.add_line_segments(
-            "/forces/push", np.tile(HIDDEN_POS, (1, 2, 1)), PUSH_COLOR, thickness=0.014
+            "/forces/push", np.tile(HIDDEN_POS, (3, 2, 1)), PUSH_COLOR, thickness=0.014
         )
         self._com_chunks: list[viser.LineSegmentsHandle] = []
         self._com_drawn = 0
@@ -361,14 +384,14 @@ class LiveScene:
         feet = view.foot_pos_world.copy()
         feet[:, 2] -= FOOT_RADIUS_M
         forces = np.asarray(view.snapshot.forces, dtype=float)
-        self.forces.points = np.stack([feet, feet + FORCE_SCALE_M_PER_N * forces], axis=1)
+        self.forces.points = arrow_segments(feet, feet + FORCE_SCALE_M_PER_N * forces)
         push = view.push_force_world
         if np.any(push):
             base = np.asarray(view.snapshot.q[:3], dtype=float)
             start = base - PUSH_SCALE_M_PER_N * push
-            self.push.points = np.stack([start, base])[None]
+            self.push.points = arrow_segments(start[None], base[None])
         else:
-            self.push.points = np.tile(HIDDEN_POS, (1, 2, 1))
+            self.push.points = np.tile(HIDDEN_POS, (3, 2, 1))
 
     def _draw_com_path(self, path: np.ndarray, z: float) -> None:
         n = len(path)

@@ -383,3 +383,18 @@ def test_camera_follows_until_the_user_moves_it(session):
     assert not follow.following(7)
     follow.recenter(client)
     assert follow.following(7)
+
+
+def test_arrow_segments_have_a_shaft_and_a_symmetric_head():
+    from app.scene import arrow_segments
+
+    tails = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+    tips = np.array([[0.0, 0.0, 1.0], [1.0, 2.0, 0.0], [0.0, 2.0, 0.0]])  # vertical, horizontal, zero
+    seg = arrow_segments(tails, tips).reshape(3, 3, 2, 3).astype(float)
+    for tail, tip, arrow in zip(tails, tips, seg, strict=True):
+        np.testing.assert_allclose(arrow[0], [tail, tip], atol=1e-6)
+        np.testing.assert_allclose(arrow[1:, 0], [tip, tip], atol=1e-6)  # both strokes start at the tip
+        mid = arrow[1:, 1].mean(axis=0)  # their ends are symmetric about the shaft, a quarter back
+        np.testing.assert_allclose(mid, tip - 0.25 * (tip - tail), atol=1e-6)
+        length = np.linalg.norm(tip - tail)
+        np.testing.assert_allclose(np.linalg.norm(arrow[1, 1] - arrow[2, 1]), 0.25 * length, atol=1e-6)
