@@ -44,16 +44,19 @@ def standing_real_time_factor(
     return {"rtf": sim_seconds / wall, "wall_s": wall, "fell": fell, "base_height_m": height}
 
 
-def walking_real_time_factor(gait_name: str, sim_seconds: float = 6.4, vx: float = 0.1) -> dict:
-    """The whole stack (heuristic planner, optimizer, 1 kHz controller, PyBullet) walking on flat."""
+def walking_real_time_factor(gait_name: str, sim_seconds: float = 6.4, vx: float = 0.1,
+                             planner_name: str = "heuristic", terrain_name: str = "flat") -> dict:
+    """The whole stack (planner, optimizer, 1 kHz controller, PyBullet) walking on a terrain."""
+    from contactnet.cli import make_planner
     from contactnet.gait import gait_by_name
     from contactnet.locomotion import Locomotion
-    from contactnet.planner import HeuristicPlanner
     from contactnet.robot import Solo12
     from contactnet.terrain import resolve
 
     gait = gait_by_name(gait_name)
-    with Locomotion(Solo12.load(), resolve("flat"), gait, HeuristicPlanner(gait), vel_cmd_xy=(vx, 0.0)) as loco:
+    robot = Solo12.load()
+    planner = make_planner(planner_name, gait, robot)
+    with Locomotion(robot, resolve(terrain_name), gait, planner, vel_cmd_xy=(vx, 0.0)) as loco:
         result = loco.run(sim_seconds)
     return {"rtf": result["sim_time_s"] / result["wall_time_s"], "fell": result["fell"],
             "trajopt_median_ms": result["trajopt_ms"]["median"], "planner_median_ms": result["planner_ms"]["median"]}
@@ -79,13 +82,19 @@ def bench_sim(runs: int = 5, sim_seconds: float = 4.0, stack_runs: int = 3) -> l
             rtfs[name].append(result["rtf"])
             fell[name] |= result["fell"]
     reference = float(np.median(rtfs["mesh feet (reference)"]))
+    from contactnet.network import default_model_path
+
     stack_rows = []
-    for gait_name in ("walk", "trot"):
-        results = [walking_real_time_factor(gait_name) for _ in range(stack_runs)]
+    cases = [("walk", "heuristic", "flat", 0.1), ("trot", "heuristic", "flat", 0.1)]
+    cases += [(gait, "contactnet", "stepping_stones", 0.05) for gait in ("walk", "trot")
+              if default_model_path(gait).exists()]
+    for gait_name, planner_name, terrain_name, vx in cases:
+        results = [walking_real_time_factor(gait_name, vx=vx, planner_name=planner_name, terrain_name=terrain_name)
+                   for _ in range(stack_runs)]
         values = [r["rtf"] for r in results]
         stack_rows.append(
             {
-                "name": f"whole stack: {gait_name} 0.1 m/s on flat, heuristic planner",
+                "name": f"whole stack: {gait_name} {vx:g} m/s on {terrain_name}, {planner_name} planner",
                 "median_rtf": float(np.median(values)),
                 "min_rtf": float(np.min(values)),
                 "max_rtf": float(np.max(values)),
@@ -94,6 +103,7 @@ def bench_sim(runs: int = 5, sim_seconds: float = 4.0, stack_runs: int = 3) -> l
                 "sim_s_per_run": 6.4,
                 "fell": any(r["fell"] for r in results),
                 "trajopt_median_ms": float(np.median([r["trajopt_median_ms"] for r in results])),
+                "planner_median_ms": float(np.median([r["planner_median_ms"] for r in results])),
             }
         )
     return stack_rows + [
