@@ -197,9 +197,8 @@ class OraclePlanner:
         nominal). It only fills the optimizer's horizon; the next plan re-evaluates from the new state."""
         gait = self.gait
         cyclic = gait.cyclic_order
-        group = gait.swing_groups.index(tuple(previous_legs)) if tuple(previous_legs) in gait.swing_groups else -1
-        following = cyclic[(cyclic.index(group) + 1) % len(cyclic)] if group in cyclic else cyclic[0]
-        legs = gait.swing_groups[following]
+        group = gait.swing_groups.index(tuple(previous_legs))
+        legs = gait.swing_groups[cyclic[(cyclic.index(group) + 1) % len(cyclic)]]
         vel = np.asarray(state.vel_cmd_world, dtype=float)
         half_stance = 0.5 * (len(cyclic) * gait.step_duration_s - gait.swing_duration_s)
         touchdown_s = (gait.n_stance_pre + gait.n_swing) * gait.node_dt_s

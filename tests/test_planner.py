@@ -189,3 +189,21 @@ def test_model_errors_are_clear(robot, models, tmp_path):
     loaded = load_model(models["trot"])
     with pytest.raises(ValueError, match="not walk"):
         ContactNetPlanner(WALK, robot.foot_nominal_base[:, :2], loaded)
+
+
+def test_oracle_continues_the_cyclic_order_past_its_evaluated_steps(robot):
+    from contactnet.cost import nominal_state
+    from contactnet.planner import OraclePlanner
+
+    for gait in (WALK, TROT):
+        oracle = OraclePlanner(gait, robot.foot_nominal_base[:, :2], evaluated_steps=1)
+        state = nominal_state(robot.foot_nominal_base[:, :2], vel_cmd_world=(0.1, 0.0))
+        cyclic = gait.cyclic_order
+        for k, group in enumerate(cyclic):
+            step = oracle.continue_cyclically(state, gait.swing_groups[group])
+            assert step.legs == gait.swing_groups[cyclic[(k + 1) % len(cyclic)]]
+            # Raibert nominal: ahead of the hip reference by the command over touchdown + half a stance
+            hips = state.base_xy_world + robot.foot_nominal_base[list(step.legs), :2]
+            assert np.all(step.footholds_xy_world[:, 0] > hips[:, 0]) and np.allclose(step.footholds_xy_world[:, 1], hips[:, 1])
+    with pytest.raises(ValueError, match="evaluated_steps"):
+        OraclePlanner(WALK, robot.foot_nominal_base[:, :2], evaluated_steps=0)
