@@ -176,15 +176,16 @@ def planning_contexts(gait, terrain, hip_ref_xy_base: np.ndarray, n: int, seed: 
     return contexts
 
 
-def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool = True) -> list[dict]:
+def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool = False) -> list[dict]:
     """One planning call (3 network evaluations + safety checks) of ContactNet and the fixed gait, on the
     paper's random field with 0 and with 100 of its 300 squares removed; the ratio of the medians says
     whether planning time grows with terrain complexity. The network's forward pass alone is the
     reference in the same run. Uses the shipped models (random weights when a model is missing, said so
-    in the ``model`` column)."""
+    in the ``model`` column). Planning is single-threaded; ``single_core`` also pins the process to CPU 0,
+    which on this 2-core machine makes it slower whenever anything else runs there, so it is off."""
     from contactnet.cli import make_planner
     from contactnet.gait import TROT, WALK
-    from contactnet.network import ContactNet, Normalizer, NumpyContactNet, default_model_path, network_input
+    from contactnet.network import default_model_path, network_input
     from contactnet.robot import Solo12
     from contactnet.terrain import random_field
     from contactnet.trajopt import _pin_single_core
@@ -220,7 +221,7 @@ def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool 
                         "mean_rank": float(np.mean(ranks)) if ranks else None,
                         "model": "shipped" if path.exists() else "random weights",
                     })
-            net = NumpyContactNet.from_torch(ContactNet(gait.n_actions), Normalizer.fit(np.random.default_rng(0).normal(size=(10, 14))))
+            net = planner.model  # the float32 network the planner calls
             u = network_input(planning_contexts(gait, random_field(0, 0), hips, 1)[0])
             times = np.asarray(time_calls(lambda net=net, u=u: net.scores(u), repeats)) * 1e6
             rows.append({"gait": gait.name, "planner": "network forward pass only (reference)", "holes": None,
