@@ -152,3 +152,20 @@ def test_experiment_with_a_missing_model_dir_fails_before_running(tmp_path, caps
     assert code == EXIT_USER_ERROR
     assert "--model-dir" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gait", ["walk", "trot"])
+def test_simulate_contactnet_uses_the_shipped_model(gait):
+    from contactnet.network import default_model_path
+
+    result = run_cli("simulate", "--terrain", "stepping_stones", "--gait", gait, "--planner", "contactnet",
+                     "--duration", "3", "--json")
+    if not default_model_path(gait).exists():  # not shipped yet: a one-line error naming the file
+        assert result.returncode == EXIT_USER_ERROR
+        assert f"{gait}.pt" in result.stderr and "Traceback" not in result.stderr
+        return
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert not report["fell"] and report["steps"] >= 8 and report["unsafe_landings"] == 0
+    assert report["reached_x"] > 0.05 and report["planner_ms"]["median"] < 50
