@@ -95,7 +95,12 @@ def test_bench_sim_json():
     report = json.loads(result.stdout)
     assert report["benchmark"] == "sim"
     rows = {row["name"]: row for row in report["rows"]}
-    assert len(rows) == 5
+    from contactnet.network import default_model_path
+
+    shipped = [gait for gait in ("walk", "trot") if default_model_path(gait).exists()]
+    assert len(rows) == 5 + len(shipped)  # 3 standing, 2 heuristic whole-stack, 1 per shipped model
+    for gait in shipped:
+        assert f"whole stack: {gait} 0.05 m/s on stepping_stones, contactnet planner" in rows
     for row in rows.values():
         assert row["median_rtf"] > 0 and row["fell"] is False
 
