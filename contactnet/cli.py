@@ -276,11 +276,14 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         raise UserError(f"--model-dir {model_dir}: not a directory")
     trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
                        model_dir=model_dir)
-    for planner in {t.planner for t in trials} & {"contactnet", "fixed"}:  # fail now, not in a worker
-        for gait in {t.gait for t in trials}:
-            from contactnet.gait import gait_by_name
+    if {t.planner for t in trials} & {"contactnet", "fixed"}:  # a missing model fails now, not in a worker
+        from contactnet.gait import gait_by_name
+        from contactnet.robot import Solo12
 
-            make_planner(planner, gait_by_name(gait), model=None if model_dir is None else Path(model_dir) / f"{gait}.pt")
+        robot = Solo12.load()
+        for gait in {t.gait for t in trials}:
+            model = None if model_dir is None else Path(model_dir) / f"{gait}.pt"
+            make_planner("contactnet", gait_by_name(gait), robot, model=model)
     try:
         summary = run_experiment(args.name, args.out, trials, workers=args.workers, progress=not args.quiet)
     except KeyboardInterrupt:
