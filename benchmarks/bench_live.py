@@ -31,19 +31,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from app.headless import CHROMIUM, LAUNCH_ARGS  # noqa: E402
 from contactnet.bench import format_table  # noqa: E402
 
-CHROMIUM = "/usr/bin/chromium"
-LAUNCH_ARGS = [
-    "--no-sandbox",
-    "--enable-unsafe-swiftshader",
-    "--use-angle=swiftshader",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-dev-shm-usage",
-    "--mute-audio",
-    "--no-first-run",
-]
 FRAME_COUNT_JS = "() => window.__viserTestpoints ? window.__viserTestpoints.rendererInfo.render.frame : 0"
 
 
@@ -110,7 +100,7 @@ def run_case(
 
             playwright = sync_playwright().start()
             executable = idle_wrapper(workdir) if priority == "idle" else CHROMIUM
-            browser = playwright.chromium.launch(executable_path=executable, headless=True, args=LAUNCH_ARGS)
+            browser = playwright.chromium.launch(executable_path=executable, headless=True, args=list(LAUNCH_ARGS))
             t0 = time.monotonic()
             for _ in range(n_browsers):
                 page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})

@@ -10,20 +10,10 @@ from pathlib import Path
 
 import pytest
 
+from app.headless import CHROMIUM, LAUNCH_ARGS
 from app.live import SetPaused, SetPlanner, SetVelocity
 
-CHROMIUM = "/usr/bin/chromium"
 ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
-LAUNCH_ARGS = [
-    "--no-sandbox",
-    "--enable-unsafe-swiftshader",
-    "--use-angle=swiftshader",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-dev-shm-usage",
-    "--mute-audio",
-    "--no-first-run",
-]
 
 pytestmark = [
     pytest.mark.slow,
@@ -78,7 +68,7 @@ def page(live):
     app, url = live
     ARTIFACTS.mkdir(exist_ok=True)
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=LAUNCH_ARGS)
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
         page = browser.new_page(viewport={"width": 1600, "height": 1000})
         page.goto(url + "/")
         page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=90_000)
