@@ -61,7 +61,10 @@ class TerrainService:
 
     @property
     def current(self) -> dict[str, Any]:
-        return self.history.current
+        """The current terrain dict; waits for a change in progress (the session may already show
+        a new terrain while its history is being updated)."""
+        with self._lock:
+            return self.history.current
 
     def _send(self, terrain: Terrain, label: str, timeout: float) -> None:
         self.session.call(SetTerrain(terrain, label), timeout=timeout)
