@@ -136,6 +136,16 @@ class GaitSpec:
         cells.flags.writeable = False
         return legs, cells
 
+    @cached_property
+    def action_cell_incidence(self) -> np.ndarray:
+        """(N_a, 4 * cells_per_leg) float32: 1 where the action lands a leg on that cell (index leg *
+        cells_per_leg + cell). ``incidence @ cell_safe == legs_per_step``: which actions are safe."""
+        legs, cells = self.action_cells
+        incidence = np.zeros((self.n_actions, 4 * self.cells_per_leg), dtype=np.float32)
+        incidence[np.arange(self.n_actions)[:, None], legs * self.cells_per_leg + cells] = 1.0
+        incidence.flags.writeable = False
+        return incidence
+
     def decode(self, index: int) -> Action:
         if not 0 <= index < self.n_actions:
             raise IndexError(f"{self.name}: action {index} outside 0..{self.n_actions - 1}")

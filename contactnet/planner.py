@@ -209,11 +209,10 @@ class OraclePlanner:
     def choose(self, costs, state, terrain: Terrain) -> PlannedStep:  # noqa: ANN001 - cost types
         """The cheapest safe action of one evaluated state (or the step in place, see the class doc)."""
         order = costs.ranking()
-        legs, _ = self.gait.action_cells
-        landing = costs.footholds_xy_world[np.arange(self.gait.n_actions)[:, None], legs]
-        step = first_safe_step(self.gait, order, landing, state.foot_pos_world, terrain, self.margin_m)
-        self.last_candidates = CandidateRanking(self.gait, order, landing, terrain, self.margin_m,
-                                                step.action_index)
+        cells = cell_grid(self.gait, costs.footholds_xy_world)
+        step = first_safe_step(self.gait, order, cells, state.foot_pos_world, terrain, self.margin_m)
+        self.last_candidates = CandidateRanking(self.gait, order, landing_points(self.gait, cells), terrain,
+                                                self.margin_m, step.action_index)
         return step
 
 
@@ -221,39 +220,59 @@ class OraclePlanner:
 # Choosing from a ranking: shared by the oracle, ContactNet and the fixed gait
 # ----------------------------------------------------------------------------------------------------
 
-SAFETY_CHUNK = 8  # actions checked per terrain query while walking down a ranking
+SAFETY_CHUNK = 8  # the best actions checked on their own before the whole candidate grid ...
+WHOLE_GRID_MAX_POINTS = 48  # ... unless the grid is this small (trot: 36 cells): then the grid at once
 
 
 def first_safe_step(
     gait: GaitSpec,
     order: np.ndarray,
-    landing_xy_world: np.ndarray,
+    cell_xy_world: np.ndarray,
     foot_pos_world: np.ndarray,
     terrain: Terrain,
     margin_m: float,
 ) -> PlannedStep:
     """Walk down ``order`` (action indices, best first) to the first action whose swinging legs all land on
-    safe ground (``terrain.is_safe`` with ``margin_m``); ``landing_xy_world`` (N_a, legs_per_step, 2) are
-    the landing points of every action's swinging legs (``gait.action_cells`` order). The ranking is
-    checked in chunks of ``SAFETY_CHUNK`` actions, so the usual case (one of the best few is safe) costs
-    one small terrain query however many holes there are.
+    safe ground (``terrain.is_safe`` with ``margin_m``). ``cell_xy_world`` (4, cells_per_leg, 2) is every
+    leg's candidate grid; an action lands its legs on the cells ``gait.action_cells`` names.
+
+    The terrain is queried for all 4 x cells_per_leg cells at once, then every action is looked up in
+    ranking order, so the cost does not depend on how deep into the ranking the holes push the choice.
+    A large grid (walk: 100 cells, 1 leg per action) first tries the landing points of the best
+    ``SAFETY_CHUNK`` actions on their own (the usual case: one of them is safe); a small one (trot: 36
+    cells, 2 legs per action) is cheaper to query whole than to try a chunk first.
 
     ``rank`` is the chosen action's position in ``order`` and ``discarded`` how many better-ranked actions
     were unsafe (the same number). No safe action in ``order``: step in place (see ``OraclePlanner``).
     """
     order = np.asarray(order)
-    for start in range(0, len(order), SAFETY_CHUNK):
-        chunk = order[start : start + SAFETY_CHUNK]
-        landing = landing_xy_world[chunk]  # (len(chunk), legs_per_step, 2)
+    cells_xy = np.asarray(cell_xy_world, dtype=float)
+    action_legs, action_cells = gait.action_cells
+    whole_grid = cells_xy.shape[0] * cells_xy.shape[1] <= WHOLE_GRID_MAX_POINTS
+    safe = np.zeros(0, dtype=bool)
+    if not whole_grid:
+        head = order[:SAFETY_CHUNK]
+        landing = cells_xy[action_legs[head], action_cells[head]]
         safe = terrain.is_safe(landing.reshape(-1, 2), margin_m).reshape(landing.shape[:2]).all(axis=1)
-        hits = np.flatnonzero(safe)
-        if len(hits):
-            rank = start + int(hits[0])
-            index = int(order[rank])
-            legs = gait.swing_groups[index // gait.actions_per_group]
-            return PlannedStep(legs=legs, footholds_xy_world=landing[hits[0]].copy(), action_index=index,
-                               rank=rank, discarded=rank)
-    return step_in_place(gait, order, foot_pos_world, terrain)
+    if not safe.any() and (whole_grid or len(order) > SAFETY_CHUNK):
+        cell_safe = terrain.is_safe(cells_xy.reshape(-1, 2), margin_m).astype(np.float32)
+        safe = (gait.action_cell_incidence @ cell_safe == gait.legs_per_step)[order]
+    rank = int(safe.argmax()) if len(safe) else 0
+    if not len(safe) or not safe[rank]:
+        return step_in_place(gait, order, foot_pos_world, terrain)
+    index = int(order[rank])
+    return PlannedStep(legs=gait.swing_groups[index // gait.actions_per_group],
+                       footholds_xy_world=cells_xy[action_legs[index], action_cells[index]], action_index=index,
+                       rank=rank, discarded=rank)
+
+
+def cell_grid(gait: GaitSpec, footholds_xy_world: np.ndarray) -> np.ndarray:
+    """(4, cells_per_leg, 2) every leg's candidate cells, from (N_a, 4, 2) feet after each action (the
+    ranking cost's ``footholds_xy_world``): the inverse of ``landing_points``."""
+    legs, cells = gait.action_cells
+    grid = np.full((4, gait.cells_per_leg, 2), np.nan)
+    grid[legs, cells] = np.asarray(footholds_xy_world)[np.arange(gait.n_actions)[:, None], legs]
+    return grid
 
 
 def landing_points(gait: GaitSpec, cell_xy_world: np.ndarray) -> np.ndarray:
@@ -405,11 +424,10 @@ class ContactNetPlanner:
             u[0:8] = ((feet_xy - com_xy) @ to_world).ravel()
             order = self._order(self.model.scores(u), j)
             cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
-            landing = cells[action_legs, action_cells]
-            step = first_safe_step(gait, order, landing, feet_xy, ctx.terrain, self.margin_m)
+            step = first_safe_step(gait, order, cells, feet_xy, ctx.terrain, self.margin_m)
             if j == 0:
-                self.last_candidates = CandidateRanking(gait, order, landing, ctx.terrain, self.margin_m,
-                                                        step.action_index)
+                self.last_candidates = CandidateRanking(gait, order, cells[action_legs, action_cells],
+                                                        ctx.terrain, self.margin_m, step.action_index)
             steps.append(step)
             # The state a step later, as contactnet.cost.predicted_state predicts it.
             feet_xy[list(step.legs)] = step.footholds_xy_world

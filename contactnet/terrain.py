@@ -81,7 +81,7 @@ SOLO12_HIP_XY_BASE = np.array([[0.1946, 0.1015], [0.1946, -0.1015], [-0.1946, 0.
 """Solo12 hip positions in the base frame (FL, FR, HL, HR), metres; used by the generators."""
 SOLO12_NOMINAL_FOOT_XY_BASE = np.array([[0.1946, 0.14], [0.1946, -0.14], [-0.1946, 0.14], [-0.1946, -0.14]])
 """Nominal standing feet in the base frame (FL, FR, HL, HR), metres."""
-_RASTER_TARGET_CELLS = 1 << 16
+_RASTER_TARGET_CELLS = 1 << 20  # capped by max_side=1000 per axis: 1.5 mm cells on the paper's field
 _SAFE_CACHE_MAX = 16
 _TOP_LEVEL_KEYS = ("name", "description", "start", "goal_x", "surface_z", "regions")
 _REQUIRED_TOP_LEVEL = ("name", "start", "goal_x", "regions")
@@ -393,7 +393,7 @@ def _region_geometry(region: Mapping[str, Any]) -> BaseGeometry:
 _OUTSIDE, _INSIDE, _BOUNDARY = 0, 1, 2
 _intersects_xy = getattr(shapely.lib, "intersects_xy", shapely.intersects_xy)
 """shapely's ufunc without its Python wrapper (saves ~2 us per call); same semantics, uses preparation."""
-_SMALL_QUERY = 48
+_SMALL_QUERY = 16
 """Batches up to this size go straight to shapely (a raster lookup costs a fixed ~10 numpy calls)."""
 
 

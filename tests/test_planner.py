@@ -22,11 +22,12 @@ from contactnet.network import (
     save_model,
 )
 from contactnet.planner import (
-    SAFETY_CHUNK,
     ContactNetPlanner,
     FixedGaitPlanner,
     PlannedStep,
+    cell_grid,
     first_safe_step,
+    landing_points,
     rotate_xy,
 )
 from contactnet.terrain import Terrain, flat, random_field
@@ -100,8 +101,8 @@ def test_contactnet_planner_matches_the_reference(robot, models, gait):
             assert a.rank == b.rank == a.discarded
             np.testing.assert_allclose(a.footholds_xy_world, b.footholds_xy_world, atol=1e-12)
             assert terrain.is_safe(a.footholds_xy_world, planner.margin_m).all()
-            deep += a.rank >= SAFETY_CHUNK
-    assert deep > 0, "some choice should need more than one chunk of the ranking"
+            deep += a.rank >= 8
+    assert deep > 0, "some choice should lie deep in the ranking"
 
 
 def test_fixed_gait_follows_the_cyclic_order_and_the_reference(robot, models):
@@ -144,19 +145,30 @@ def test_fixed_gait_swings_in_place_when_its_leg_has_no_safe_cell(robot, models)
     assert terrain.is_safe(free.footholds_xy_world, planner.margin_m).all()
 
 
-def test_first_safe_step_walks_past_unsafe_chunks():
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_first_safe_step_takes_the_best_ranked_safe_action(gait):
     terrain = flat()
-    order = np.arange(WALK.n_actions)[::-1]
-    landing = np.full((WALK.n_actions, 1, 2), 50.0)  # off the 20 m field: unsafe
-    landing[order[SAFETY_CHUNK + 3]] = [[0.1, 0.2]]
-    landing[order[SAFETY_CHUNK + 5]] = [[0.0, 0.0]]
-    step = first_safe_step(WALK, order, landing, np.zeros((4, 2)), terrain, 0.0)
-    assert step.rank == step.discarded == SAFETY_CHUNK + 3
-    assert step.action_index == order[SAFETY_CHUNK + 3]
-    np.testing.assert_allclose(step.footholds_xy_world, [[0.1, 0.2]])
+    order = np.arange(gait.n_actions)[::-1]
+    cells = np.full((4, gait.cells_per_leg, 2), 50.0)  # off the 20 m field: unsafe
+    legs, cell_ids = gait.action_cells
+    target, later = order[20], order[25]  # make exactly these two actions safe (their cells only)
+    cells[legs[target], cell_ids[target]] = [0.1, 0.2]
+    cells[legs[later], cell_ids[later]] = [0.0, 0.0]
+    assert landing_points(gait, cells).shape == (gait.n_actions, gait.legs_per_step, 2)
+    safe_actions = terrain.is_safe(landing_points(gait, cells).reshape(-1, 2), 0.0).reshape(
+        gait.n_actions, gait.legs_per_step).all(axis=1)
+    first = next(rank for rank, index in enumerate(order) if safe_actions[index])  # the obvious loop
+    step = first_safe_step(gait, order, cells, np.zeros((4, 2)), terrain, 0.0)
+    assert step.rank == step.discarded == first <= 20
+    assert step.action_index == order[first]
+    np.testing.assert_allclose(step.footholds_xy_world, cells[legs[order[first]], cell_ids[order[first]]])
+    # The oracle's view: the grid recovered from every action's feet (cost.footholds_xy_world).
+    feet = np.zeros((gait.n_actions, 4, 2))
+    feet[np.arange(gait.n_actions)[:, None], legs] = landing_points(gait, cells)
+    np.testing.assert_array_equal(cell_grid(gait, feet), cells)
     # Nothing safe and the feet off the ground too: step in place, flagged unsafe.
-    nothing = first_safe_step(WALK, order, np.full_like(landing, 50.0), np.full((4, 2), 50.0), terrain, 0.0)
-    assert nothing.action_index is None and not nothing.safe and nothing.discarded == WALK.n_actions
+    nothing = first_safe_step(gait, order, np.full_like(cells, 50.0), np.full((4, 2), 50.0), terrain, 0.0)
+    assert nothing.action_index is None and not nothing.safe and nothing.discarded == gait.n_actions
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
