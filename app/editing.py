@@ -66,8 +66,11 @@ class TerrainService:
         with self._lock:
             return self.history.current
 
-    def _send(self, terrain: Terrain, label: str, timeout: float) -> None:
+    def _send(self, terrain: Terrain, label: str, timeout: float, commit: Callable[[], Any]) -> None:
+        """Hand ``terrain`` to the session; once it took it, ``commit`` the history, then tell listeners
+        (which see the new history)."""
         self.session.call(SetTerrain(terrain, label), timeout=timeout)
+        commit()
         self.label = label
         self.version += 1
         for callback in self._listeners:
@@ -97,18 +100,18 @@ class TerrainService:
                 except TerrainError as exc:
                     raise FileNotFoundError(f"no terrain named {name!r}") from exc
                 label = name
-            self._send(terrain, label, timeout)
-            self.history.reset(terrain.to_dict())
-            self.base_label = label
+            self._send(terrain, label, timeout, lambda: self._reset(terrain, label))
             return terrain
+
+    def _reset(self, terrain: Terrain, label: str) -> None:
+        self.history.reset(terrain.to_dict())
+        self.base_label = label
 
     def load_dict(self, data: dict[str, Any], label: str, timeout: float = 60.0) -> Terrain:
         """Switch the session to an uploaded terrain dict (validated; nothing changes if invalid)."""
         with self._lock:
             terrain = editor.to_terrain(data, source=label)
-            self._send(terrain, label, timeout)
-            self.history.reset(terrain.to_dict())
-            self.base_label = label
+            self._send(terrain, label, timeout, lambda: self._reset(terrain, label))
             return terrain
 
     # ---- editing -----------------------------------------------------------------------------------
@@ -119,15 +122,13 @@ class TerrainService:
             if new == self.history.current:
                 return False
             terrain = editor.to_terrain(new)
-            self._send(terrain, f"{self.base_label} (edited)", timeout)
-            self.history.apply(new)
+            self._send(terrain, f"{self.base_label} (edited)", timeout, lambda: self.history.apply(new))
             return True
 
     def undo(self, timeout: float = 60.0) -> None:
         with self._lock:
             previous = self.history.previous
-            self._send(editor.to_terrain(previous), f"{self.base_label} (edited)", timeout)
-            self.history.undo()
+            self._send(editor.to_terrain(previous), f"{self.base_label} (edited)", timeout, self.history.undo)
 
     def save(self, name: str, overwrite: bool = False) -> str:
         with self._lock:

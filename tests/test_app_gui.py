@@ -273,6 +273,8 @@ def test_terrain_editor(app, browser):
     browser.drag_gizmo(panel._gizmo.name, (0.65, 0.5, 0.01), 0.3)
     wait_for(lambda: editor.region_pose(regions()[star_index - 1])[0] == pytest.approx((0.65, 0.5), abs=1e-6),
              what="the circle moved")
+    wait_for(lambda: panel._selected == star_index - 1 and not panel.delete_button.disabled,
+             what="the moved circle selected again")  # as a user sees the delete button come back
     browser.click(panel.delete_button)
     wait_for(lambda: len(regions()) == star_index, what="the circle deleted")
     assert regions()[-1]["shape"] == "star"
