@@ -211,8 +211,8 @@ class OraclePlanner:
         order = costs.ranking()
         cells = cell_grid(self.gait, costs.footholds_xy_world)
         step = first_safe_step(self.gait, order, cells, state.foot_pos_world, terrain, self.margin_m)
-        self.last_candidates = CandidateRanking(self.gait, order, landing_points(self.gait, cells), terrain,
-                                                self.margin_m, step.action_index)
+        self.last_candidates = CandidateRanking(self.gait, order, cells, terrain, self.margin_m,
+                                                step.action_index)
         return step
 
 
@@ -300,11 +300,11 @@ class CandidateRanking:
     leg (world XY), whether it is safe, its best rank among the actions that use it, and the chosen
     cells. Built lazily (``cells()``): planning itself never pays for it."""
 
-    def __init__(self, gait: GaitSpec, order: np.ndarray, landing_xy_world: np.ndarray, terrain: Terrain,
+    def __init__(self, gait: GaitSpec, order: np.ndarray, cell_xy_world: np.ndarray, terrain: Terrain,
                  margin_m: float, chosen_action: int | None) -> None:
         self.gait = gait
         self.order = np.asarray(order)
-        self.landing_xy_world = landing_xy_world  # (N_a, legs_per_step, 2)
+        self.cell_xy_world = cell_xy_world  # (4, cells_per_leg, 2), see first_safe_step
         self.terrain = terrain
         self.margin_m = float(margin_m)
         self.chosen_action = chosen_action
@@ -316,19 +316,17 @@ class CandidateRanking:
         if self._cells is None:
             gait = self.gait
             n_cells = gait.cells_per_leg
-            xy = np.full((4, n_cells, 2), np.nan)
             rank = np.full((4, n_cells), len(self.order), dtype=int)
             chosen: list[int] = []
             action_legs, action_cells = gait.action_cells
             for position, index in enumerate(self.order):
-                for j, (leg, cell) in enumerate(zip(action_legs[index], action_cells[index], strict=True)):
+                for leg, cell in zip(action_legs[index], action_cells[index], strict=True):
                     if rank[leg, cell] == len(self.order):
                         rank[leg, cell] = position
-                        xy[leg, cell] = self.landing_xy_world[index, j]
                     if index == self.chosen_action:
                         chosen.append(leg * n_cells + cell)
-            used = ~np.isnan(xy[..., 0])
-            xy_used = xy[used]
+            used = rank < len(self.order)
+            xy_used = np.asarray(self.cell_xy_world, dtype=float)[used]
             leg_ids = np.repeat(np.arange(4), n_cells).reshape(4, n_cells)[used]
             flat_index = np.cumsum(used.ravel()) - 1
             chosen_used = tuple(int(flat_index[c]) for c in chosen)
@@ -408,7 +406,6 @@ class ContactNetPlanner:
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world; row vectors @ to_world = to heading
         hips_world = self.hip_ref_xy_base @ to_world.T
         offsets_world = gait.cell_offsets_xy @ to_world.T
-        action_legs, action_cells = gait.action_cells
         feet_xy = np.array(ctx.foot_pos_world, dtype=float)[:, 0:2]
         com_xy = np.array(ctx.com_pos_world[0:2], dtype=float)
         base_xy = np.array(ctx.base_xy_world, dtype=float)
@@ -426,8 +423,8 @@ class ContactNetPlanner:
             cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
             step = first_safe_step(gait, order, cells, feet_xy, ctx.terrain, self.margin_m)
             if j == 0:
-                self.last_candidates = CandidateRanking(gait, order, cells[action_legs, action_cells],
-                                                        ctx.terrain, self.margin_m, step.action_index)
+                self.last_candidates = CandidateRanking(gait, order, cells, ctx.terrain, self.margin_m,
+                                                        step.action_index)
             steps.append(step)
             # The state a step later, as contactnet.cost.predicted_state predicts it.
             feet_xy[list(step.legs)] = step.footholds_xy_world

@@ -15,7 +15,7 @@ from contactnet.terrain import Terrain, terrains_dir
 
 
 def save_random_model(path, gait: str) -> None:
-    """A model file with random weights (no trained model ships yet)."""
+    """A model file with random weights (the API tests do not depend on the shipped models)."""
     import numpy as np
     import torch
 

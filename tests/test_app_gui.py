@@ -16,6 +16,7 @@ import msgspec
 import numpy as np
 import pytest
 import viser
+from test_app_live import wait_for
 from viser import _messages as messages
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
@@ -78,16 +79,6 @@ class ViserProtocolClient:
 
     def close(self) -> None:
         self.ws.close()
-
-
-def wait_for(predicate, timeout: float = 20.0, what: str = "condition"):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.02)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 @pytest.fixture(scope="module")

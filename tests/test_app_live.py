@@ -28,9 +28,20 @@ from app.live import (
 from contactnet.terrain import flat, stepping_stones
 
 
+def wait_for(predicate, timeout: float = 20.0, what: str = "condition", poll_s: float = 0.02):
+    """Poll ``predicate`` until it returns something truthy (returned), else fail naming ``what``."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(poll_s)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
 def save_random_models(folder) -> None:
-    """walk.pt and trot.pt with random weights (no trained model ships yet): the ContactNet planner
-    then ranks candidates at random, and still takes the first safe one."""
+    """walk.pt and trot.pt with random weights, so the web tests do not depend on the shipped models:
+    the ContactNet planner then ranks candidates at random, and still takes the first safe one."""
     import torch
 
     from contactnet.gait import gait_by_name

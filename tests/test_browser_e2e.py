@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
+from test_app_live import wait_for
 
 from app.headless import CHROMIUM, LAUNCH_ARGS
 from app.live import SetPaused, SetPlanner, SetVelocity
@@ -24,16 +25,6 @@ pytestmark = [
 ]
 
 
-def wait_for(predicate, timeout: float = 15.0, what: str = "condition"):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
     from test_app_live import save_random_models
@@ -42,7 +33,7 @@ def live(tmp_path_factory):
     from app.server import AppConfig, BackgroundServer, ContactnetApp
 
     models = tmp_path_factory.mktemp("models")
-    save_random_models(models)  # no trained model ships yet: ContactNet with random weights
+    save_random_models(models)  # ContactNet with random weights: independent of the shipped models
     app = ContactnetApp(
         AppConfig(
             terrain="stepping_stones",
