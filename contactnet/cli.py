@@ -76,6 +76,19 @@ def _int_list(name: str, low: int, high: int):
     return parse
 
 
+def _float_list(name: str, low: float, high: float):
+    def parse(text: str) -> tuple[float, ...]:
+        try:
+            items = tuple(float(t) for t in text.split(",") if t.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: expected comma-separated numbers, got {text!r}") from None
+        if not items or any(not low <= v <= high for v in items):  # also rejects nan
+            raise argparse.ArgumentTypeError(f"{name}: every value must be in [{low:g}, {high:g}], got {text!r}")
+        return items
+
+    return parse
+
+
 def _positive_int(name: str, high: int):
     def parse(text: str) -> int:
         try:
@@ -275,7 +288,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
     trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
-                       model_dir=model_dir)
+                       model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm)
     if {t.planner for t in trials} & {"contactnet", "fixed"}:  # a missing model fails now, not in a worker
         from contactnet.gait import gait_by_name
         from contactnet.robot import Solo12
@@ -362,9 +375,9 @@ def build_parser() -> argparse.ArgumentParser:
     train.set_defaults(func=cmd_train)
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
-    experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "random"])
+    experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random"])
     experiment.add_argument("--trials", type=_positive_int("--trials", 10**5),
-                            help="seeds per setting (default: 20 on random, 1 on the fixed scenes)")
+                            help="seeds per setting (default: 20 on random, 1 on the others)")
     experiment.add_argument("--workers", type=_positive_int("--workers", 256))
     experiment.add_argument("--out", required=True)
     experiment.add_argument("--gaits", type=_choices("--gaits", ("walk", "trot")), default=None,
@@ -375,6 +388,10 @@ def build_parser() -> argparse.ArgumentParser:
                             help="squares removed on random, comma-separated (default 80)")
     experiment.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                             help="joint-velocity noise variance")
+    experiment.add_argument("--widths-cm", type=_float_list("--widths-cm", 1.0, 20.0), default=None,
+                            help="narrow_map: bar widths, comma-separated (default 3,4,5,6,7)")
+    experiment.add_argument("--gaps-cm", type=_float_list("--gaps-cm", 0.0, 40.0), default=None,
+                            help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     experiment.set_defaults(func=cmd_experiment)

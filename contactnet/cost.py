@@ -96,8 +96,8 @@ class CostWeights:
     legs swing twice in a row. Grid searches over stab {10, 30, 100, 300}, cent {2 .. 100}, area
     {0, 1, 3, 5}, kin threshold {0.10, 0.12} gave the weights below; then PyBullet confirmed them
     (``Locomotion`` with ``OraclePlanner``, no fall: walk and trot for 10-12 s on flat at 0.1 m/s forward,
-    sideways and diagonally backwards, 0.05 m/s forward; the stepping stones and narrow stones at
-    0.05 m/s, both gaits, to the goal). Rollout totals over the six velocities (worst foot-hip m,
+    sideways and diagonally backwards, 0.05 m/s forward; the stepping stones and the first version of
+    the narrow stones, with 8-10 cm bars, at 0.05 m/s, both gaits, to the goal). Rollout totals over the six velocities (worst foot-hip m,
     sum V_stab, repeats):
 
     =====================================  =======  ======  =======

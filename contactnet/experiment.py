@@ -3,6 +3,9 @@
 - ``stepping_stones``: walk at vx = 0.05 m/s across the 8 stones (Fig. 2, 4).
 - ``narrow_stones``: the 3 narrow stones where the fixed cyclic gait fails and the acyclic ContactNet
   gait succeeds (Fig. 6).
+- ``narrow_map``: the narrow-stones scene over a grid of bar widths x last gaps (all three bars as
+  wide, the gap before the last bar varied): where a fixed leg order stops crossing and where the
+  acyclic ContactNet does. ``success.png`` is then one success map per planner.
 - ``random``: the 1.5 x 0.5 m field of 300 squares with ``removed`` squares missing, one terrain per
   seed (Fig. 5, Table I); walk and trot.
 
@@ -24,13 +27,18 @@ from pathlib import Path
 
 import numpy as np
 
-EXPERIMENTS = ("stepping_stones", "narrow_stones", "random")
+EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random")
 DEFAULT_PLANNERS = {
     "stepping_stones": ("contactnet", "fixed", "heuristic"),
     "narrow_stones": ("contactnet", "fixed", "heuristic"),
+    "narrow_map": ("contactnet", "fixed"),
     "random": ("contactnet", "fixed", "heuristic"),
 }
-DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "random": ("walk", "trot")}
+DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "narrow_map": ("walk",),
+                 "random": ("walk", "trot")}
+# The narrow_map grid: bar width 3-7 cm (the candidate spacing is 5 cm), last gap 12-24 cm.
+NARROW_MAP_WIDTHS_CM = (3.0, 4.0, 5.0, 6.0, 7.0)
+NARROW_MAP_GAPS_CM = (12.0, 15.0, 18.0, 21.0, 24.0)
 
 
 class ExperimentError(ValueError):
@@ -50,6 +58,8 @@ class Trial:
     vx: float = 0.05
     noise: float = 0.0
     model_dir: str | None = None
+    bar_width_m: float | None = None  # narrow_map: all three bars this wide
+    last_gap_m: float | None = None  # narrow_map: the gap before the last bar
 
     @property
     def key(self) -> str:
@@ -59,9 +69,10 @@ class Trial:
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
               planners: tuple[str, ...] | None = None, removed: tuple[int, ...] = (80,), noise: float = 0.0,
-              vx: float = 0.05, model_dir: str | None = None) -> list[Trial]:
-    """The trials of experiment ``name`` (default: 1 trial per setting on the fixed scenes, 20 seeds on
-    ``random``)."""
+              vx: float = 0.05, model_dir: str | None = None,
+              widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None) -> list[Trial]:
+    """The trials of experiment ``name`` (default: 1 trial per setting on the fixed scenes and on every
+    cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 20 seeds on ``random``)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
@@ -73,6 +84,15 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
             if name == "random":
                 out += [Trial(name, "random", k, seed, gait, planner, vx, noise, model_dir)
                         for k in removed for seed in range(n)]
+            elif name == "narrow_map":
+                from contactnet.terrain import narrow_stones
+
+                for width_cm in widths_cm or NARROW_MAP_WIDTHS_CM:
+                    for gap_cm in gaps_cm or NARROW_MAP_GAPS_CM:
+                        width_m, gap_m = round(width_cm / 100, 6), round(gap_cm / 100, 6)
+                        terrain = narrow_stones(width_m, gap_m).name
+                        out += [Trial(name, terrain, None, seed, gait, planner, vx, noise, model_dir, width_m, gap_m)
+                                for seed in range(n)]
             else:
                 out += [Trial(name, name, None, seed, gait, planner, vx, noise, model_dir) for seed in range(n)]
     return out
@@ -85,9 +105,12 @@ def run_trial(trial: Trial) -> dict:
     from contactnet.locomotion import Locomotion
     from contactnet.robot import Solo12
     from contactnet.sim import SimConfig
-    from contactnet.terrain import resolve
+    from contactnet.terrain import narrow_stones, resolve
 
-    terrain = resolve(trial.terrain, removed=trial.removed, seed=trial.seed)
+    if trial.bar_width_m is not None or trial.last_gap_m is not None:
+        terrain = narrow_stones(trial.bar_width_m, trial.last_gap_m)
+    else:
+        terrain = resolve(trial.terrain, removed=trial.removed, seed=trial.seed)
     gait = gait_by_name(trial.gait)
     robot = Solo12.load()
     model = None if trial.model_dir is None else Path(trial.model_dir) / f"{trial.gait}.pt"
@@ -174,16 +197,19 @@ def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers:
 
 
 def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
-    """Success rate and the planner's facts per (gait, planner, removed, noise) group."""
+    """Success rate and the planner's facts per (gait, planner, removed, noise, bar width, last gap) group."""
     groups: dict[tuple, list[dict]] = {}
     for r in records:
         t = r["trial"]
-        groups.setdefault((t["gait"], t["planner"], t["removed"], t["noise"]), []).append(r)
+        group = (t["gait"], t["planner"], t["removed"], t["noise"], t.get("bar_width_m"), t.get("last_gap_m"))
+        groups.setdefault(group, []).append(r)
     rows = []
-    for (gait, planner, removed, noise), rs in sorted(groups.items(), key=lambda kv: tuple(map(str, kv[0]))):
+    for (gait, planner, removed, noise, width_m, gap_m), rs in sorted(groups.items(),
+                                                                     key=lambda kv: tuple(map(str, kv[0]))):
         ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
         rows.append({
-            "gait": gait, "planner": planner, "removed": removed, "noise": noise, "trials": len(rs),
+            "gait": gait, "planner": planner, "removed": removed, "noise": noise,
+            "bar_width_m": width_m, "last_gap_m": gap_m, "trials": len(rs),
             "successes": sum(r["success"] for r in rs),
             "success_rate": sum(r["success"] for r in rs) / len(rs),
             "falls": sum(r["fell"] for r in rs),
@@ -205,6 +231,9 @@ def plot_success(summary: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     rows = summary["rows"]
+    if any(r.get("bar_width_m") is not None for r in rows):
+        _plot_success_maps(rows, summary["experiment"], path, plt)
+        return
     labels = [f"{r['gait']}\n{r['planner']}" + (f"\n{r['removed']} removed" if r["removed"] is not None else "")
               for r in rows]
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
@@ -221,9 +250,37 @@ def plot_success(summary: dict, path: Path) -> None:
     plt.close(fig)
 
 
+def _plot_success_maps(rows: list[dict], experiment: str, path: Path, plt) -> None:  # noqa: ANN001
+    """One bar width x last gap success map per (gait, planner), cells labelled successes/trials."""
+    panels = sorted({(r["gait"], r["planner"]) for r in rows})
+    widths_m = sorted({r["bar_width_m"] for r in rows})
+    gaps_m = sorted({r["last_gap_m"] for r in rows})
+    fig, axes = plt.subplots(1, len(panels), figsize=(0.9 * len(gaps_m) * len(panels) + 1.5, 0.7 * len(widths_m) + 1.4),
+                             squeeze=False)
+    for ax, (gait, planner) in zip(axes[0], panels, strict=True):
+        rate = np.full((len(widths_m), len(gaps_m)), np.nan)
+        for r in rows:
+            if (r["gait"], r["planner"]) == (gait, planner):
+                i, j = widths_m.index(r["bar_width_m"]), gaps_m.index(r["last_gap_m"])
+                rate[i, j] = r["success_rate"]
+                ax.text(j, i, f"{r['successes']}/{r['trials']}", ha="center", va="center", fontsize=8)
+        ax.imshow(rate, vmin=0.0, vmax=1.0, cmap="RdYlGn", origin="lower", aspect="auto")
+        ax.set_xticks(range(len(gaps_m)), [f"{100 * g:g}" for g in gaps_m])
+        ax.set_yticks(range(len(widths_m)), [f"{100 * w:g}" for w in widths_m])
+        ax.set_xlabel("gap before the last bar (cm)")
+        ax.set_ylabel("bar width (cm)")
+        ax.set_title(f"{gait}, {planner}")
+    fig.suptitle(f"experiment {experiment}: crossings / trials", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def format_summary(summary: dict) -> str:
     from contactnet.bench import format_table
 
-    keep = ("gait", "planner", "removed", "noise", "successes", "trials", "success_rate", "falls",
+    rows = summary["rows"]
+    scene = ("bar_width_m", "last_gap_m") if any(r.get("bar_width_m") is not None for r in rows) else ("removed",)
+    keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "falls",
             "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
-    return format_table([{k: r[k] for k in keep} for r in summary["rows"]])
+    return format_table([{k: r.get(k) for k in keep} for r in rows])

@@ -143,6 +143,8 @@ def test_simulate_with_a_missing_or_broken_model_names_the_file(planner, tmp_pat
         (["experiment", "random", "--out", "x", "--removed", "400"], "0..300"),
         (["experiment", "random", "--out", "x", "--gaits", "gallop"], "--gaits"),
         (["experiment", "random", "--out", "x", "--planners", "contactnet,magic"], "--planners"),
+        (["experiment", "narrow_map", "--out", "x", "--widths-cm", "4,wide"], "--widths-cm"),
+        (["experiment", "narrow_map", "--out", "x", "--gaps-cm", "12,99"], "[0, 40]"),
     ],
 )
 def test_experiment_argument_errors(args, message, capsys):

@@ -6,7 +6,16 @@ import json
 
 import pytest
 
-from contactnet.experiment import ExperimentError, Trial, run_experiment, summarize, trials_of
+from contactnet.experiment import (
+    ExperimentError,
+    Trial,
+    format_summary,
+    plot_success,
+    run_experiment,
+    run_trial,
+    summarize,
+    trials_of,
+)
 
 
 def test_trials_of_defaults_and_errors():
@@ -21,9 +30,19 @@ def test_trials_of_defaults_and_errors():
         trials_of("moon")
 
 
-def record(gait, planner, seed, success, rank=1.0):
-    return {"key": f"{gait}{planner}{seed}", "trial": {"gait": gait, "planner": planner, "removed": 80,
-                                                      "noise": 0.0, "seed": seed},
+def test_narrow_map_trials_cover_the_grid():
+    trials = trials_of("narrow_map", widths_cm=(4.0, 5.5), gaps_cm=(18.0,), noise=0.01, trials=2)
+    assert len(trials) == 2 * 1 * 2 * 2  # widths x gaps x (contactnet, fixed) x seeds
+    assert {t.planner for t in trials} == {"contactnet", "fixed"} and {t.gait for t in trials} == {"walk"}
+    assert {(t.terrain, t.bar_width_m, t.last_gap_m) for t in trials} == {
+        ("narrow_stones_w4_g18", 0.04, 0.18), ("narrow_stones_w5.5_g18", 0.055, 0.18)}
+    assert len({t.key for t in trials}) == len(trials)
+    assert len(trials_of("narrow_map")) == 5 * 5 * 2  # the default 3-7 cm x 12-24 cm grid, one seed
+
+
+def record(gait, planner, seed, success, rank=1.0, **scene):
+    return {"key": f"{gait}{planner}{seed}{scene}", "trial": {"gait": gait, "planner": planner, "removed": 80,
+                                                              "noise": 0.0, "seed": seed, **scene},
             "success": success, "fell": not success, "reached_x": 1.0, "steps": 10,
             "planner_ms": {"median": 0.1, "mean": 0.2}, "rank_chosen": {"mean": rank, "max": 3},
             "unsafe_landings": 0}
@@ -36,6 +55,33 @@ def test_summarize_counts_per_group():
     assert by_planner["contactnet"]["successes"] == 3 and by_planner["contactnet"]["success_rate"] == 0.75
     assert by_planner["contactnet"]["failed_seeds"] == [2]
     assert by_planner["fixed"]["falls"] == 3
+
+
+def test_narrow_map_summary_table_and_success_maps(tmp_path):
+    records = [record("walk", planner, seed, planner == "contactnet" or width < 0.05, removed=None,
+                      bar_width_m=width, last_gap_m=gap)
+               for planner in ("contactnet", "fixed") for width in (0.04, 0.06) for gap in (0.12, 0.21)
+               for seed in range(2)]
+    summary = summarize("narrow_map", records)
+    cells = {(r["planner"], r["bar_width_m"], r["last_gap_m"]): r for r in summary["rows"]}
+    assert len(cells) == 8 and all(r["trials"] == 2 for r in cells.values())
+    assert cells["fixed", 0.06, 0.21]["successes"] == 0 and cells["fixed", 0.04, 0.12]["successes"] == 2
+    table = format_summary(summary)
+    assert "bar_width_m" in table and "last_gap_m" in table and "removed" not in table
+    plot_success(summary, tmp_path / "map.png")
+    assert (tmp_path / "map.png").stat().st_size > 5000
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("planner, crosses", [("contactnet", True), ("fixed", False)])
+def test_narrow_stones_needs_the_acyclic_gait(planner, crosses):
+    # The paper's Fig. 6 with the shipped walk model: choosing the leg as well as the foothold crosses the
+    # narrow bars; the same network held to the cyclic leg order (swing in place when the leg has no safe
+    # cell) falls.
+    result = run_trial(Trial("narrow_stones", "narrow_stones", None, 0, "walk", planner))
+    assert result["success"] is crosses and result["fell"] is not crosses
+    if planner == "contactnet":  # (the fixed gait's last swing in place is on a foot that crept off the bar)
+        assert result["unsafe_landings"] == 0 and result["rank_chosen"]["max"] > 0
 
 
 @pytest.mark.slow

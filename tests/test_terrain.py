@@ -420,28 +420,36 @@ def test_every_leg_always_has_safe_candidates(factory: Callable[[], Terrain]) ->
             assert terrain.is_safe(candidates_xy, margin=FOOT_RADIUS_M).sum() >= 3, (terrain.name, base_x)
 
 
-def kinematic_walk(terrain: Terrain, reach_m: float = 0.15, step_m: float = 0.005) -> float:
-    """Greedy acyclic walk along +x: the base advances while every foot stays within ``reach_m`` (x) of
-    its hip; otherwise the foot furthest behind that has a safe candidate ahead of it steps there.
-    Returns the base x reached (stops when stuck)."""
+def kinematic_walk(terrain: Terrain, reach_m: float = 0.15, step_m: float = 0.005,
+                   margin_m: float = 0.5 * FOOT_RADIUS_M, behind_m: float = 0.03) -> float:
+    """Greedy acyclic walk along +x. A foot at least ``behind_m`` behind its hip (the furthest behind
+    first) steps to its furthest safe candidate ahead (``margin_m`` inside the edges: the planner's
+    default) as soon as it has one; otherwise the base advances while every foot stays within
+    ``reach_m`` (x) of its hip. Returns the base x reached (stops when stuck)."""
     base_xy = terrain.start_xy.copy()
     hips_xy_base = T.SOLO12_HIP_XY_BASE
     feet_xy = nominal_feet_xy(terrain)
     for _ in range(10_000):
         if base_xy[0] >= terrain.goal_x:
             break
+        hips_xy = base_xy + hips_xy_base
+        behind_x = hips_xy[:, 0] - feet_xy[:, 0]
+        stepped = False
+        for leg in np.argsort(-behind_x):
+            if behind_x[leg] < behind_m:
+                break
+            candidates_xy = hips_xy[leg] + CANDIDATE_OFFSETS_XY
+            ok = terrain.is_safe(candidates_xy, margin=margin_m) & (candidates_xy[:, 0] > feet_xy[leg, 0] + 0.02)
+            if ok.any():
+                feet_xy[leg] = candidates_xy[ok][np.argmax(candidates_xy[ok, 0])]
+                stepped = True
+                break
+        if stepped:
+            continue
         if np.all(np.abs(feet_xy[:, 0] - (base_xy[0] + step_m + hips_xy_base[:, 0])) <= reach_m):
             base_xy[0] += step_m
             continue
-        hips_xy = base_xy + hips_xy_base
-        for leg in np.argsort(feet_xy[:, 0] - hips_xy[:, 0]):
-            candidates_xy = hips_xy[leg] + CANDIDATE_OFFSETS_XY
-            ok = terrain.is_safe(candidates_xy, margin=FOOT_RADIUS_M) & (candidates_xy[:, 0] > feet_xy[leg, 0] + 0.02)
-            if ok.any():
-                feet_xy[leg] = candidates_xy[ok][np.argmax(candidates_xy[ok, 0])]
-                break
-        else:
-            break
+        break
     return float(base_xy[0])
 
 
@@ -453,16 +461,32 @@ def test_stone_scenes_are_crossable_by_an_acyclic_walk(factory: Callable[[], Ter
 
 def test_narrow_stones_layout() -> None:
     terrain = T.narrow_stones()
+    assert terrain.name == "narrow_stones"
     assert len(terrain.regions) == 5 and all(r["shape"] == "rect" for r in terrain.regions)
     bars = terrain.regions[1:-1]
     widths_x = [r["size"][0] for r in bars]
     lengths_y = [r["size"][1] for r in bars]
-    assert all(0.06 <= w <= 0.10 for w in widths_x) and all(length >= 0.3 for length in lengths_y)
-    assert len(set(lengths_y)) == 3
+    # Narrow against the candidate grid: under the 5 cm spacing plus the planner's two 8 mm edge margins,
+    # so for some hip positions a leg has no safe candidate on a bar.
+    assert all(0.03 <= w < 0.05 + 2 * 0.008 for w in widths_x) and len(set(widths_x)) == 3
+    assert all(length >= 0.3 for length in lengths_y) and len(set(lengths_y)) == 3
     edges = [(r["center"][0] - r["size"][0] / 2, r["center"][0] + r["size"][0] / 2) for r in terrain.regions]
     gaps = [edges[i + 1][0] - edges[i][1] for i in range(len(edges) - 1)]
-    assert all(0.05 <= g < 0.15 for g in gaps)
+    assert all(0.05 <= g < 0.2 for g in gaps)
     assert max(gaps[:3]) == gaps[2] and len({round(g, 6) for g in gaps[:3]}) == 3  # uneven, last bar farthest
+
+
+def test_narrow_stones_map_variants() -> None:
+    variant = T.narrow_stones(bar_width_m=0.06, last_gap_m=0.21)
+    assert variant.name == "narrow_stones_w6_g21" and variant != T.narrow_stones()
+    bars = variant.regions[1:-1]
+    assert [r["size"][0] for r in bars] == [0.06] * 3
+    last_gap = (bars[2]["center"][0] - 0.03) - (bars[1]["center"][0] + 0.03)
+    assert last_gap == pytest.approx(0.21)
+    assert T.narrow_stones(last_gap_m=0.18).regions[1:-1] != bars
+    for bad in ({"bar_width_m": 0.0}, {"bar_width_m": "wide"}, {"last_gap_m": -0.1}, {"last_gap_m": float("nan")}):
+        with pytest.raises(TerrainError, match="narrow_stones: "):
+            T.narrow_stones(**bad)
 
 
 def test_push_field_keeps_start_clear() -> None:
