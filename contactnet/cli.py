@@ -63,27 +63,18 @@ def _choices(name: str, allowed: tuple[str, ...]):
     return parse
 
 
-def _int_list(name: str, low: int, high: int):
-    def parse(text: str) -> tuple[int, ...]:
+def _number_list(name: str, low: float, high: float, kind: type = float):
+    """Comma-separated numbers of ``kind`` (int: whole numbers), each in [low, high] (nan rejected)."""
+    what = "whole numbers" if kind is int else "numbers"
+    bounds = f"{low}..{high}" if kind is int else f"[{low:g}, {high:g}]"
+
+    def parse(text: str) -> tuple:
         try:
-            items = tuple(int(t) for t in text.split(",") if t.strip())
+            items = tuple(kind(t) for t in text.split(",") if t.strip())
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: expected comma-separated whole numbers, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"{name}: expected comma-separated {what}, got {text!r}") from None
         if not items or any(not low <= v <= high for v in items):
-            raise argparse.ArgumentTypeError(f"{name}: every value must be in {low}..{high}, got {text!r}")
-        return items
-
-    return parse
-
-
-def _float_list(name: str, low: float, high: float):
-    def parse(text: str) -> tuple[float, ...]:
-        try:
-            items = tuple(float(t) for t in text.split(",") if t.strip())
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: expected comma-separated numbers, got {text!r}") from None
-        if not items or any(not low <= v <= high for v in items):  # also rejects nan
-            raise argparse.ArgumentTypeError(f"{name}: every value must be in [{low:g}, {high:g}], got {text!r}")
+            raise argparse.ArgumentTypeError(f"{name}: every value must be in {bounds}, got {text!r}")
         return items
 
     return parse
@@ -384,13 +375,13 @@ def build_parser() -> argparse.ArgumentParser:
                             help="comma-separated (default: walk; walk,trot on random)")
     experiment.add_argument("--planners", type=_choices("--planners", PLANNER_NAMES), default=None,
                             help="comma-separated (default: contactnet,fixed,heuristic)")
-    experiment.add_argument("--removed", type=_int_list("--removed", 0, 300), default=(80,),
+    experiment.add_argument("--removed", type=_number_list("--removed", 0, 300, int), default=(80,),
                             help="squares removed on random, comma-separated (default 80)")
     experiment.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                             help="joint-velocity noise variance")
-    experiment.add_argument("--widths-cm", type=_float_list("--widths-cm", 1.0, 20.0), default=None,
+    experiment.add_argument("--widths-cm", type=_number_list("--widths-cm", 1.0, 20.0), default=None,
                             help="narrow_map: bar widths, comma-separated (default 3,4,5,6,7)")
-    experiment.add_argument("--gaps-cm", type=_float_list("--gaps-cm", 0.0, 40.0), default=None,
+    experiment.add_argument("--gaps-cm", type=_number_list("--gaps-cm", 0.0, 40.0), default=None,
                             help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")

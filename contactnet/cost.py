@@ -97,8 +97,8 @@ class CostWeights:
     {0, 1, 3, 5}, kin threshold {0.10, 0.12} gave the weights below; then PyBullet confirmed them
     (``Locomotion`` with ``OraclePlanner``, no fall: walk and trot for 10-12 s on flat at 0.1 m/s forward,
     sideways and diagonally backwards, 0.05 m/s forward; the stepping stones and the first version of
-    the narrow stones, with 8-10 cm bars, at 0.05 m/s, both gaits, to the goal). Rollout totals over the six velocities (worst foot-hip m,
-    sum V_stab, repeats):
+    the narrow stones, with 8-10 cm bars, at 0.05 m/s, both gaits, to the goal). Rollout totals over
+    the six velocities (worst foot-hip m, sum V_stab, repeats):
 
     =====================================  =======  ======  =======
     walk: WALK_WEIGHTS                      0.150    1.9     0.14

@@ -966,7 +966,7 @@ def narrow_stones(bar_width_m: float | None = None, last_gap_m: float | None = N
     last gap (`contactnet experiment narrow_map`, README) shows this is not a knife edge.
 
     ``bar_width_m`` makes all three bars that wide and ``last_gap_m`` sets the gap before the last bar
-    (the map's two axes); the terrain is then named ``narrow_stones_w<cm>_g<cm>``.
+    (the map's two axes); the terrain is then named ``narrow_stones_w<cm>_g<cm>`` (the parts given).
     """
     widths = (0.045, 0.04, 0.05)
     gaps = [0.07, 0.09, 0.18]
@@ -978,9 +978,10 @@ def narrow_stones(bar_width_m: float | None = None, last_gap_m: float | None = N
                 raise TerrainError(f"narrow_stones: {label} must be a number in [{low}, {high}] m, got {_show(value)}")
         if bar_width_m is not None:
             widths = (float(bar_width_m),) * 3
+            name += f"_w{100 * widths[0]:g}"
         if last_gap_m is not None:
             gaps[2] = float(last_gap_m)
-        name = f"narrow_stones_w{100 * widths[1]:g}_g{100 * gaps[2]:g}"
+            name += f"_g{100 * gaps[2]:g}"
     lengths_y, centers_y = (0.42, 0.50, 0.38), (0.01, -0.01, 0.0)
     start_x1 = 0.25
     regions = [_rect((0.0, 0.0), (0.5, 0.5))]

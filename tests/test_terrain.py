@@ -483,6 +483,7 @@ def test_narrow_stones_map_variants() -> None:
     assert [r["size"][0] for r in bars] == [0.06] * 3
     last_gap = (bars[2]["center"][0] - 0.03) - (bars[1]["center"][0] + 0.03)
     assert last_gap == pytest.approx(0.21)
+    assert T.narrow_stones(last_gap_m=0.2).name == "narrow_stones_g20"
     assert T.narrow_stones(last_gap_m=0.18).regions[1:-1] != bars
     for bad in ({"bar_width_m": 0.0}, {"bar_width_m": "wide"}, {"last_gap_m": -0.1}, {"last_gap_m": float("nan")}):
         with pytest.raises(TerrainError, match="narrow_stones: "):
