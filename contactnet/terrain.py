@@ -971,17 +971,16 @@ def narrow_stones(bar_width_m: float | None = None, last_gap_m: float | None = N
     widths = (0.045, 0.04, 0.05)
     gaps = [0.07, 0.09, 0.18]
     name = "narrow_stones"
-    if bar_width_m is not None or last_gap_m is not None:
-        for label, value, low, high in (("bar_width_m", bar_width_m, 0.01, 0.2), ("last_gap_m", last_gap_m, 0.0, 0.4)):
-            if value is not None and (not isinstance(value, numbers.Real) or isinstance(value, bool)
-                                      or not low <= float(value) <= high):
-                raise TerrainError(f"narrow_stones: {label} must be a number in [{low}, {high}] m, got {_show(value)}")
-        if bar_width_m is not None:
-            widths = (float(bar_width_m),) * 3
-            name += f"_w{100 * widths[0]:g}"
-        if last_gap_m is not None:
-            gaps[2] = float(last_gap_m)
-            name += f"_g{100 * gaps[2]:g}"
+    for label, value, low, high in (("bar_width_m", bar_width_m, 0.01, 0.2), ("last_gap_m", last_gap_m, 0.0, 0.4)):
+        if value is not None and (not isinstance(value, numbers.Real) or isinstance(value, bool)
+                                  or not low <= float(value) <= high):
+            raise TerrainError(f"narrow_stones: {label} must be a number in [{low}, {high}] m, got {_show(value)}")
+    if bar_width_m is not None:
+        widths = (float(bar_width_m),) * 3
+        name += f"_w{100 * widths[0]:g}"
+    if last_gap_m is not None:
+        gaps[2] = float(last_gap_m)
+        name += f"_g{100 * gaps[2]:g}"
     lengths_y, centers_y = (0.42, 0.50, 0.38), (0.01, -0.01, 0.0)
     start_x1 = 0.25
     regions = [_rect((0.0, 0.0), (0.5, 0.5))]
