@@ -9,21 +9,18 @@ import json
 import sys
 from pathlib import Path
 
+from contactnet import registry
+
 EXIT_USER_ERROR = 2
-EXIT_NOT_BUILT = 3
 
 
 class UserError(Exception):
     """A mistake in what the user asked for: printed as one line, exit code 2."""
 
 
-class NotBuiltError(Exception):
-    """A subcommand whose capability does not exist yet: printed as one line, exit code 3."""
-
-
 USER_ERROR_CLASSES = (
     ("contactnet.terrain", "TerrainError"),
-    ("contactnet.robot", "RobotDataError"),
+    ("contactnet.robots.description", "RobotDataError"),
     ("contactnet.datagen", "DatasetDirError"),
     ("contactnet.train", "DatasetError"),
     ("contactnet.network", "ModelFileError"),
@@ -108,7 +105,10 @@ def cmd_terrain(args: argparse.Namespace) -> int:
         return 0
     if args.terrain_cmd == "render":
         out = Path(args.out or f"{terrain.name}.png")
-        terrain.render_png(out)
+        from contactnet.robots import load_robot
+
+        feet_xy_base = load_robot("solo12").description.foot_nominal_base[:, :2]
+        terrain.render_png(out, feet_xy_start=terrain.start_xy + feet_xy_base)
         print(f"wrote {out}")
         return 0
     if args.terrain_cmd == "save":
@@ -122,11 +122,9 @@ def cmd_terrain(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from contactnet.bench import BENCHMARKS, NOT_BUILT, format_table
+    from contactnet.bench import format_table, run
 
-    if args.what in NOT_BUILT:
-        raise NotBuiltError(f"bench {args.what}: {NOT_BUILT[args.what]} is not built yet")
-    rows = BENCHMARKS[args.what]()
+    rows = run(args.what, robot_name=args.robot)
     if args.json:
         print(json.dumps({"benchmark": args.what, "rows": rows}, indent=2))
     else:
@@ -134,39 +132,20 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-PLANNER_NAMES = ("contactnet", "fixed", "heuristic", "oracle")
-
-
-def make_planner(name: str, gait, robot=None, model: str | Path | None = None):  # noqa: ANN001
-    """The planner called ``name`` for ``gait``. ``contactnet`` and ``fixed`` load ``model`` (default: the
-    shipped ``contactnet/models/{gait}.pt``); a missing or broken file raises ``ModelFileError``."""
-    from contactnet import planner as planners
-
-    if name == "heuristic":
-        return planners.HeuristicPlanner(gait)
-    if robot is None:
-        from contactnet.robot import Solo12
-
-        robot = Solo12.load()
-    nominal = robot.foot_nominal_base[:, :2]
-    if name == "oracle":
-        return planners.OraclePlanner(gait, nominal)
-    if name in ("contactnet", "fixed"):
-        from contactnet.network import default_model_path, load_model
-
-        path = default_model_path(gait.name) if model is None else Path(model)
-        loaded = load_model(path, expect_gait=gait.name, expect_n_actions=gait.n_actions, dtype="float32")
-        cls = planners.ContactNetPlanner if name == "contactnet" else planners.FixedGaitPlanner
-        return cls(gait, nominal, loaded)
-    raise UserError(f"unknown planner {name!r}: choose one of {', '.join(PLANNER_NAMES)}")
+def make_planner(name: str, gait, robot, model: str | Path | None = None):  # noqa: ANN001
+    """``registry.make_planner`` with its mistakes (unknown name) as one-line user errors."""
+    try:
+        return registry.make_planner(name, gait, robot, model=model)
+    except ValueError as exc:
+        if type(exc) is ValueError:  # not a ModelFileError or TerrainError (subclasses print as they are)
+            raise UserError(str(exc)) from None
+        raise
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from contactnet.gait import gait_by_name
     from contactnet.locomotion import Locomotion
-    from contactnet.robot import Solo12
     from contactnet.sim import Push, SimConfig
     from contactnet.terrain import resolve
 
@@ -175,8 +154,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     terrain = resolve(args.terrain, removed=args.removed, seed=args.seed)
-    gait = gait_by_name(args.gait)
-    robot = Solo12.load()
+    gait = registry.gait_by_name(args.gait)
+    robot = registry.load_robot(args.robot)
     planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed)
     with contextlib.ExitStack() as stack:
@@ -280,14 +259,11 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         raise UserError(f"--model-dir {model_dir}: not a directory")
     trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
                        model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm)
-    if {t.planner for t in trials} & {"contactnet", "fixed"}:  # a missing model fails now, not in a worker
-        from contactnet.gait import gait_by_name
-        from contactnet.robot import Solo12
-
-        robot = Solo12.load()
+    if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
+        robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
-            model = None if model_dir is None else Path(model_dir) / f"{gait}.pt"
-            make_planner("contactnet", gait_by_name(gait), robot, model=model)
+            model = None if model_dir is None else registry.model_path(args.robot, gait, Path(model_dir))
+            make_planner("contactnet", registry.gait_by_name(gait), robot, model=model)
     try:
         summary = run_experiment(args.name, args.out, trials, workers=args.workers, progress=not args.quiet)
     except KeyboardInterrupt:
@@ -303,7 +279,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="contactnet",
-        description="ContactNet: acyclic contact planning for the Solo12 quadruped, simulated in PyBullet.",
+        description="ContactNet: acyclic contact planning for quadrupeds (Solo12, Go2), simulated in PyBullet.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
@@ -313,9 +289,10 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--viser-port", type=_port_number("--viser-port"), default=8080,
                        help="3D view (viser takes the next free port if busy)")
     serve.add_argument("--terrain", default="stepping_stones", help="terrain name or JSON path")
-    serve.add_argument("--gait", choices=["walk", "trot"], default="walk")
-    serve.add_argument("--planner", choices=["contactnet", "fixed", "heuristic"], default="contactnet",
-                       help="falls back to heuristic while the asked planner is not built")
+    serve.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
+    serve.add_argument("--gait", choices=registry.gait_names(), default="walk")
+    serve.add_argument("--planner", choices=registry.planner_names(), default="contactnet",
+                       help="falls back to heuristic when the planner's model is missing")
     serve.add_argument("--vx", type=_bounded_float("--vx", -0.3, 0.3), default=0.05, help="m/s")
     serve.add_argument("--recordings", default="recordings", metavar="DIR", help="folder of scene recordings")
     serve.set_defaults(func=cmd_serve)
@@ -324,8 +301,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--terrain", required=True, help="terrain name or JSON path ('random' with --removed)")
     sim.add_argument("--removed", type=int, default=None, help="squares removed from the random field")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--gait", choices=["walk", "trot"], required=True)
-    sim.add_argument("--planner", choices=list(PLANNER_NAMES), required=True)
+    sim.add_argument("--gait", choices=registry.gait_names(), required=True)
+    sim.add_argument("--planner", choices=registry.planner_names(), required=True)
+    sim.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
     sim.add_argument("--model", metavar="FILE.pt", help="model of contactnet/fixed (default: the shipped one)")
     sim.add_argument("--vx", type=_bounded_float("--vx", -0.3, 0.3), default=0.05, help="m/s")
     sim.add_argument("--vy", type=_bounded_float("--vy", -0.3, 0.3), default=0.0, help="m/s")
@@ -338,7 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.set_defaults(func=cmd_simulate)
 
     datagen = sub.add_parser("datagen", help="generate a training dataset")
-    datagen.add_argument("--gait", choices=["walk", "trot"], required=True)
+    datagen.add_argument("--gait", choices=registry.gait_names(), required=True)
+    datagen.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
     datagen.add_argument("--episodes", type=_positive_int("--episodes", 10**6), default=1500)
     datagen.add_argument("--out", required=True)
     datagen.add_argument("--workers", type=_positive_int("--workers", 256))
@@ -350,7 +329,9 @@ def build_parser() -> argparse.ArgumentParser:
     datagen.set_defaults(func=cmd_datagen)
 
     train = sub.add_parser("train", help="train a ContactNet model")
-    train.add_argument("--gait", choices=["walk", "trot"], required=True)
+    train.add_argument("--gait", choices=registry.gait_names(), required=True)
+    train.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT,
+                       help="the robot the dataset was made with (checked against it)")
     train.add_argument("--data", required=True)
     train.add_argument("--out", required=True)
     train.add_argument("--epochs", type=_positive_int("--epochs", 10**6), default=1000)
@@ -371,9 +352,10 @@ def build_parser() -> argparse.ArgumentParser:
                             help="seeds per setting (default: 20 on random, 1 on the others)")
     experiment.add_argument("--workers", type=_positive_int("--workers", 256))
     experiment.add_argument("--out", required=True)
-    experiment.add_argument("--gaits", type=_choices("--gaits", ("walk", "trot")), default=None,
+    experiment.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
+    experiment.add_argument("--gaits", type=_choices("--gaits", registry.gait_names()), default=None,
                             help="comma-separated (default: walk; walk,trot on random)")
-    experiment.add_argument("--planners", type=_choices("--planners", PLANNER_NAMES), default=None,
+    experiment.add_argument("--planners", type=_choices("--planners", registry.planner_names()), default=None,
                             help="comma-separated (default: contactnet,fixed,heuristic)")
     experiment.add_argument("--removed", type=_number_list("--removed", 0, 300, int), default=(80,),
                             help="squares removed on random, comma-separated (default 80)")
@@ -388,7 +370,9 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.set_defaults(func=cmd_experiment)
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
-    bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain"])
+    bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion"])
+    bench.add_argument("--robot", choices=registry.robot_names(), default=None,
+                       help="the robot of the benchmarks that run one (default solo12)")
     bench.add_argument("--json", action="store_true")
     bench.set_defaults(func=cmd_bench)
 
@@ -417,9 +401,6 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)  # argparse itself exits 2 with a one-line message on bad options
     try:
         return int(args.func(args) or 0)
-    except NotBuiltError as exc:
-        print(f"contactnet: {exc}", file=sys.stderr)
-        return EXIT_NOT_BUILT
     except _user_errors() as exc:
         print(f"contactnet: error: {exc}", file=sys.stderr)
         return EXIT_USER_ERROR

@@ -14,12 +14,13 @@ Kinematics and Jacobians come from pinocchio on the measured state.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-from contactnet.robot import FOOT_FRAMES, TORQUE_LIMIT_NM, Solo12
+from contactnet.frames import skew
+from contactnet.robots.description import Robot, RobotDescription
 
 
 @dataclass(frozen=True)
@@ -36,8 +37,12 @@ class ControllerGains:
     force_regularization: float = 1e-3
     mu: float = 0.6
     fz_min_n: float = 0.5  # stance feet keep a little load so they do not slip off
-    fz_max_n: float = 25.0
-    torque_limit_nm: float = TORQUE_LIMIT_NM
+    fz_max_n: float | None = None  # None: the robot's (RobotDescription.fz_max_n)
+
+    @classmethod
+    def for_robot(cls, robot: RobotDescription) -> ControllerGains:
+        """The defaults with the robot's force cap and the gains its module sets differently."""
+        return replace(cls(fz_max_n=robot.fz_max_n), **dict(robot.controller_gains))
 
 
 @dataclass(frozen=True)
@@ -99,24 +104,6 @@ class ControlTarget:
     swing_vel: np.ndarray  # (4, 3)
 
 
-def rpy_to_matrix(rpy: np.ndarray) -> np.ndarray:
-    """Rotation matrix of ZYX Euler angles (roll, pitch, yaw)."""
-    cr, sr = np.cos(rpy[0]), np.sin(rpy[0])
-    cp, sp = np.cos(rpy[1]), np.sin(rpy[1])
-    cy, sy = np.cos(rpy[2]), np.sin(rpy[2])
-    return np.array(
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
-    )
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
 def clip_to_friction_pyramid(forces: np.ndarray, mu: float, fz_min: float, fz_max: float) -> np.ndarray:
     """Project each (3,) force into {fz_min <= fz <= fz_max, |fx|, |fy| <= mu fz} (axis-wise)."""
     out = np.array(forces, dtype=float)
@@ -129,15 +116,20 @@ def clip_to_friction_pyramid(forces: np.ndarray, mu: float, fz_min: float, fz_ma
 class WholeBodyController:
     """Torques from the measured state and a ControlTarget; one instance per simulation thread."""
 
-    def __init__(self, robot: Solo12, gains: ControllerGains = ControllerGains()):
+    def __init__(self, robot: Robot, gains: ControllerGains | None = None):
         import pinocchio as pin
 
         self._pin = pin
         self.robot = robot
+        description = robot.description
+        gains = ControllerGains.for_robot(description) if gains is None else gains
+        if gains.fz_max_n is None:
+            gains = replace(gains, fz_max_n=description.fz_max_n)
         self.gains = gains
+        self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float)
         self.model = robot.model
         self.data = robot.model.createData()
-        self.foot_ids = [robot.model.getFrameId(f) for f in FOOT_FRAMES]
+        self.foot_ids = [robot.model.getFrameId(f) for f in description.foot_frames]
         self.mass = robot.mass_kg
         self.inertia_diag = np.diag(robot.inertia_com_standing).copy()
         self._kp_com = np.array(gains.kp_com) * self.mass
@@ -205,5 +197,5 @@ class WholeBodyController:
         self.last_forces = forces
         self.last_foot_pos = feet
         self.last_com = com
-        limit = g.torque_limit_nm
+        limit = self.torque_limit_nm
         return np.minimum(np.maximum(tau, -limit), limit)  # 5. saturation

@@ -54,15 +54,17 @@ failures tie at the bottom in index order and the order of the others is untouch
 
 from __future__ import annotations
 
-import itertools
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
+from contactnet.cost_weights import CostWeights
+from contactnet.frames import rotation_2d
 from contactnet.gait import GaitSpec
-from contactnet.robot import FOOT_RADIUS_M
+from contactnet.robots.description import RobotDescription
+from contactnet.support_polygon import hull_area_centroid, support_distance
 from contactnet.trajopt import (
     NX,
     SrbdModel,
@@ -82,108 +84,6 @@ TERM_NAMES: tuple[str, ...] = ("opt", "stab", "kin", "cent", "area")
 
 
 @dataclass(frozen=True)
-class CostWeights:
-    """Weights of the ranking cost and the shape of its kinematic term.
-
-    ``V = sum_k (opt V_opt + stab V_stab + kin V_kin) + cent V_cent - area V_area`` with the terms in SI
-    units (V_opt: the optimizer's cost; V_stab and V_cent in m; V_kin in violations; V_area in m^2).
-    Walk: ``WALK_WEIGHTS`` (the defaults); trot: ``TROT_WEIGHTS``; ``for_gait(name)`` picks one.
-
-    How they were chosen. The oracle is greedy (cheapest action now), so a good cost is one whose greedy
-    choices keep walking: ``weight_study`` takes the cheapest action 30 times from standing, each from
-    the state the oracle predicts, at six commanded velocities spanning the data generation range, and
-    reports the worst foot-to-hip distance, the chosen actions' V_stab and V_kin and how often the same
-    legs swing twice in a row. Grid searches over stab {10, 30, 100, 300}, cent {2 .. 100}, area
-    {0, 1, 3, 5}, kin threshold {0.10, 0.12} gave the weights below; then PyBullet confirmed them
-    (``Locomotion`` with ``OraclePlanner``, no fall: walk and trot for 10-12 s on flat at 0.1 m/s forward,
-    sideways and diagonally backwards, 0.05 m/s forward; the stepping stones and the first version of
-    the narrow stones, with 8-10 cm bars, at 0.05 m/s, both gaits, to the goal). Rollout totals over
-    the six velocities (worst foot-hip m, sum V_stab, repeats):
-
-    =====================================  =======  ======  =======
-    walk: WALK_WEIGHTS                      0.150    1.9     0.14
-    walk, cent 2 / area 5 (first guess)     0.220    6.4     0.12
-    walk, stab 10                           0.150    2.6     0.14
-    walk, kin threshold 0.10                0.128    4.3     0.08
-    trot: TROT_WEIGHTS                      0.090    6.0     0.05
-    trot with WALK_WEIGHTS                  0.117    5.5     0.21
-    trot, stab 100                          0.112    5.8     0.14
-    trot, area 0                            0.090    7.1     0.10
-    =====================================  =======  ======  =======
-
-    * ``opt = 1``: the scale. Over the candidates of a walking state V_opt spans about 0.15-0.5; it
-      strongly prefers lifting the legs the CoM moves away from (hind legs when walking forward:
-      0.15 vs 0.28) and hardly cares where a foot lands.
-    * ``cent`` (walk 40, trot 100 per m): the term that makes greedy stepping sustainable. A foot moved
-      by d shifts the centroid by d/4, so with cent/4 above V_opt's preference for the "easy" legs
-      (~0.13 per step) the lagging leg is the one that moves, and it moves until the support centroid
-      is under the final CoM. With cent 2-10 the feet fall behind (worst foot-hip 0.22-0.28 m, then
-      kinematic violations at every step). Trot needs more: alternating pairs must land so that both
-      diagonals pass near the CoM path, which is what a small V_cent measures.
-    * ``stab`` (walk 100, trot 10 per m per node): for the walk a CoM 1 cm outside the swing triangle
-      for the 4 swing nodes costs 4, above the whole spread of V_opt, so the static-stability order of
-      the crawl wins. For the trot the "polygon" is a segment the moving CoM can never stay on, so V_stab
-      is a controllability measure that is never zero; with 100 it dominates and the pair whose diagonal
-      is nearer the CoM *now* swings again and again (repeats 0.14 vs 0.05).
-    * ``kin = 50`` per violation, threshold 0.12 m, ramp 2 cm: a violation costs more than everything
-      else together on a normal step ("a high value") and grows with the excess, so that among bad
-      plans the least bad ranks first. Threshold: Solo12's hip (HFE) stands 0.24 m above the ground
-      with 0.16 + 0.16 m links and the foot-ball centre 0.223 m below it; a foot 0.12 m from its hip
-      reference needs sqrt(0.12^2 + 0.223^2) = 0.253 m, 79 % of full reach, leaving room for 4 cm of
-      height loss (90 %) and for the abduction offset before the knee straightens. The corners of the
-      20 x 20 cm walk grid (0.141 m) lie beyond it on purpose. 0.10 m keeps the feet closer (0.128 vs
-      0.150 m) but doubles V_stab: legs get moved for kinematics before the support allows it.
-    * ``area`` (walk 3, trot 5 per m^2): moving a foot 5 cm outward adds ~0.01 m^2, i.e. 0.03-0.05;
-      it breaks ties between equivalent footholds toward a wider support (area 0: V_stab 2.4 vs 1.9
-      walking, 7.1 vs 6.0 trotting) and stays far below V_cent's pull (cent/4 per m of foot motion).
-      When it is not (the first guess, cent 2 / area 5), it pushes hind feet backwards, since a hind
-      foot moved back lengthens the polygon (~0.15 m^2 per m), and the feet fall behind.
-    """
-
-    opt: float = 1.0
-    stab: float = 100.0
-    kin: float = 50.0
-    cent: float = 40.0
-    area: float = 3.0
-    #: Horizontal foot-to-hip-reference distance above which a stance foot violates the kinematic limit.
-    kin_threshold_m: float = 0.12
-    #: Each further ``kin_ramp_m`` beyond the threshold adds one more violation (the hinge's slope).
-    kin_ramp_m: float = 0.02
-    #: The hips move with the CoM over the horizon (constant hip-CoM offset): along the CoM reference path
-    #: (``"reference"``: the commanded velocity) or along each candidate's optimized CoM (``"optimized"``).
-    kin_hip_path: str = "reference"
-    #: V of a candidate whose optimization failed (the same constant for all failures).
-    failure_cost: float = 1e6
-
-    def __post_init__(self) -> None:
-        values = (self.opt, self.stab, self.kin, self.cent, self.area, self.failure_cost)
-        if not all(np.isfinite(v) and v >= 0.0 for v in values):
-            raise ValueError(f"cost weights must be finite and >= 0, got {values}")
-        if not (self.kin_threshold_m > 0.0 and self.kin_ramp_m > 0.0):
-            raise ValueError("kin_threshold_m and kin_ramp_m must be > 0")
-        if self.kin_hip_path not in ("reference", "optimized"):
-            raise ValueError(f"kin_hip_path must be 'reference' or 'optimized', got {self.kin_hip_path!r}")
-
-    @classmethod
-    def for_gait(cls, gait_name: str) -> CostWeights:
-        """The tuned weights of a gait (``WALK_WEIGHTS`` or ``TROT_WEIGHTS``)."""
-        try:
-            return {"walk": WALK_WEIGHTS, "trot": TROT_WEIGHTS}[gait_name]
-        except KeyError:
-            raise ValueError(f"no cost weights for gait {gait_name!r}") from None
-
-    def vector(self) -> np.ndarray:
-        """Signed weights of the ``TERM_NAMES`` columns: V = terms @ vector()."""
-        return np.array([self.opt, self.stab, self.kin, self.cent, -self.area])
-
-
-#: Walk: the defaults of ``CostWeights``.
-WALK_WEIGHTS = CostWeights()
-#: Trot: see ``CostWeights``.
-TROT_WEIGHTS = CostWeights(stab=10.0, cent=100.0, area=5.0)
-
-
-@dataclass(frozen=True)
 class CostState:
     """The robot state a ranking cost is evaluated at (world frame, SI units)."""
 
@@ -200,10 +100,11 @@ class CostState:
     surface_z: float = 0.0  #: ground height the swinging feet land on
 
     @classmethod
-    def from_context(cls, ctx) -> CostState:  # noqa: ANN001 - planner.PlanningContext (import cycle)
-        """The state of a ``PlanningContext`` (feet there are ball centres; the height is relative)."""
+    def from_context(cls, ctx, foot_radius_m: float) -> CostState:  # noqa: ANN001 - planner.PlanningContext
+        """The state of a ``PlanningContext`` (feet there are ball centres of ``foot_radius_m``; the CoM
+        height reference is relative to the ground)."""
         feet = np.array(ctx.foot_pos_world, dtype=float)
-        feet[:, 2] -= FOOT_RADIUS_M
+        feet[:, 2] -= foot_radius_m
         surface_z = float(ctx.terrain.surface_z)
         return cls(
             com_pos_world=np.array(ctx.com_pos_world, dtype=float),
@@ -251,83 +152,6 @@ class CostBreakdown:
 # Geometry, vectorized (leading axes broadcast)
 # ----------------------------------------------------------------------------------------------------
 
-_PAIRS = np.array([(i, j) for i in range(4) for j in range(i, 4)])  # with i == j: single points
-_TRIANGLES = np.array(list(itertools.combinations(range(4), 3)))
-_CYCLES = np.array([(0, 1, 2, 3), (0, 1, 3, 2), (0, 2, 1, 3)])  # the 3 cyclic orders of 4 points
-
-
-def support_distance(point_xy: np.ndarray, feet_xy: np.ndarray, stance: np.ndarray) -> np.ndarray:
-    """Distance of points to the convex hull of the stance feet, 0 inside (vectorized).
-
-    ``point_xy`` (..., 2), ``feet_xy`` (..., 4, 2), ``stance`` (..., 4) bool; returns (...). With two
-    stance feet the hull is a segment, with one a point; with none the distance is ``inf``.
-
-    Exact without building the hull: outside the hull, the nearest hull point lies on a hull edge, and
-    every segment between two stance feet lies inside the hull, so the distance is the minimum over all
-    such segments; a point is inside the hull iff it is inside a triangle of three stance feet.
-    """
-    p = np.asarray(point_xy, dtype=float)
-    f = np.asarray(feet_xy, dtype=float)
-    s = np.asarray(stance, dtype=bool)
-    px, py = p[..., 0, None], p[..., 1, None]  # (..., 1)
-    fx, fy = f[..., 0], f[..., 1]  # (..., 4)
-    ax, ay, bx, by = fx[..., _PAIRS[:, 0]], fy[..., _PAIRS[:, 0]], fx[..., _PAIRS[:, 1]], fy[..., _PAIRS[:, 1]]
-    abx, aby, apx, apy = bx - ax, by - ay, px - ax, py - ay  # (..., 10)
-    len2 = abx * abx + aby * aby
-    dot = apx * abx + apy * aby
-    t = np.clip(np.divide(dot, len2, out=np.zeros_like(dot), where=len2 > 0), 0.0, 1.0)
-    seg_dist = np.hypot(apx - t * abx, apy - t * aby)
-    valid = s[..., _PAIRS[:, 0]] & s[..., _PAIRS[:, 1]]
-    dist = np.min(np.where(valid, seg_dist, np.inf), axis=-1)
-    # inside a (non-degenerate) triangle of stance feet -> 0
-    x0, y0 = fx[..., _TRIANGLES[:, 0]], fy[..., _TRIANGLES[:, 0]]  # (..., 4)
-    x1, y1 = fx[..., _TRIANGLES[:, 1]], fy[..., _TRIANGLES[:, 1]]
-    x2, y2 = fx[..., _TRIANGLES[:, 2]], fy[..., _TRIANGLES[:, 2]]
-    c0 = (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0)
-    c1 = (x2 - x1) * (py - y1) - (y2 - y1) * (px - x1)
-    c2 = (x0 - x2) * (py - y2) - (y0 - y2) * (px - x2)
-    twice_area = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0)
-    inside = ((c0 >= 0) & (c1 >= 0) & (c2 >= 0)) | ((c0 <= 0) & (c1 <= 0) & (c2 <= 0))
-    tri_valid = s[..., _TRIANGLES].all(axis=-1) & (np.abs(twice_area) > 1e-12)
-    return np.where((inside & tri_valid).any(axis=-1), 0.0, dist)
-
-
-def _polygon_area_centroid(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Signed area (...) and area centroid (..., 2) of polygons (..., n, 2) (shoelace)."""
-    x, y = vertices[..., 0], vertices[..., 1]
-    xn, yn = np.roll(x, -1, axis=-1), np.roll(y, -1, axis=-1)
-    c = x * yn - xn * y
-    area = 0.5 * c.sum(axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cx = ((x + xn) * c).sum(axis=-1) / (6.0 * area)
-        cy = ((y + yn) * c).sum(axis=-1) / (6.0 * area)
-    centroid = np.stack([cx, cy], axis=-1)
-    degenerate = np.abs(area) < 1e-12  # collinear: fall back to the mean of the vertices
-    centroid = np.where(degenerate[..., None], vertices.mean(axis=-2), centroid)
-    return area, centroid
-
-
-def hull_area_centroid(feet_xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Area (...) and area centroid (..., 2) of the convex hull of 4 points (..., 4, 2) (vectorized).
-
-    The hull is either a quadrilateral (the 4 points in convex position: then the one cyclic order that
-    is not self-intersecting has the largest shoelace area of the three) or a triangle (one point inside
-    the others': then that triangle's area is larger than any of the three orders'). So the hull is the
-    candidate polygon of largest absolute area among the 3 cyclic orders and the 4 triangles.
-    """
-    f = np.asarray(feet_xy, dtype=float)
-    quads = f[..., _CYCLES, :]  # (..., 3, 4, 2)
-    tris = f[..., _TRIANGLES, :]  # (..., 4, 3, 2)
-    qa, qc = _polygon_area_centroid(quads)
-    ta, tc = _polygon_area_centroid(tris)
-    areas = np.abs(np.concatenate([qa, ta], axis=-1))  # (..., 7)
-    cents = np.concatenate([qc, tc], axis=-2)  # (..., 7, 2)
-    best = np.argmax(areas, axis=-1)
-    area = np.take_along_axis(areas, best[..., None], axis=-1)[..., 0]
-    centroid = np.take_along_axis(cents, best[..., None, None], axis=-2)[..., 0, :]
-    return area, centroid
-
-
 def kin_penalty(distance_m: np.ndarray, threshold_m: float, ramp_m: float) -> np.ndarray:
     """Hinge with a jump: 0 up to the threshold, then 1 + (d - threshold) / ramp."""
     d = np.asarray(distance_m, dtype=float)
@@ -350,23 +174,19 @@ def candidate_footholds_world(gait: GaitSpec, grid_centres_world: np.ndarray, ya
     return np.where(swing[..., None], landing, feet[None])
 
 
-def rotation_2d(yaw_rad: float) -> np.ndarray:
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    return np.array([[c, -s], [s, c]])
-
-
 class RankingCost:
     """The ranking cost of one gait: V for every candidate action of a state.
 
-    ``hip_ref_xy_base`` (4, 2): the legs' hip references in the base frame (Solo12's nominal foot XY,
-    ``Solo12.foot_nominal_base[:, :2]``), the centres of the candidate grids. The optimizer (8 nodes,
+    ``robot``: the robot's description; its nominal foot XY (``foot_nominal_base[:, :2]``) are the legs'
+    hip references in the base frame, the centres of the candidate grids, and its ``kin_threshold_m`` the
+    kinematic term's threshold. The optimizer (8 nodes,
     batched interior-point method, ``TrajoptConfig.for_candidates``) is built once.
     """
 
     def __init__(
         self,
         gait: GaitSpec,
-        hip_ref_xy_base: np.ndarray,
+        robot: RobotDescription,
         weights: CostWeights | None = None,
         model: SrbdModel | None = None,
         trajopt_weights: TrajoptWeights | None = None,
@@ -374,9 +194,11 @@ class RankingCost:
     ) -> None:
         self.gait = gait
         self.grid_lead_s = float(grid_lead_s)
-        self.hip_ref_xy_base = np.array(hip_ref_xy_base, dtype=float).reshape(4, 2)
-        self.weights = weights or CostWeights.for_gait(gait.name)
-        self.model = model or SrbdModel()
+        self.robot = robot
+        self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
+        self.kin_threshold_m = float(robot.kin_threshold_m)
+        self.weights = weights or gait.cost_weights
+        self.model = model or SrbdModel.for_robot(robot)
         self.trajopt_weights = trajopt_weights or TrajoptWeights()
         self.trajopt_config = TrajoptConfig.for_candidates(n_nodes=gait.nodes_per_step)
         if abs(self.trajopt_config.dt_s - gait.node_dt_s) > 1e-12:
@@ -482,7 +304,7 @@ class RankingCost:
         and the (N, 2) indices into those M checks of every node's two ends.
         """
         contact, n = self._contact, self.gait.nodes_per_step
-        feet = self._foot_plans(nominal_state(self.hip_ref_xy_base))[..., 0:2]
+        feet = self._foot_plans(nominal_state(self.robot))[..., 0:2]
         same = [
             bool(np.array_equal(contact[:, k], contact[:, k - 1]) and np.array_equal(feet[:, k], feet[:, k - 1]))
             for k in range(1, n)
@@ -525,7 +347,7 @@ class RankingCost:
         hips = self.hip_ref_world(state)[None, None] + self._hip_shift(state, p)[:, states, None, :]
         d = feet - hips
         dist = np.where(contact, np.hypot(d[..., 0], d[..., 1]), 0.0)[:, ends].max(axis=2)  # (N_a, N, 4)
-        kin = kin_penalty(dist, w.kin_threshold_m, w.kin_ramp_m).sum(axis=(1, 2))
+        kin = kin_penalty(dist, self.kin_threshold_m, w.kin_ramp_m).sum(axis=(1, 2))
         area, centroid = hull_area_centroid(feet_xy[:, -1])
         cent = np.linalg.norm(p[:, -1] - centroid, axis=-1)
         return np.stack([stab, kin, cent, area], axis=1)
@@ -612,8 +434,8 @@ class RankingCost:
                         else:
                             hip = hips_now[leg] + j * gait.node_dt_s * np.asarray(state.vel_cmd_world)
                         worst = max(worst, float(np.hypot(*(feet[k, leg, 0:2] - hip))))
-                    if worst > w.kin_threshold_m:
-                        kin += 1.0 + (worst - w.kin_threshold_m) / w.kin_ramp_m
+                    if worst > self.kin_threshold_m:
+                        kin += 1.0 + (worst - self.kin_threshold_m) / w.kin_ramp_m
             final = MultiPoint([tuple(feet[-1, leg, 0:2]) for leg in range(4)]).convex_hull
             cent = final.centroid.distance(Point(*com_xy[-1]))
             terms.append([sol.cost, stab, kin, cent, final.area])
@@ -656,15 +478,18 @@ def predicted_state(
 
 
 def nominal_state(
-    hip_ref_xy_base: np.ndarray,
+    robot: RobotDescription,
     vel_cmd_world: tuple[float, float] = (0.1, 0.0),
-    com_height_m: float = 0.215,
+    com_height_m: float | None = None,
     yaw_rad: float = 0.0,
     foot_offsets_xy: np.ndarray | None = None,
 ) -> CostState:
     """A standing-then-walking state for tests and studies: base at the origin, feet at their hip
-    references plus ``foot_offsets_xy`` (4, 2) (world axes), CoM at the base moving at the command."""
-    hips = np.asarray(hip_ref_xy_base, dtype=float) @ rotation_2d(yaw_rad).T
+    references (the robot's nominal foot XY) plus ``foot_offsets_xy`` (4, 2) (world axes), CoM above the
+    base (default: the robot's nominal height) moving at the command."""
+    if com_height_m is None:
+        com_height_m = robot.com_height_nominal_m
+    hips = np.asarray(robot.foot_nominal_base[:, :2], dtype=float) @ rotation_2d(yaw_rad).T
     feet = np.zeros((4, 3))
     feet[:, 0:2] = hips + (0.0 if foot_offsets_xy is None else np.asarray(foot_offsets_xy, dtype=float))
     vel = np.asarray(vel_cmd_world, dtype=float)
@@ -681,114 +506,13 @@ def nominal_state(
     )
 
 
-# ----------------------------------------------------------------------------------------------------
-# Studies: greedy rollouts (how the weights were chosen) and timing
-# ----------------------------------------------------------------------------------------------------
-
-
-def greedy_rollout(cost: RankingCost, state: CostState, n_steps: int = 30) -> dict:
-    """Take the cheapest action ``n_steps`` times on flat ground, each from the state predicted by the
-    previous one (``predicted_state``: the oracle's own prediction). A cheap stand-in for a simulation:
-    a cost whose greedy choices let the feet fall behind the body, or lift a leg with the CoM outside
-    the remaining support, is a bad cost.
-
-    Returns ``sequence`` (leg names per step), ``worst_foot_hip_m`` (largest horizontal distance of a
-    foot from its hip reference after any step), ``stab`` and ``kin`` (sums of the chosen actions'
-    V_stab, V_kin) and ``repeats`` (fraction of steps that swing the same legs as the step before).
-    """
-    from contactnet.robot import LEG_NAMES
-
-    sequence, worst, stab, kin = [], 0.0, 0.0, 0.0
-    for _ in range(n_steps):
-        result = cost.evaluate(state)
-        best = int(result.ranking()[0])
-        legs = cost.gait.decode(best).legs
-        sequence.append("".join(LEG_NAMES[leg] for leg in legs))
-        stab += float(result.terms[best, 1])
-        kin += float(result.terms[best, 2])
-        footholds = result.footholds_xy_world[best, list(legs)]
-        state = predicted_state(state, footholds, legs, cost.gait.step_duration_s)
-        offsets = state.foot_pos_world[:, 0:2] - cost.hip_ref_world(state)
-        worst = max(worst, float(np.hypot(offsets[:, 0], offsets[:, 1]).max()))
-    repeats = sum(a == b for a, b in zip(sequence[:-1], sequence[1:], strict=True)) / max(1, n_steps - 1)
-    return {"sequence": sequence, "worst_foot_hip_m": worst, "stab": stab, "kin": kin, "repeats": repeats}
-
-
-#: Commanded velocities of ``weight_study`` (world frame, m/s): the data generation range.
-STUDY_VELOCITIES: tuple[tuple[float, float], ...] = (
-    (0.1, 0.0), (0.05, 0.0), (0.0, 0.1), (-0.07, 0.05), (0.06, -0.1), (-0.09, -0.075),
-)
-
-
-def weight_study(gait: GaitSpec, weights: CostWeights, hip_ref_xy_base: np.ndarray, n_steps: int = 30,
-                 **cost_kwargs) -> list[dict]:
-    """Greedy rollouts from standing at every ``STUDY_VELOCITIES`` (rows: velocity + ``greedy_rollout``)."""
-    cost = RankingCost(gait, hip_ref_xy_base, weights, **cost_kwargs)
-    rows = []
-    for vel in STUDY_VELOCITIES:
-        row = greedy_rollout(cost, nominal_state(hip_ref_xy_base, vel), n_steps)
-        rows.append({"vel": vel, **row})
-    return rows
-
-
-def benchmark(n_states: int = 20, seed: int = 0, single_core: bool = True,
-              hip_ref_xy_base: np.ndarray | None = None) -> list[dict]:
-    """Time ``RankingCost.evaluate`` for walk (100 candidates) and trot (162) on perturbed walking states:
-    rows of gait, total_ms, optimizer_ms, rest_ms (medians per state). ``single_core`` pins the process to
-    one CPU and torch to one thread while timing (as ``trajopt.benchmark``)."""
-    from contactnet.gait import TROT, WALK
-    from contactnet.trajopt import _pin_single_core
-
-    hips = _SOLO12_NOMINAL_FOOT_XY if hip_ref_xy_base is None else np.asarray(hip_ref_xy_base, dtype=float)
-    rng = np.random.default_rng(seed)
-    restore = _pin_single_core() if single_core else None
-    rows = []
-    try:
-        for gait in (WALK, TROT):
-            cost = RankingCost(gait, hips)
-            times = []
-            for i in range(n_states + 1):
-                vel = rng.uniform(-0.1, 0.1, 2)
-                state = nominal_state(hips, vel, foot_offsets_xy=rng.uniform(-0.04, 0.04, (4, 2)))
-                result = cost.evaluate(state)
-                if i > 0:  # the first evaluation pays one-time imports
-                    times.append((result.total_s, result.optimizer_s))
-            t = 1e3 * np.asarray(times)
-            rows.append({
-                "gait": gait.name,
-                "candidates": gait.n_actions,
-                "total_ms": float(np.median(t[:, 0])),
-                "optimizer_ms": float(np.median(t[:, 1])),
-                "rest_ms": float(np.median(t[:, 0] - t[:, 1])),
-            })
-    finally:
-        if restore is not None:
-            restore()
-    return rows
-
-
-#: Solo12's nominal foot xy in the base frame (``Solo12.foot_nominal_base[:, :2]``), for studies without
-#: loading the robot model.
-_SOLO12_NOMINAL_FOOT_XY = np.array(
-    [[0.1946, 0.14695], [0.1946, -0.14695], [-0.1946, 0.14695], [-0.1946, -0.14695]]
-)
-
-
 __all__ = [
     "NX",
     "TERM_NAMES",
     "CostBreakdown",
     "CostState",
-    "CostWeights",
     "RankingCost",
-    "TROT_WEIGHTS",
-    "WALK_WEIGHTS",
-    "benchmark",
-    "greedy_rollout",
-    "hull_area_centroid",
     "kin_penalty",
     "nominal_state",
     "predicted_state",
-    "support_distance",
-    "weight_study",
 ]

@@ -1,7 +1,7 @@
 """Data generation (the paper's Sec. III-B): states a walking robot meets, with the ranking cost of
 every candidate action.
 
-An *episode* starts Solo12 on flat ground in a random configuration (joint positions and
+An *episode* starts the robot (Solo12 by default) on flat ground in a random configuration (joint positions and
 velocities perturbed around the stance) with a random reference velocity in (-0.1, 0.1) m/s for x
 and y. Before each lift-off the oracle evaluates V for every candidate action and the cheapest is
 executed in the PyBullet loop (plan + optimize + track): one *instance*, recorded as (u_r, V).
@@ -10,15 +10,13 @@ An episode ends after 30 instances or when the robot falls; a fall drops its las
 Output: a directory of shards (`shard-00000.npz`: `u` (n, 14), `V` (n, N_a), `episode` (n,)), each
 holding `episodes_per_shard` consecutive episodes, and `manifest.json`. Every episode is seeded
 from (seed, episode index), so the dataset does not depend on how many workers made it. Shards and
-the manifest are written atomically: an interrupted run (Ctrl-C, kill) loses at most the shards in
-progress, and running the same command again resumes where it stopped.
+the manifest are written atomically (``contactnet.atomic``): an interrupted run (Ctrl-C, kill) loses at most
+the shards in progress, and running the same command again resumes where it stopped (``contactnet.jobs``).
 """
 
 from __future__ import annotations
 
 import json
-import os
-import signal
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,9 +24,12 @@ from pathlib import Path
 import numpy as np
 
 import contactnet
-from contactnet.gait import GaitSpec, gait_by_name
-from contactnet.network import INPUT_NAMES, network_input
+from contactnet.atomic import atomic_write_text, atomic_write_with
+from contactnet.gait import GaitSpec
+from contactnet.jobs import Job, run_jobs
+from contactnet.network_input import INPUT_NAMES, network_input_of_context
 from contactnet.planner import PlanningContext
+from contactnet.registry import DEFAULT_ROBOT, gait_by_name, robot_names
 
 FORMAT = "contactnet-dataset-v1"
 
@@ -42,6 +43,7 @@ class DatagenConfig:
     """The data-generation procedure (defaults: the paper's)."""
 
     gait: str
+    robot: str = DEFAULT_ROBOT  # contactnet.registry name of the robot that walks
     episodes: int = 1500
     instances_per_episode: int = 30
     drop_on_fall: int = 3
@@ -56,6 +58,8 @@ class DatagenConfig:
 
     def __post_init__(self) -> None:
         gait_by_name(self.gait)
+        if self.robot not in robot_names():
+            raise ValueError(f"unknown robot {self.robot!r}: choose one of {', '.join(robot_names())}")
         if not 1 <= self.episodes <= 10**6:
             raise ValueError(f"episodes must be in 1..1000000, got {self.episodes}")
         if not 1 <= self.instances_per_episode <= 1000:
@@ -77,6 +81,12 @@ class DatagenConfig:
         """What must match for a directory to be resumed."""
         return asdict(self)
 
+    def matches(self, settings: object) -> bool:
+        """Whether a manifest's ``settings`` are these (a manifest written before ``robot`` existed is Solo12's)."""
+        if not isinstance(settings, dict):
+            return False
+        return {"robot": DEFAULT_ROBOT, **settings} == self.settings()
+
 
 def shard_name(shard: int) -> str:
     return f"shard-{shard:05d}.npz"
@@ -85,10 +95,16 @@ def shard_name(shard: int) -> str:
 class RecordingPlanner:
     """Wraps the oracle: records (u_r, V) at every plan, i.e. before every lift-off."""
 
-    def __init__(self, oracle):
+    name = "recording"
+
+    def __init__(self, oracle):  # noqa: ANN001 - contactnet.planner.OraclePlanner
         self.oracle = oracle
         self.inputs: list[np.ndarray] = []
         self.costs: list[np.ndarray] = []
+
+    @property
+    def last_candidates(self):  # noqa: ANN201 - the oracle's CandidateRanking
+        return self.oracle.last_candidates
 
     def reset(self) -> None:
         self.inputs.clear()
@@ -98,15 +114,15 @@ class RecordingPlanner:
 
     def plan(self, ctx: PlanningContext):
         steps = self.oracle.plan(ctx)
-        self.inputs.append(network_input(ctx))
+        self.inputs.append(network_input_of_context(ctx))
         self.costs.append(np.asarray(self.oracle.last_costs.V, dtype=np.float64))
         return steps
 
 
-def make_oracle(gait: GaitSpec, robot, evaluated_steps: int = 1):
+def make_oracle(gait: GaitSpec, robot, evaluated_steps: int = 1):  # noqa: ANN001 - contactnet.robots.Robot
     from contactnet.planner import OraclePlanner
 
-    return OraclePlanner(gait, robot.foot_nominal_base[:, :2], evaluated_steps=evaluated_steps)
+    return OraclePlanner(gait, robot.description, evaluated_steps=evaluated_steps)
 
 
 def run_episode(loco, recorder: RecordingPlanner, config: DatagenConfig, episode: int) -> dict:
@@ -134,27 +150,14 @@ def run_episode(loco, recorder: RecordingPlanner, config: DatagenConfig, episode
     }
 
 
-def _write_atomic(path: Path, write) -> None:
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def make_shard(out_dir: str, config: DatagenConfig, shard: int) -> dict:
-    """Worker: generate one shard's episodes and write the shard file. Returns its counts."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
-    import torch
-
-    torch.set_num_threads(1)
+    """Generate one shard's episodes and write the shard file. Returns its counts."""
     from contactnet.locomotion import Locomotion
-    from contactnet.robot import Solo12
+    from contactnet.robots import load_robot
     from contactnet.sim import SimConfig
     from contactnet.terrain import flat
 
-    robot = Solo12.load()
+    robot = load_robot(config.robot)
     gait = gait_by_name(config.gait)
     recorder = RecordingPlanner(make_oracle(gait, robot, config.oracle_evaluated_steps))
     us, vs, eps, falls = [], [], [], 0
@@ -168,12 +171,7 @@ def make_shard(out_dir: str, config: DatagenConfig, shard: int) -> dict:
             falls += result["fell"]
     u, V, episode_ids = np.concatenate(us), np.concatenate(vs), np.concatenate(eps)
     path = Path(out_dir) / shard_name(shard)
-
-    def write(tmp: Path) -> None:
-        with open(tmp, "wb") as file:
-            np.savez_compressed(file, u=u, V=V, episode=episode_ids)
-
-    _write_atomic(path, write)
+    atomic_write_with(path, lambda file: np.savez_compressed(file, u=u, V=V, episode=episode_ids))
     return {"shard": shard, "instances": len(u), "falls": falls, "seconds": time.perf_counter() - t0}
 
 
@@ -196,6 +194,7 @@ def write_manifest(out_dir: Path, config: DatagenConfig, shards: dict[int, dict]
     manifest = {
         "format": FORMAT,
         "gait": config.gait,
+        "robot": config.robot,
         "n_actions": gait.n_actions,
         "input_names": list(INPUT_NAMES),
         "shards": [shard_name(s) for s in done],
@@ -210,21 +209,18 @@ def write_manifest(out_dir: Path, config: DatagenConfig, shards: dict[int, dict]
         "wall_time_s": wall_s,
         "code_version": contactnet.__version__,
     }
-    path = out_dir / "manifest.json"
-    _write_atomic(path, lambda tmp: tmp.write_text(json.dumps(manifest, indent=1)))
+    atomic_write_text(out_dir / "manifest.json", json.dumps(manifest, indent=1))
     return manifest
 
 
-def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = None, progress: bool = True) -> dict:
-    """Generate (or resume) a dataset in out_dir with `workers` processes (default: all cores).
+def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = None, progress: bool = True,
+             engine: str = "local") -> dict:
+    """Generate (or resume) a dataset in out_dir with `workers` processes (default: all cores; 1: in this
+    process), run by ``contactnet.jobs`` (``engine``).
 
     Ctrl-C stops the workers at once; finished shards stay, listed in the manifest, and the next
     call with the same settings resumes with the missing shards.
     """
-    import multiprocessing
-
-    from tqdm import tqdm
-
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise DatasetDirError(f"{out} exists and is not a directory")
@@ -233,7 +229,7 @@ def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = N
     shards: dict[int, dict] = {}
     wall_before = 0.0
     if manifest is not None:
-        if manifest.get("settings") != config.settings():
+        if not config.matches(manifest.get("settings")):
             raise DatasetDirError(
                 f"{out} holds a dataset made with other settings ({manifest.get('settings')}); "
                 "use another --out, or the same settings to resume"
@@ -244,41 +240,38 @@ def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = N
         wall_before = float(manifest.get("wall_time_s", 0.0))
     elif any(p for p in out.iterdir() if not p.name.startswith(".")):
         raise DatasetDirError(f"{out} is not empty and has no dataset manifest; choose an empty --out")
-    todo = [s for s in range(config.n_shards) if s not in shards]
-    workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
     t0 = time.perf_counter()
     previous = sum(s["instances"] for s in shards.values())
     new_instances = 0
-    bar = tqdm(
-        total=config.episodes,
-        initial=sum(len(config.shard_episodes(s)) for s in shards),
-        unit="episode",
-        disable=not progress,
-        dynamic_ncols=True,
-    )
-    pool = multiprocessing.get_context("spawn").Pool(workers)
+
+    def store(job: Job, stats: dict) -> dict:
+        nonlocal new_instances
+        shards[stats["shard"]] = stats
+        new_instances += stats["instances"]
+        elapsed = time.perf_counter() - t0
+        write_manifest(out, config, shards, wall_before + elapsed)
+        return {"instances": previous + new_instances, "per_s": f"{new_instances / elapsed:.1f}"}
+
+    jobs = [Job(shard, (str(out), config, shard), size=len(config.shard_episodes(shard)))
+            for shard in range(config.n_shards)]
     try:
-        jobs = [(str(out), config, shard) for shard in todo]
-        for stats in pool.imap_unordered(_make_shard_job, jobs):
-            shards[stats["shard"]] = stats
-            new_instances += stats["instances"]
-            elapsed = time.perf_counter() - t0
-            write_manifest(out, config, shards, wall_before + elapsed)
-            bar.update(len(config.shard_episodes(stats["shard"])))
-            bar.set_postfix(instances=previous + new_instances, per_s=f"{new_instances / elapsed:.1f}")
-        pool.close()
+        run_jobs(jobs, _make_shard_job, store, done=shards, workers=workers, progress=progress, unit="episode",
+                 engine=engine, worker_init=_one_torch_thread)
     except BaseException:
-        pool.terminate()
         write_manifest(out, config, shards, wall_before + time.perf_counter() - t0)
         raise
-    finally:
-        pool.join()
-        bar.close()
     return write_manifest(out, config, shards, wall_before + time.perf_counter() - t0)
 
 
 def _make_shard_job(job: tuple[str, DatagenConfig, int]) -> dict:
     return make_shard(*job)
+
+
+def _one_torch_thread() -> None:
+    """Worker processes: one torch thread each (the workers already use every core)."""
+    import torch
+
+    torch.set_num_threads(1)
 
 
 def write_sample(src_dir: str | Path, dst_dir: str | Path, n_shards: int = 2) -> dict:
@@ -308,5 +301,5 @@ def write_sample(src_dir: str | Path, dst_dir: str | Path, n_shards: int = 2) ->
         "shard_stats": stats,
         "sample_of": {"episodes_planned": manifest["episodes_planned"], "instances": manifest["instances"]},
     }
-    _write_atomic(dst / "manifest.json", lambda tmp: tmp.write_text(json.dumps(sample, indent=1)))
+    atomic_write_text(dst / "manifest.json", json.dumps(sample, indent=1))
     return sample

@@ -11,21 +11,23 @@
 
 Every trial is one `Locomotion` run (the same loop as `contactnet simulate`) until the goal, a fall or a
 time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Trials run in worker
-processes; each finished trial is appended to ``DIR/trials.jsonl`` at once, so an interrupted experiment
-resumes with the trials still missing. At the end: ``summary.json``, a table on stdout, and
+processes (``contactnet.jobs``); each finished trial is appended to ``DIR/trials.jsonl`` at once, so an
+interrupted experiment resumes with the trials still missing. At the end: ``summary.json``, a table on stdout, and
 ``success.png`` (the success rates, looked at before they are quoted).
 """
 
 from __future__ import annotations
 
 import json
-import os
-import signal
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+
+from contactnet.atomic import atomic_write_text
+from contactnet.jobs import Job, run_jobs
+from contactnet.robots import DEFAULT_ROBOT
 
 EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random")
 DEFAULT_PLANNERS = {
@@ -47,7 +49,7 @@ class ExperimentError(ValueError):
 
 @dataclass(frozen=True)
 class Trial:
-    """One run: a terrain, a gait, a planner, a seed (sim noise and, for ``random``, the terrain)."""
+    """One run: a terrain, a gait, a planner, a seed (sim noise and, for ``random``, the terrain), a robot."""
 
     experiment: str
     terrain: str
@@ -60,19 +62,23 @@ class Trial:
     model_dir: str | None = None
     bar_width_m: float | None = None  # narrow_map: all three bars this wide
     last_gap_m: float | None = None  # narrow_map: the gap before the last bar
+    robot: str = DEFAULT_ROBOT  # contactnet.registry name
 
     @property
     def key(self) -> str:
+        """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12 (older logs resume)."""
         removed = "" if self.removed is None else f"/{self.removed}"
-        return f"{self.terrain}{removed}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
+        robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
+        return f"{self.terrain}{removed}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}{robot}"
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
               planners: tuple[str, ...] | None = None, removed: tuple[int, ...] = (80,), noise: float = 0.0,
               vx: float = 0.05, model_dir: str | None = None,
-              widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None) -> list[Trial]:
-    """The trials of experiment ``name`` (default: 1 trial per setting on the fixed scenes and on every
-    cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 20 seeds on ``random``)."""
+              widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
+              robot: str = DEFAULT_ROBOT) -> list[Trial]:
+    """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
+    on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 20 seeds on ``random``)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
@@ -82,7 +88,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
     for gait in gaits:
         for planner in planners:
             if name == "random":
-                out += [Trial(name, "random", k, seed, gait, planner, vx, noise, model_dir)
+                out += [Trial(name, "random", k, seed, gait, planner, vx, noise, model_dir, robot=robot)
                         for k in removed for seed in range(n)]
             elif name == "narrow_map":
                 from contactnet.terrain import narrow_stones
@@ -91,19 +97,18 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                     for gap_cm in gaps_cm or NARROW_MAP_GAPS_CM:
                         width_m, gap_m = round(width_cm / 100, 6), round(gap_cm / 100, 6)
                         terrain = narrow_stones(width_m, gap_m).name
-                        out += [Trial(name, terrain, None, seed, gait, planner, vx, noise, model_dir, width_m, gap_m)
-                                for seed in range(n)]
+                        out += [Trial(name, terrain, None, seed, gait, planner, vx, noise, model_dir, width_m, gap_m,
+                                      robot=robot) for seed in range(n)]
             else:
-                out += [Trial(name, name, None, seed, gait, planner, vx, noise, model_dir) for seed in range(n)]
+                out += [Trial(name, name, None, seed, gait, planner, vx, noise, model_dir, robot=robot)
+                        for seed in range(n)]
     return out
 
 
 def run_trial(trial: Trial) -> dict:
     """Run one trial in this process and return its record (the trial, the simulate summary, facts)."""
-    from contactnet.cli import make_planner
-    from contactnet.gait import gait_by_name
     from contactnet.locomotion import Locomotion
-    from contactnet.robot import Solo12
+    from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
     from contactnet.sim import SimConfig
     from contactnet.terrain import narrow_stones, resolve
 
@@ -112,8 +117,8 @@ def run_trial(trial: Trial) -> dict:
     else:
         terrain = resolve(trial.terrain, removed=trial.removed, seed=trial.seed)
     gait = gait_by_name(trial.gait)
-    robot = Solo12.load()
-    model = None if trial.model_dir is None else Path(trial.model_dir) / f"{trial.gait}.pt"
+    robot = load_robot(trial.robot)
+    model = None if trial.model_dir is None else model_path(trial.robot, trial.gait, Path(trial.model_dir))
     planner = make_planner(trial.planner, gait, robot, model=model)
     distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
     limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
@@ -124,12 +129,11 @@ def run_trial(trial: Trial) -> dict:
     return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary}
 
 
-def _worker(trial: Trial) -> dict:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+def _one_torch_thread() -> None:
+    """Worker processes: one torch thread each (the workers already use every core)."""
     import torch
 
     torch.set_num_threads(1)
-    return run_trial(trial)
 
 
 def _read_done(path: Path) -> dict[str, dict]:
@@ -148,50 +152,33 @@ def _read_done(path: Path) -> dict[str, dict]:
         except (json.JSONDecodeError, KeyError, TypeError):
             if number < len(lines):
                 raise ExperimentError(f"{path}: line {number} is not a trial record") from None
-            tmp = path.with_name(f".{path.name}.tmp")
-            tmp.write_text("".join(f"{kept}\n" for kept in lines[:-1]))
-            os.replace(tmp, path)
+            atomic_write_text(path, "".join(f"{kept}\n" for kept in lines[:-1]))
     return done
 
 
 def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
-                   progress: bool = True) -> dict:
-    """Run (or resume) ``trials`` into ``out_dir``; returns the summary (also written to summary.json)."""
-    import multiprocessing
-
-    from tqdm import tqdm
-
+                   progress: bool = True, engine: str = "local") -> dict:
+    """Run (or resume) ``trials`` into ``out_dir`` with ``workers`` processes (default: all cores; 1: in this
+    process), run by ``contactnet.jobs`` (``engine``); returns the summary (also written to summary.json)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ExperimentError(f"{out} exists and is not a directory")
     out.mkdir(parents=True, exist_ok=True)
     log = out / "trials.jsonl"
     done = _read_done(log)
-    wanted = {t.key for t in trials}
-    todo = [t for t in trials if t.key not in done]
-    workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
     t0 = time.perf_counter()
-    with tqdm(total=len(trials), initial=len(trials) - len(todo), unit="trial", disable=not progress,
-              dynamic_ncols=True) as bar:
-        if todo:
-            pool = multiprocessing.get_context("spawn").Pool(workers)
-            try:
-                with open(log, "a") as file:
-                    for record in pool.imap_unordered(_worker, todo):
-                        file.write(json.dumps(record) + "\n")
-                        file.flush()
-                        done[record["key"]] = record
-                        bar.update(1)
-                        bar.set_postfix(last=f"{record['key']}: {'ok' if record['success'] else 'fail'}")
-                pool.close()
-            except BaseException:
-                pool.terminate()
-                raise
-            finally:
-                pool.join()
-    records = [done[k] for k in (t.key for t in trials) if k in wanted]
+
+    def append(job: Job, record: dict) -> dict:
+        with open(log, "a") as file:
+            file.write(json.dumps(record) + "\n")
+        done[record["key"]] = record
+        return {"last": f"{record['key']}: {'ok' if record['success'] else 'fail'}"}
+
+    run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=done, workers=workers, progress=progress,
+             unit="trial", engine=engine, worker_init=_one_torch_thread)
+    records = [done[t.key] for t in trials]
     summary = summarize(name, records, time.perf_counter() - t0)
-    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=1))
     plot_success(summary, out / "success.png")
     return summary
 

@@ -15,14 +15,37 @@ A grid cell is `cell = ix * n + iy`, ix counting along +x (back to front), iy al
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from contactnet.robot import LEG_NAMES
+from contactnet.cost_weights import TROT_WEIGHTS, WALK_WEIGHTS, CostWeights
+from contactnet.robots.description import LEG_NAMES
 
 FL, FR, HL, HR = range(4)
+
+
+def step_schedule(
+    swing_legs: Sequence[int], n_stance_pre: int = 3, n_swing: int = 4, n_stance_post: int = 1
+) -> np.ndarray:
+    """Contact schedule of one step horizon, (n_stance_pre + n_swing + n_stance_post, 4) bool.
+
+    All legs are in stance except ``swing_legs`` during the ``n_swing`` middle nodes.
+    """
+    n = n_stance_pre + n_swing + n_stance_post
+    contact = np.ones((n, 4), dtype=bool)
+    for leg in swing_legs:
+        if not 0 <= leg < 4:
+            raise ValueError(f"leg index {leg} not in 0..3")
+        contact[n_stance_pre : n_stance_pre + n_swing, leg] = False
+    return contact
+
+
+def horizon_schedule(swing_legs_per_step: Sequence[Sequence[int]], **step_kwargs: int) -> np.ndarray:
+    """Concatenate the step schedules of successive step horizons, (sum of nodes, 4) bool."""
+    return np.concatenate([step_schedule(s, **step_kwargs) for s in swing_legs_per_step], axis=0)
 
 
 @dataclass(frozen=True)
@@ -54,6 +77,10 @@ class GaitSpec:
     n_stance_post: int = 1
     steps_per_plan: int = 3
     cyclic_order: tuple[int, ...] = ()  # group order of the fixed cyclic gait (the baseline)
+    #: The ranking cost's weights tuned for this gait (``contactnet.cost_weights``).
+    cost_weights: CostWeights = CostWeights()
+    #: The paper's top-5 accuracy of this gait's network, percent (train, test); None for new gaits.
+    paper_top5: tuple[float, float] | None = None
 
     # ---- timing ----------------------------------------------------------------------------
     @property
@@ -77,16 +104,14 @@ class GaitSpec:
     def horizon_nodes(self) -> int:
         return self.steps_per_plan * self.nodes_per_step
 
-    def step_contact(self, swing_legs: tuple[int, ...]) -> np.ndarray:
+    def step_contact(self, swing_legs: Sequence[int]) -> np.ndarray:
         """(nodes_per_step, 4) bool: True where a leg is in stance during one step horizon."""
-        contact = np.ones((self.nodes_per_step, 4), dtype=bool)
-        swing = slice(self.n_stance_pre, self.n_stance_pre + self.n_swing)
-        contact[swing, list(swing_legs)] = False
-        return contact
+        return step_schedule(swing_legs, self.n_stance_pre, self.n_swing, self.n_stance_post)
 
-    def horizon_contact(self, swing_legs_per_step: list[tuple[int, ...]]) -> np.ndarray:
+    def horizon_contact(self, swing_legs_per_step: Sequence[Sequence[int]]) -> np.ndarray:
         """(n_steps * nodes_per_step, 4) bool: the contact schedule of consecutive steps."""
-        return np.concatenate([self.step_contact(legs) for legs in swing_legs_per_step], axis=0)
+        return horizon_schedule(swing_legs_per_step, n_stance_pre=self.n_stance_pre, n_swing=self.n_swing,
+                                n_stance_post=self.n_stance_post)
 
     # ---- candidate grid --------------------------------------------------------------------
     @property
@@ -192,18 +217,41 @@ WALK = GaitSpec(
     swing_groups=((FL,), (FR,), (HL,), (HR,)),
     grid_n=5,
     cyclic_order=(HL, FL, HR, FR),  # the classic crawl: a hind leg, then the front leg on its side
+    cost_weights=WALK_WEIGHTS,
+    paper_top5=(93.48, 90.81),
 )
 TROT = GaitSpec(
     name="trot",
     swing_groups=((FL, HR), (FR, HL)),
     grid_n=3,
     cyclic_order=(0, 1),
+    cost_weights=TROT_WEIGHTS,
+    paper_top5=(99.48, 97.7),
 )
-GAITS: dict[str, GaitSpec] = {"walk": WALK, "trot": TROT}
+
+
+# ---- the table of gaits (``contactnet.registry`` re-exports it) ------------------------------------------
+_GAITS: dict[str, GaitSpec] = {}
+
+
+def register_gait(spec: GaitSpec) -> GaitSpec:
+    """Make a gait known by its name (CLI ``--gait``, the web app, model files). Returns the spec."""
+    if spec.name in _GAITS and _GAITS[spec.name] is not spec:
+        raise ValueError(f"a gait named {spec.name!r} is already registered")
+    _GAITS[spec.name] = spec
+    return spec
+
+
+def gait_names() -> tuple[str, ...]:
+    return tuple(_GAITS)
 
 
 def gait_by_name(name: str) -> GaitSpec:
     try:
-        return GAITS[name]
+        return _GAITS[name]
     except KeyError:
-        raise ValueError(f"unknown gait {name!r}: choose one of {', '.join(GAITS)}") from None
+        raise ValueError(f"unknown gait {name!r}: choose one of {', '.join(_GAITS)}") from None
+
+
+register_gait(WALK)
+register_gait(TROT)

@@ -21,9 +21,10 @@ from typing import Any
 import numpy as np
 
 from contactnet.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
+from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
-from contactnet.planner import PlannedStep, PlanningContext, rotate_xy
-from contactnet.robot import FOOT_RADIUS_M, LEG_NAMES, Solo12
+from contactnet.planner import PlannedStep, Planner, PlanningContext
+from contactnet.robots.description import Robot
 from contactnet.sim import Push, SimConfig, SimState, Simulator
 from contactnet.terrain import Terrain
 from contactnet.trajopt import (
@@ -118,16 +119,16 @@ def summary_stats(values_s: list[float]) -> dict[str, float]:
 
 
 class Locomotion:
-    """The planning-and-control loop around one simulated Solo12."""
+    """The planning-and-control loop around one simulated robot."""
 
     def __init__(
         self,
-        robot: Solo12,
+        robot: Robot,
         terrain: Terrain,
         gait: GaitSpec,
-        planner,
+        planner: Planner,
         sim_config: SimConfig = SimConfig(),
-        gains: ControllerGains = ControllerGains(),
+        gains: ControllerGains | None = None,
         config: LocomotionConfig = LocomotionConfig(),
         vel_cmd_xy: tuple[float, float] = (0.0, 0.0),
     ):
@@ -138,19 +139,15 @@ class Locomotion:
         self.config = config
         self.sim = Simulator(robot, terrain, sim_config)
         self.controller = WholeBodyController(robot, gains)
-        model = SrbdModel(
-            mass_kg=robot.mass_kg,
-            inertia_body=tuple(robot.inertia_com_standing.ravel()),
-            gravity=sim_config.gravity,
-            mu=config.mu,
-        )
+        model = SrbdModel.for_robot(robot.description, gravity=sim_config.gravity, mu=config.mu)
         if config.trajopt.n_nodes != gait.horizon_nodes or abs(config.trajopt.dt_s - gait.node_dt_s) > 1e-12:
             raise ValueError("the optimizer's horizon must be the gait's 3 step horizons")
         self.optimizer = TrajectoryOptimizer(model, config.trajopt, config.trajopt_weights)
         self.ticks_per_node = round(gait.node_dt_s / sim_config.dt_s)
         self.ticks_per_step = self.ticks_per_node * gait.nodes_per_step
         self._reoptimize_ticks = self.ticks_per_node * config.reoptimize_every_nodes
-        self.com_height_ref_m = float(robot.base_height_standing_m + robot.com_base_standing[2])
+        self.foot_radius_m = robot.description.foot_radius_m
+        self.com_height_ref_m = robot.description.com_height_nominal_m
         self.vel_cmd_xy = np.asarray(vel_cmd_xy, dtype=float)
         self.reset()
 
@@ -158,8 +155,7 @@ class Locomotion:
     def reset(self, joint_pos: np.ndarray | None = None, joint_vel: np.ndarray | None = None) -> None:
         """Back to the terrain's start (standing, or the given joint positions and velocities)."""
         self.sim.reset(joint_pos=joint_pos, joint_vel=joint_vel)
-        if hasattr(self.planner, "reset"):
-            self.planner.reset()
+        self.planner.reset()
         self.tick = 0
         self.yaw_ref_rad = 0.0
         self.set_command(*self.vel_cmd_xy)
@@ -272,7 +268,7 @@ class Locomotion:
         contact = gait.horizon_contact([s.legs for s in steps])
         n = len(contact)
         foot_pos = np.repeat(ctx.foot_pos_world[None], n, axis=0)
-        foot_pos[..., 2] -= FOOT_RADIUS_M  # contact points, not ball centres
+        foot_pos[..., 2] -= self.foot_radius_m  # contact points, not ball centres
         for j, step in enumerate(steps):
             touchdown_node = j * gait.nodes_per_step + gait.n_stance_pre + gait.n_swing
             for leg, xy in zip(step.legs, step.footholds_xy_world, strict=True):
@@ -282,7 +278,7 @@ class Locomotion:
         first = steps[0]
         swings = {}
         for leg, xy in zip(first.legs, first.footholds_xy_world, strict=True):
-            end = np.array([xy[0], xy[1], self.terrain.surface_z + FOOT_RADIUS_M])
+            end = np.array([xy[0], xy[1], self.terrain.surface_z + self.foot_radius_m])
             swings[leg] = SwingTrajectory(
                 start_world=ctx.foot_pos_world[leg].copy(),
                 end_world=end,
@@ -294,7 +290,7 @@ class Locomotion:
         self.records.append(
             StepRecord(
                 t_s=t_now,
-                legs=tuple(LEG_NAMES[leg] for leg in first.legs),
+                legs=tuple(self.robot.description.leg_names[leg] for leg in first.legs),
                 footholds_xy_world=np.asarray(first.footholds_xy_world),
                 planner_s=planner_s,
                 rank=first.rank,
@@ -407,11 +403,11 @@ class Locomotion:
             last_planner_ms=1e3 * self.planner_times_s[-1] if self.planner_times_s else 0.0,
             last_trajopt_ms=1e3 * self.trajopt_times_s[-1] if self.trajopt_times_s else 0.0,
             steps=len(self.records),
-            candidates=getattr(self.planner, "last_candidates", None),
+            candidates=self.planner.last_candidates,
         )
 
     def summary(self) -> dict:
-        """The `contactnet simulate --json` object (DESIGN.md), plus a few diagnostics at the end."""
+        """The `contactnet simulate --json` object (docs/architecture.md, "Contracts"), plus a few diagnostics."""
         ranks = [r.rank for r in self.records if r.rank is not None]
         sim_time = float(self.sim.t_s)
         displacement = self._state.base_pos_world[:2] - self.start_xy

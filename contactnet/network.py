@@ -10,18 +10,22 @@ Two implementations of the same forward pass:
 - `NumpyContactNet` for the planner: raw inputs, normalization folded into the first layer, a few
   microseconds per evaluation, no torch call on the hot path.
 
-Model file (`contactnet/models/{walk,trot}.pt`): one `torch.save`d dict of plain tensors, strings,
-numbers and lists, loadable with `torch.load(path, weights_only=True)`:
+The inputs u_r themselves are defined in `contactnet.network_input` (re-exported here).
+
+Model file (``contactnet.registry.model_path(robot, gait)``: ``contactnet/models/{walk,trot}.pt`` for
+Solo12): one `torch.save`d dict of plain tensors, strings, numbers and lists, loadable with
+`torch.load(path, weights_only=True)`:
     {"format": "contactnet-model-v1", "gait": "walk", "n_actions": 100, "n_inputs": 14,
      "hidden": [128, 128, 128], "state_dict": {name: tensor}, "normalizer": {...},
-     "metadata": {...}}
+     "metadata": {"robot": "solo12", ...}}
+``metadata["robot"]`` names the robot the training data was made with; a file without it (the shipped
+walk.pt and trot.pt predate the field) is a Solo12 model.
 """
 
 from __future__ import annotations
 
 import os
 import pickle
-import tempfile
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,61 +35,20 @@ import numpy as np
 import torch
 from torch import nn
 
-from contactnet.planner import PlanningContext, rotate_xy
+from contactnet.atomic import atomic_write_with
+from contactnet.gait import gait_by_name
+from contactnet.network_input import (
+    INPUT_NAMES,
+    N_INPUTS,
+    network_input,
+    network_input_of_context,
+    network_input_of_state,
+    network_input_one,
+)
+from contactnet.robots import DEFAULT_ROBOT
 
 MODEL_FORMAT = "contactnet-model-v1"
-N_INPUTS = 14
 HIDDEN = (128, 128, 128)
-INPUT_NAMES = (
-    "FL_x_com", "FL_y_com", "FR_x_com", "FR_y_com", "HL_x_com", "HL_y_com", "HR_x_com", "HR_y_com",
-    "com_z", "com_vx", "com_vy", "com_vz", "cmd_vx", "cmd_vy",
-)  # fmt: skip
-
-
-def network_input(ctx: PlanningContext) -> np.ndarray:
-    """The network input u_r (14,) of the paper, in the yaw-aligned CoM frame.
-
-    Foot XY relative to the CoM (8), CoM height above the surface (1), CoM velocity (3), commanded
-    velocity (2). Expressing the horizontal vectors in the heading frame makes the ranking
-    independent of where the robot stands and which way it faces.
-    """
-    feet_xy = rotate_xy(ctx.foot_pos_world[:, :2] - ctx.com_pos_world[:2], -ctx.yaw_rad)
-    vel_xy = rotate_xy(ctx.com_vel_world[:2], -ctx.yaw_rad)
-    return np.concatenate(
-        [
-            feet_xy.ravel(),
-            [ctx.com_pos_world[2] - ctx.terrain.surface_z],
-            vel_xy,
-            [ctx.com_vel_world[2]],
-            ctx.vel_cmd_xy,
-        ]
-    ).astype(np.float64)
-
-
-def network_input_of_state(state) -> np.ndarray:  # noqa: ANN001 - contactnet.cost.CostState (import cycle)
-    """``network_input`` of a ``CostState`` (a measured one or one predicted a step ahead): the planner's
-    steps 2 and 3 feed the predicted state, with the chosen footholds, back into the network."""
-    c, s = np.cos(state.yaw_rad), np.sin(state.yaw_rad)
-    com = state.com_pos_world
-    feet = state.foot_pos_world
-    vel = state.com_vel_world
-    cmd = state.vel_cmd_world
-    u = np.empty(N_INPUTS)
-    dx = feet[:, 0] - com[0]
-    dy = feet[:, 1] - com[1]
-    u[0:8:2] = c * dx + s * dy
-    u[1:8:2] = -s * dx + c * dy
-    u[8] = com[2] - state.surface_z
-    u[9] = c * vel[0] + s * vel[1]
-    u[10] = -s * vel[0] + c * vel[1]
-    u[11] = vel[2]
-    u[12] = c * cmd[0] + s * cmd[1]
-    u[13] = -s * cmd[0] + c * cmd[1]
-    return u
-
-
-# The paper's top-5 accuracy (percent), train / test (Sec. IV-A).
-PAPER_TOP5 = {"walk": (93.48, 90.81), "trot": (99.48, 97.7)}
 
 
 class ModelFileError(ValueError):
@@ -93,8 +56,7 @@ class ModelFileError(ValueError):
 
 
 def _n_actions_of(gait: str) -> int:
-    from contactnet.gait import gait_by_name
-
+    """N_a of a registered gait; ValueError for an unknown one."""
     return gait_by_name(gait).n_actions
 
 
@@ -329,18 +291,13 @@ class LoadedModel:
     normalizer: Normalizer
     net: NumpyContactNet
     metadata: dict[str, Any] = field(default_factory=dict)
+    robot: str = DEFAULT_ROBOT  #: the robot the model was trained for (``metadata["robot"]``)
 
     def scores(self, u: np.ndarray) -> np.ndarray:
         return self.net.scores(u)
 
     def ranking(self, u: np.ndarray) -> np.ndarray:
         return self.net.ranking(u)
-
-
-def default_model_path(gait: str) -> Path:
-    """`contactnet/models/{gait}.pt` inside the package (the shipped trained models)."""
-    _n_actions_of(gait)  # ValueError for an unknown gait
-    return Path(__file__).resolve().parent / "models" / f"{gait}.pt"
 
 
 def _plain(value: Any, where: str) -> Any:
@@ -363,19 +320,24 @@ def _plain(value: Any, where: str) -> Any:
 
 
 def save_model(path: str | os.PathLike, model: ContactNet, normalizer: Normalizer, metadata: dict[str, Any]) -> Path:
-    """Write the model file atomically (temp file in the same folder, then os.replace).
+    """Write the model file atomically (``contactnet.atomic``: a reader sees the old file or the new one).
 
-    `metadata` must name the `gait`; it is stored as plain values (see the module docstring)."""
+    `metadata` must name the `gait`, and may name the `robot` (default Solo12); it is stored as plain
+    values (see the module docstring)."""
     path = Path(path)
     gait = metadata.get("gait")
     if gait is None:
         raise ValueError("save_model: metadata must contain 'gait'")
+    robot = metadata.get("robot", DEFAULT_ROBOT)
+    if not isinstance(robot, str) or not robot:
+        raise ValueError(f"save_model: metadata 'robot' must be a robot name, got {robot!r}")
     if _n_actions_of(gait) != model.n_actions:
         raise ValueError(f"save_model: gait {gait!r} has {_n_actions_of(gait)} actions, model {model.n_actions}")
     if normalizer.low.size != model.n_inputs:
         raise ValueError(f"save_model: normalizer has {normalizer.low.size} inputs, model {model.n_inputs}")
     meta = _plain(dict(metadata), "metadata")
     meta["n_actions"] = model.n_actions
+    meta["robot"] = robot
     meta.setdefault("normalization", normalizer.to_dict())
     payload = {
         "format": MODEL_FORMAT,
@@ -387,21 +349,7 @@ def save_model(path: str | os.PathLike, model: ContactNet, normalizer: Normalize
         "normalizer": normalizer.to_dict(),
         "metadata": meta,
     }
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            torch.save(payload, handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp_name, 0o666 & ~umask)  # mkstemp makes it private; a model file is an ordinary file
-        os.replace(tmp_name, path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
-    return path
+    return atomic_write_with(path, lambda handle: torch.save(payload, handle))
 
 
 def _first_line(exc: BaseException, limit: int = 120) -> str:
@@ -410,9 +358,12 @@ def _first_line(exc: BaseException, limit: int = 120) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def load_model(path: str | os.PathLike, expect_gait: str | None = None,
-               expect_n_actions: int | None = None, dtype: Any = np.float64) -> LoadedModel:
-    """Load and check a model file; any problem raises ModelFileError naming the file."""
+def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n_actions: int | None = None,
+               expect_robot: str | None = None, dtype: Any = np.float64) -> LoadedModel:
+    """Load and check a model file; any problem raises ModelFileError naming the file.
+
+    ``expect_gait``, ``expect_n_actions``, ``expect_robot``: refuse a model of another gait, size or robot
+    (a file that names no robot is a Solo12 model)."""
     path = Path(path)
 
     def fail(problem: str) -> ModelFileError:
@@ -466,6 +417,11 @@ def load_model(path: str | os.PathLike, expect_gait: str | None = None,
     metadata = payload["metadata"]
     if not isinstance(metadata, dict):
         raise fail("metadata is not a dict")
+    robot = metadata.get("robot", DEFAULT_ROBOT)
+    if not isinstance(robot, str) or not robot:
+        raise fail(f"metadata names the robot {robot!r}, not a robot name")
+    if expect_robot is not None and robot != expect_robot:
+        raise fail(f"is a {robot!r} model, but a {expect_robot!r} model was expected")
     try:
         normalizer = Normalizer.from_dict(payload["normalizer"])
     except (ValueError, TypeError) as exc:
@@ -496,7 +452,7 @@ def load_model(path: str | os.PathLike, expect_gait: str | None = None,
     model.eval()
     net = NumpyContactNet.from_torch(model, normalizer, dtype=dtype)
     return LoadedModel(path=path, gait=gait, n_actions=n_actions, torch_model=model, normalizer=normalizer,
-                       net=net, metadata=dict(metadata))
+                       net=net, metadata=dict(metadata), robot=robot)
 
 
 def torch_scores(model: ContactNet, normalizer: Normalizer, u: np.ndarray) -> np.ndarray:
@@ -507,7 +463,7 @@ def torch_scores(model: ContactNet, normalizer: Normalizer, u: np.ndarray) -> np
 
 
 __all__ = [
-    "INPUT_NAMES", "MODEL_FORMAT", "network_input", "N_INPUTS", "PAPER_TOP5", "ContactNet", "LoadedModel", "ModelFileError",
-    "Normalizer", "NumpyContactNet", "cheapest_first", "default_model_path", "load_model", "rank_targets",
-    "save_model", "topk_accuracy", "torch_scores",
+    "INPUT_NAMES", "MODEL_FORMAT", "N_INPUTS", "ContactNet", "LoadedModel", "ModelFileError", "Normalizer",
+    "NumpyContactNet", "cheapest_first", "load_model", "network_input", "network_input_of_context",
+    "network_input_of_state", "network_input_one", "rank_targets", "save_model", "topk_accuracy", "torch_scores",
 ]

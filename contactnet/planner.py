@@ -14,10 +14,14 @@ in how they choose; the loop (`locomotion.py`) treats them alike.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
+from contactnet.network_input import network_input_one
+from contactnet.robots.description import RobotDescription
 from contactnet.terrain import Terrain
 
 
@@ -46,9 +50,9 @@ class PlanningContext:
     vel_cmd_xy: np.ndarray  # (2,) commanded velocity, horizontal body frame
     terrain: Terrain
     gait: GaitSpec
+    com_height_ref_m: float  # nominal CoM height above the ground (the robot's)
     rpy: np.ndarray = field(default_factory=lambda: np.zeros(3))  # base roll, pitch, yaw
     ang_vel_world: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    com_height_ref_m: float = 0.215  # nominal CoM height above the surface
 
     def vel_cmd_world(self) -> np.ndarray:
         return rotate_xy(self.vel_cmd_xy, self.yaw_rad)
@@ -58,10 +62,21 @@ class PlanningContext:
         return base_xy_world + rotate_xy(self.hip_ref_xy_base, self.yaw_rad)
 
 
-def rotate_xy(xy: np.ndarray, yaw_rad: float) -> np.ndarray:
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    xy = np.asarray(xy, dtype=float)
-    return np.stack([c * xy[..., 0] - s * xy[..., 1], s * xy[..., 0] + c * xy[..., 1]], axis=-1)
+@runtime_checkable
+class Planner(Protocol):
+    """What the locomotion loop, the CLI and the web app need of a contact planner.
+
+    ``plan`` returns ``ctx.gait.steps_per_plan`` steps (the first is executed now); ``last_candidates`` is
+    the ranking the planner saw for that first step (``CandidateRanking``), or None for planners that do
+    not rank. Register a new one with ``contactnet.registry.register_planner``.
+    """
+
+    name: str
+    last_candidates: CandidateRanking | None
+
+    def reset(self) -> None: ...
+
+    def plan(self, ctx: PlanningContext) -> list[PlannedStep]: ...
 
 
 def touchdown_times_s(gait: GaitSpec) -> np.ndarray:
@@ -79,6 +94,7 @@ class HeuristicPlanner:
     raibert_gain: float = 0.15  # s: extra step per m/s of velocity error (about sqrt(h / g))
     max_offset_m: float = 0.12  # clamp of the foothold around the hip reference
     _next_group: int = field(default=0, init=False)
+    last_candidates: None = field(default=None, init=False)  # it does not rank
 
     name = "heuristic"
 
@@ -143,23 +159,23 @@ class OraclePlanner:
     def __init__(
         self,
         gait: GaitSpec,
-        robot_nominal_foot_xy_base: np.ndarray,
-        weights=None,  # noqa: ANN001 - contactnet.cost.CostWeights (default: the gait's tuned weights)
+        robot: RobotDescription,
+        weights=None,  # noqa: ANN001 - contactnet.cost_weights.CostWeights (default: the gait's)
         margin_m: float | None = None,
-        model=None,  # noqa: ANN001 - contactnet.trajopt.SrbdModel (default: SrbdModel())
+        model=None,  # noqa: ANN001 - contactnet.trajopt.SrbdModel (default: the robot's)
         evaluated_steps: int | None = None,
     ) -> None:
-        from contactnet.cost import CostWeights, RankingCost
-        from contactnet.robot import FOOT_RADIUS_M
+        from contactnet.cost import RankingCost
 
         self.gait = gait
-        self.weights = weights if weights is not None else CostWeights.for_gait(gait.name)
-        self.margin_m = 0.5 * FOOT_RADIUS_M if margin_m is None else float(margin_m)
-        self.cost = RankingCost(gait, robot_nominal_foot_xy_base, self.weights, model=model)
+        self.robot = robot
+        self.weights = weights if weights is not None else gait.cost_weights
+        self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
+        self.cost = RankingCost(gait, robot, self.weights, model=model)
         self.evaluated_steps = gait.steps_per_plan if evaluated_steps is None else int(evaluated_steps)
         if not 1 <= self.evaluated_steps <= gait.steps_per_plan:
             raise ValueError(f"evaluated_steps must be in 1..{gait.steps_per_plan}, got {evaluated_steps}")
-        self.hip_ref_xy_base = np.array(robot_nominal_foot_xy_base, dtype=float).reshape(4, 2)
+        self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.last_costs = None
         self.last_state = None
         self.last_candidates: CandidateRanking | None = None
@@ -172,7 +188,7 @@ class OraclePlanner:
     def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
         from contactnet.cost import CostState, predicted_state
 
-        state = CostState.from_context(ctx)
+        state = CostState.from_context(ctx, self.robot.foot_radius_m)
         steps = []
         for j in range(self.gait.steps_per_plan):
             if j >= self.evaluated_steps:
@@ -374,17 +390,16 @@ class ContactNetPlanner:
 
     name = "contactnet"
 
-    def __init__(self, gait: GaitSpec, robot_nominal_foot_xy_base: np.ndarray, model,  # noqa: ANN001
+    def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None) -> None:
-        from contactnet.robot import FOOT_RADIUS_M
-
         if model.gait != gait.name or model.n_actions != gait.n_actions:
             raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} actions), "
                              f"not {gait.name} ({gait.n_actions})")
         self.gait = gait
+        self.robot = robot
         self.model = model
-        self.hip_ref_xy_base = np.array(robot_nominal_foot_xy_base, dtype=float).reshape(4, 2)
-        self.margin_m = 0.5 * FOOT_RADIUS_M if margin_m is None else float(margin_m)
+        self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
+        self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
         self.last_candidates: CandidateRanking | None = None
 
     def reset(self) -> None:
@@ -403,22 +418,20 @@ class ContactNetPlanner:
         ``predicted_state`` step by step."""
         gait = self.gait
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
-        to_world = np.array([[c, -s], [s, c]])  # heading frame -> world; row vectors @ to_world = to heading
+        to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
         hips_world = self.hip_ref_xy_base @ to_world.T
         offsets_world = gait.cell_offsets_xy @ to_world.T
         feet_xy = np.array(ctx.foot_pos_world, dtype=float)[:, 0:2]
-        com_xy = np.array(ctx.com_pos_world[0:2], dtype=float)
+        com = np.array(ctx.com_pos_world, dtype=float)
+        vel = np.array(ctx.com_vel_world, dtype=float)
         base_xy = np.array(ctx.base_xy_world, dtype=float)
-        cmd_world = to_world @ np.asarray(ctx.vel_cmd_xy, dtype=float)
+        cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
+        cmd_world = to_world @ cmd_xy
         shift = cmd_world * gait.step_duration_s
-        u = np.empty(14)
-        u[8] = ctx.com_pos_world[2] - ctx.terrain.surface_z
-        u[9:11] = np.asarray(ctx.com_vel_world[0:2], dtype=float) @ to_world
-        u[11] = ctx.com_vel_world[2]
-        u[12:14] = ctx.vel_cmd_xy
+        ground_z = float(ctx.terrain.surface_z)
         steps = []
         for j in range(gait.steps_per_plan):
-            u[0:8] = ((feet_xy - com_xy) @ to_world).ravel()
+            u = network_input_one(feet_xy, com, vel, cmd_xy, ctx.yaw_rad, ground_z)
             order = self._order(self.model.scores(u), j)
             cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
             step = first_safe_step(gait, order, cells, feet_xy, ctx.terrain, self.margin_m)
@@ -428,11 +441,10 @@ class ContactNetPlanner:
             steps.append(step)
             # The state a step later, as contactnet.cost.predicted_state predicts it.
             feet_xy[list(step.legs)] = step.footholds_xy_world
-            com_xy += shift
+            com[0:2] += shift
+            com[2] = ground_z + ctx.com_height_ref_m
             base_xy += shift
-            u[8] = ctx.com_height_ref_m
-            u[9:11] = ctx.vel_cmd_xy
-            u[11] = 0.0
+            vel = np.array([cmd_world[0], cmd_world[1], 0.0])
         self._advance()
         return steps
 
@@ -444,9 +456,9 @@ class FixedGaitPlanner(ContactNetPlanner):
 
     name = "fixed"
 
-    def __init__(self, gait: GaitSpec, robot_nominal_foot_xy_base: np.ndarray, model,  # noqa: ANN001
+    def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None) -> None:
-        super().__init__(gait, robot_nominal_foot_xy_base, model, margin_m)
+        super().__init__(gait, robot, model, margin_m)
         self._next_group = 0
 
     def reset(self) -> None:

@@ -1,4 +1,4 @@
-"""The PyBullet world: Solo12 on a terrain, stepped at 1 kHz under torque control.
+"""The PyBullet world: a robot on a terrain, stepped at 1 kHz under torque control.
 
 One `Simulator` owns one PyBullet client in DIRECT mode (no window), so several can live in one
 process (data generation, tests). PyBullet is not thread-safe: only the thread that made a
@@ -17,14 +17,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from contactnet.robot import (
-    FOOT_FRAMES,
-    FOOT_RADIUS_M,
-    JOINT_NAMES,
-    LEG_NAMES,
-    TORQUE_LIMIT_NM,
-    Solo12,
-)
+from contactnet.frames import quat_to_matrix, quat_to_rpy, yaw_to_quat
+from contactnet.robots.description import LEG_NAMES, Robot
 from contactnet.terrain import Terrain
 
 
@@ -38,11 +32,10 @@ class SimConfig:
     joint_vel_noise_var: float = 0.0  # variance of the Gaussian noise on measured joint velocities
     seed: int = 0
     terrain_thickness_m: float = 0.4
-    fall_base_height_m: float = 0.10  # base origin below surface_z + this: fallen
+    fall_base_height_m: float | None = None  # base origin below the ground + this: fallen (None: the robot's)
     fall_tilt_rad: float = 0.9  # |roll| or |pitch| above this: fallen
     solver_iterations: int = 50
     sphere_feet: bool = True  # False: the URDF's mesh feet (slower; for comparisons)
-    torque_limit_nm: float = TORQUE_LIMIT_NM
 
     def __post_init__(self) -> None:
         if not 1e-4 <= self.dt_s <= 0.01:
@@ -77,7 +70,7 @@ class Push:
         if t0 < 0 or not 0 < duration <= 60:
             raise ValueError(f"--push needs T0 >= 0 and 0 < DURATION <= 60 s, got {text!r}")
         if max(abs(fx), abs(fy)) > 100:
-            raise ValueError(f"--push force beyond +-100 N (the robot weighs 25 N), got {text!r}")
+            raise ValueError(f"--push force beyond +-100 N, got {text!r}")
         return Push(t0, duration, (fx, fy, 0.0))
 
 
@@ -124,39 +117,14 @@ def _stdout_silenced():
         os.close(saved)
 
 
-def quat_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a unit quaternion (x, y, z, w)."""
-    x, y, z, w = (float(c) for c in quat_xyzw)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def quat_to_rpy(quat_xyzw: np.ndarray) -> np.ndarray:
-    """Roll, pitch, yaw (ZYX Euler angles) of a unit quaternion, rad."""
-    x, y, z, w = quat_xyzw
-    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
-
-
-def yaw_to_quat(yaw_rad: float) -> np.ndarray:
-    return np.array([0.0, 0.0, np.sin(yaw_rad / 2), np.cos(yaw_rad / 2)])
-
-
 class Simulator:
-    """Solo12 on a terrain in PyBullet (DIRECT mode, torque control, fixed time step).
+    """A robot on a terrain in PyBullet (DIRECT mode, torque control, fixed time step).
 
     `step(tau)` applies joint torques (saturated to the motor limit) for one time step, with any
     active pushes. `state()` reads the sensors. `fallen()` and `reached_goal()` are the referee.
     """
 
-    def __init__(self, robot: Solo12, terrain: Terrain, config: SimConfig = SimConfig()):
+    def __init__(self, robot: Robot, terrain: Terrain, config: SimConfig = SimConfig()):
         with _stdout_silenced():  # PyBullet prints a banner on the C stdout (it would spoil --json)
             import pybullet
             from pybullet_utils.bullet_client import BulletClient
@@ -165,6 +133,10 @@ class Simulator:
         self.robot = robot
         self.terrain = terrain
         self.config = config
+        description = robot.description
+        self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float)
+        self.fall_base_height_m = (description.fall_base_height_m if config.fall_base_height_m is None
+                                   else float(config.fall_base_height_m))
         self._pb = pybullet
         self.client = client
         self._cid = client._client  # hot-path calls go to pybullet directly (BulletClient wraps each call)
@@ -216,13 +188,15 @@ class Simulator:
             info = c.getJointInfo(self.robot_id, i)
             joints[info[1].decode()] = i
             links[info[12].decode()] = i
-        missing = [n for n in JOINT_NAMES + FOOT_FRAMES if n not in joints and n not in links]
+        description = self.robot.description
+        missing = [n for n in description.joint_names + description.foot_frames if n not in joints and n not in links]
         if missing:
             raise RuntimeError(f"PyBullet model lacks {missing}")
-        self.joint_ids = [joints[n] for n in JOINT_NAMES]
-        self.foot_links = [links[f] for f in FOOT_FRAMES]
+        self.joint_ids = [joints[n] for n in description.joint_names]
+        self.foot_links = [links[f] for f in description.foot_frames]
         self._foot_slot = {link: i for i, link in enumerate(self.foot_links)}
-        self.link_names = {i: name for name, i in links.items()} | {-1: "base_link"}
+        base_name = c.getBodyInfo(self.robot_id)[0].decode()
+        self.link_names = {i: name for name, i in links.items()} | {-1: base_name}
         # Disable the default velocity motors: joints move only under our torques.
         c.setJointMotorControlArray(
             self.robot_id, self.joint_ids, self._pb.VELOCITY_CONTROL, forces=[0.0] * len(self.joint_ids)
@@ -250,7 +224,7 @@ class Simulator:
         xy = self.terrain.start_xy if base_xy is None else np.asarray(base_xy, float)
         if base_height_m is None:
             q = np.concatenate([[0, 0, 0], yaw_to_quat(0.0), q_joint])
-            base_height_m = -self.robot.foot_positions_world(q)[:, 2].min() + FOOT_RADIUS_M + 1e-3
+            base_height_m = -self.robot.foot_positions_world(q)[:, 2].min() + self.robot.description.foot_radius_m + 1e-3
         pos = [float(xy[0]), float(xy[1]), self.terrain.surface_z + base_height_m]
         c.resetBasePositionAndOrientation(self.robot_id, pos, list(yaw_to_quat(base_yaw_rad)))
         c.resetBaseVelocity(self.robot_id, [0, 0, 0], [0, 0, 0])
@@ -269,7 +243,7 @@ class Simulator:
     def step(self, tau: np.ndarray) -> None:
         """Apply joint torques (N m, pinocchio order; clipped to the motor limit) for one time step."""
         pb, cid = self._pb, self._cid
-        limit = self.config.torque_limit_nm
+        limit = self.torque_limit_nm
         tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), -limit), limit)
         pb.setJointMotorControlArray(
             self.robot_id, self.joint_ids, pb.TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=cid
@@ -343,8 +317,8 @@ class Simulator:
         """Why the robot counts as fallen now, or None: base too low, too tilted, or a shin/body contact."""
         s = state or self.state()
         height = s.base_pos_world[2] - self.terrain.surface_z
-        if height < self.config.fall_base_height_m:
-            return f"base height {height:.3f} m below {self.config.fall_base_height_m} m"
+        if height < self.fall_base_height_m:
+            return f"base height {height:.3f} m below {self.fall_base_height_m} m"
         roll, pitch, _ = s.rpy
         if max(abs(roll), abs(pitch)) > self.config.fall_tilt_rad:
             return f"base tilted (roll {roll:.2f}, pitch {pitch:.2f} rad)"

@@ -2,7 +2,8 @@
 `contactnet train` command.
 
 Dataset directory (written by `contactnet datagen`):
-    DIR/manifest.json   {"format": "contactnet-dataset-v1", "gait": "walk"|"trot", "n_actions": int,
+    DIR/manifest.json   {"format": "contactnet-dataset-v1", "gait": "walk"|"trot", "robot": "solo12"|...,
+                         "n_actions": int,
                          "input_names": [14 names], "shards": ["shard-00000.npz", ...],
                          "episodes": int, "instances": int, "seed": int, "code_version": str, ...}
     DIR/shard-XXXXX.npz u (n, 14) float32 inputs, V (n, N_a) float32 costs (+inf = infeasible),
@@ -35,10 +36,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from contactnet import registry
 from contactnet.network import (
     INPUT_NAMES,
     N_INPUTS,
-    PAPER_TOP5,
     ContactNet,
     ModelFileError,
     Normalizer,
@@ -57,10 +58,13 @@ class DatasetError(ValueError):
 
 # ---- dataset -----------------------------------------------------------------------------------
 def _gait_n_actions(gait: Any) -> int | None:
-    from contactnet.gait import GAITS
-
-    spec = GAITS.get(gait) if isinstance(gait, str) else None
-    return None if spec is None else spec.n_actions
+    """N_a of a registered gait, None for anything else."""
+    if not isinstance(gait, str):
+        return None
+    try:
+        return registry.gait_by_name(gait).n_actions
+    except ValueError:
+        return None
 
 
 def _check_arrays(u: np.ndarray, V: np.ndarray, episode: np.ndarray, n_actions: int, where: str) -> None:
@@ -84,7 +88,8 @@ def _check_arrays(u: np.ndarray, V: np.ndarray, episode: np.ndarray, n_actions: 
 
 @dataclass(frozen=True, eq=False)
 class Dataset:
-    """All instances of a dataset in memory: inputs u (n, 14), costs V (n, N_a), episode ids (n,)."""
+    """All instances of a dataset in memory: inputs u (n, 14), costs V (n, N_a), episode ids (n,), and the
+    gait and robot they were made with."""
 
     u: np.ndarray
     V: np.ndarray
@@ -94,11 +99,13 @@ class Dataset:
     input_names: tuple[str, ...] = INPUT_NAMES
     manifest: dict[str, Any] = field(default_factory=dict)
     path: Path | None = None
+    robot: str = registry.DEFAULT_ROBOT
 
     @classmethod
     def from_arrays(cls, u: np.ndarray, V: np.ndarray, episode: np.ndarray | None = None, gait: str = "walk",
                     input_names: tuple[str, ...] | list[str] = INPUT_NAMES,
-                    manifest: dict[str, Any] | None = None, path: Path | None = None) -> Dataset:
+                    manifest: dict[str, Any] | None = None, path: Path | None = None,
+                    robot: str = registry.DEFAULT_ROBOT) -> Dataset:
         """Checked in-memory dataset (episode ids default to one episode per instance)."""
         n_actions = _gait_n_actions(gait)
         if n_actions is None:
@@ -113,7 +120,8 @@ class Dataset:
         if len(input_names) != N_INPUTS:
             raise DatasetError(f"{path or 'dataset'}: {len(input_names)} input names, expected {N_INPUTS}")
         return cls(u=u, V=V, episode=episode, gait=gait, n_actions=n_actions,
-                   input_names=tuple(str(s) for s in input_names), manifest=dict(manifest or {}), path=path)
+                   input_names=tuple(str(s) for s in input_names), manifest=dict(manifest or {}), path=path,
+                   robot=robot)
 
     @property
     def n_instances(self) -> int:
@@ -126,7 +134,7 @@ class Dataset:
     def subset(self, rows: np.ndarray) -> Dataset:
         return Dataset(u=self.u[rows], V=self.V[rows], episode=self.episode[rows], gait=self.gait,
                        n_actions=self.n_actions, input_names=self.input_names, manifest=self.manifest,
-                       path=self.path)
+                       path=self.path, robot=self.robot)
 
 
 def load_dataset(directory: str | os.PathLike) -> Dataset:
@@ -151,7 +159,10 @@ def load_dataset(directory: str | os.PathLike) -> Dataset:
     gait = manifest["gait"]
     n_actions = _gait_n_actions(gait)
     if n_actions is None:
-        raise DatasetError(f"{manifest_path}: unknown gait {gait!r} (walk or trot)")
+        raise DatasetError(f"{manifest_path}: unknown gait {gait!r} ({' or '.join(registry.gait_names())})")
+    robot = manifest.get("robot", registry.DEFAULT_ROBOT)  # datasets made before the field: Solo12
+    if not isinstance(robot, str) or not robot:
+        raise DatasetError(f"{manifest_path}: robot must be a robot name, got {robot!r}")
     if manifest["n_actions"] != n_actions:
         raise DatasetError(f"{manifest_path}: n_actions is {manifest['n_actions']!r}, gait {gait!r} has {n_actions}")
     names = manifest["input_names"]
@@ -193,7 +204,8 @@ def load_dataset(directory: str | os.PathLike) -> Dataset:
         raise DatasetError(f"{manifest_path}: declares {declared} instances but the shards hold {len(u)}")
     if len(u) == 0:
         raise DatasetError(f"dataset {directory}: the shards hold no instances")
-    return Dataset.from_arrays(u, V, episode, gait=gait, input_names=names, manifest=manifest, path=directory)
+    return Dataset.from_arrays(u, V, episode, gait=gait, input_names=names, manifest=manifest, path=directory,
+                               robot=robot)
 
 
 # ---- split -------------------------------------------------------------------------------------
@@ -452,13 +464,15 @@ def model_metadata(dataset: Dataset, result: TrainResult) -> dict[str, Any]:
     from contactnet import __version__
 
     config = result.config
+    paper_top5 = registry.gait_by_name(dataset.gait).paper_top5
     return {
         "gait": dataset.gait,
+        "robot": dataset.robot,
         "n_actions": dataset.n_actions,
         "input_names": list(dataset.input_names),
         "normalization": result.normalizer.to_dict(),
         **{k: float(v) for k, v in result.metrics.items()},
-        "paper_top5": list(PAPER_TOP5[dataset.gait]),
+        "paper_top5": None if paper_top5 is None else list(paper_top5),
         "dataset": {
             "path": str(dataset.path) if dataset.path else None,
             **result.counts,
@@ -487,10 +501,11 @@ def _pct(x: float) -> str:
 
 def summary_text(dataset: Dataset, result: TrainResult, out_path: Path | None) -> str:
     c, m, cfg = result.counts, result.metrics, result.config
-    paper_train, paper_test = PAPER_TOP5[dataset.gait]
+    paper = registry.gait_by_name(dataset.gait).paper_top5  # None: the paper has no figure for this gait
     split = "by episode" if cfg.split == "episode" else "by instance (paper)"
     lines = [
-        f"contactnet train: {dataset.gait} model" + (f" -> {out_path}" if out_path else " (not saved)"),
+        f"contactnet train: {dataset.gait} model of {dataset.robot}"
+        + (f" -> {out_path}" if out_path else " (not saved)"),
         f"  data    {dataset.path}: {c['instances']:,} instances, {c['episodes']:,} episodes"
         + (f" ({c['dropped_infeasible']} all-infeasible rows dropped)" if c["dropped_infeasible"] else ""),
         f"  split   {split}, {cfg.train_fraction:.0%} train: {c['train_instances']:,} train / "
@@ -499,7 +514,8 @@ def summary_text(dataset: Dataset, result: TrainResult, out_path: Path | None) -
         f"{result.seconds_per_epoch:.2f} s/epoch; batch {cfg.batch_size}, lr {cfg.lr:g}, seed {cfg.seed}",
         "            train %   test %   paper train / test %",
         f"  top-1    {_pct(m['train_top1'])}   {_pct(m['test_top1'])}   -",
-        f"  top-5    {_pct(m['train_top5'])}   {_pct(m['test_top5'])}   {paper_train:.2f} / {paper_test:.2f}",
+        f"  top-5    {_pct(m['train_top5'])}   {_pct(m['test_top5'])}   "
+        + ("-" if paper is None else f"{paper[0]:.2f} / {paper[1]:.2f}"),
     ]
     return "\n".join(lines)
 
@@ -507,14 +523,17 @@ def summary_text(dataset: Dataset, result: TrainResult, out_path: Path | None) -
 def train_command(gait: str, data_dir: str | os.PathLike, out_path: str | os.PathLike, epochs: int = 1000,
                   batch_size: int = 100, lr: float = 1e-3, seed: int = 0, split: str = "episode",
                   train_fraction: float = 0.7, threads: int = 1, max_minutes: float | None = None,
-                  save_partial: bool = False, progress: bool = True) -> int:
-    """`contactnet train`: load DIR, check the gait, train, save the model file, print a summary.
+                  save_partial: bool = False, progress: bool = True, robot: str | None = None) -> int:
+    """`contactnet train`: load DIR, check the gait (and the robot, unless `robot` is None), train, save the
+    model file (which records the dataset's robot), print a summary.
 
     Returns the exit code: 0, or 130 after Ctrl-C (nothing saved unless `save_partial`). Dataset
     problems raise DatasetError, an unwritable output ModelFileError (both one-line ValueErrors)."""
     dataset = load_dataset(data_dir)
     if dataset.gait != gait:
         raise DatasetError(f"dataset {data_dir} is a {dataset.gait!r} dataset, but --gait {gait} was asked")
+    if robot is not None and dataset.robot != robot:
+        raise DatasetError(f"dataset {data_dir} was made with {dataset.robot!r}, but --robot {robot} was asked")
     out = Path(out_path)
     _check_writable(out)
     if dataset.manifest.get("complete") is False:

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from contactnet.robot import Solo12
+from contactnet.robots import Robot, load_robot
 
 
 @pytest.fixture(scope="session")
-def robot(tmp_path_factory) -> Solo12:
-    return Solo12.load(cache_dir=tmp_path_factory.mktemp("cache"))
+def robot(tmp_path_factory) -> Robot:
+    return load_robot("solo12", cache_dir=tmp_path_factory.mktemp("cache"))

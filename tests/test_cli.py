@@ -95,9 +95,9 @@ def test_bench_sim_json():
     report = json.loads(result.stdout)
     assert report["benchmark"] == "sim"
     rows = {row["name"]: row for row in report["rows"]}
-    from contactnet.network import default_model_path
+    from contactnet.registry import model_path
 
-    shipped = [gait for gait in ("walk", "trot") if default_model_path(gait).exists()]
+    shipped = [gait for gait in ("walk", "trot") if model_path("solo12", gait).exists()]
     assert len(rows) == 5 + len(shipped)  # 3 standing, 2 heuristic whole-stack, 1 per shipped model
     for gait in shipped:
         assert f"whole stack: {gait} 0.05 m/s on stepping_stones, contactnet planner" in rows
@@ -164,11 +164,11 @@ def test_experiment_with_a_missing_model_dir_fails_before_running(tmp_path, caps
 @pytest.mark.slow
 @pytest.mark.parametrize("gait", ["walk", "trot"])
 def test_simulate_contactnet_uses_the_shipped_model(gait):
-    from contactnet.network import default_model_path
+    from contactnet.registry import model_path
 
     result = run_cli("simulate", "--terrain", "stepping_stones", "--gait", gait, "--planner", "contactnet",
                      "--duration", "3", "--json")
-    if not default_model_path(gait).exists():  # not shipped yet: a one-line error naming the file
+    if not model_path("solo12", gait).exists():  # not shipped yet: a one-line error naming the file
         assert result.returncode == EXIT_USER_ERROR
         assert f"{gait}.pt" in result.stderr and "Traceback" not in result.stderr
         return

@@ -3,18 +3,20 @@ pyramid, torques are saturated, and the controller holds Solo12 up in PyBullet."
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from contactnet.controller import (
-    ControllerGains,
     ControlTarget,
     SwingTrajectory,
     WholeBodyController,
     clip_to_friction_pyramid,
-    rpy_to_matrix,
 )
-from contactnet.sim import Push, Simulator, quat_to_matrix
+from contactnet.frames import quat_to_matrix, rotation_rpy
+from contactnet.robots import Robot
+from contactnet.sim import Push, Simulator
 from contactnet.terrain import flat
 
 
@@ -67,7 +69,7 @@ def test_rpy_matrix_matches_quaternion():
 
     for _ in range(10):
         rpy = rng.uniform(-1, 1, 3)
-        matrix = rpy_to_matrix(rpy)
+        matrix = rotation_rpy(rpy)
         quat = pin.Quaternion(pin.rpy.rpyToMatrix(rpy)).coeffs()  # x, y, z, w
         np.testing.assert_allclose(matrix, quat_to_matrix(quat), atol=1e-12)
 
@@ -87,7 +89,8 @@ def standing_target(controller: WholeBodyController, q, v, mass):
 
 
 def test_torques_are_saturated(robot):
-    controller = WholeBodyController(robot, ControllerGains(torque_limit_nm=0.5))
+    limited = dataclasses.replace(robot.description, torque_limit_nm=np.full(12, 0.5))
+    controller = WholeBodyController(Robot(robot.spec, robot.files, robot.model, limited))
     q = robot.q_standing.copy()
     v = np.zeros(18)
     target = standing_target(controller, q, v, robot.mass_kg)

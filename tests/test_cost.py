@@ -10,31 +10,32 @@ from shapely.geometry import MultiPoint, Point
 
 from contactnet.cost import (
     TERM_NAMES,
-    TROT_WEIGHTS,
-    WALK_WEIGHTS,
     CostState,
-    CostWeights,
     RankingCost,
-    greedy_rollout,
-    hull_area_centroid,
     kin_penalty,
     nominal_state,
     predicted_state,
-    support_distance,
 )
+from contactnet.cost_study import greedy_rollout
+from contactnet.cost_weights import TROT_WEIGHTS, WALK_WEIGHTS, CostWeights
+from contactnet.frames import rotate_xy
 from contactnet.gait import TROT, WALK
-from contactnet.planner import OraclePlanner, PlanningContext, rotate_xy
-from contactnet.robot import FOOT_RADIUS_M
+from contactnet.planner import OraclePlanner, PlanningContext
+from contactnet.robots import load_robot
+from contactnet.support_polygon import hull_area_centroid, support_distance
 from contactnet.terrain import Terrain, flat
 
-# Solo12's nominal foot xy in the base frame (Solo12.foot_nominal_base[:, :2]); FL, FR, HL, HR
-HIPS = np.array([[0.1946, 0.14695], [0.1946, -0.14695], [-0.1946, 0.14695], [-0.1946, -0.14695]])
+SOLO12 = load_robot("solo12").description
+FOOT_RADIUS_M = SOLO12.foot_radius_m
+# Solo12's nominal foot xy in the base frame; FL, FR, HL, HR
+HIPS = np.asarray(SOLO12.foot_nominal_base[:, :2])
+HIPS_MEASURED = np.array([[0.1946, 0.14695], [0.1946, -0.14695], [-0.1946, 0.14695], [-0.1946, -0.14695]])
 STAB, KIN, CENT, AREA = (TERM_NAMES.index(n) for n in ("stab", "kin", "cent", "area"))
 CENTRE_CELL = {WALK.name: 12, TROT.name: 4}
 
 
 def test_nominal_feet_match_the_robot(robot):
-    np.testing.assert_allclose(robot.foot_nominal_base[:, :2], HIPS, atol=1e-4)
+    np.testing.assert_allclose(robot.foot_nominal_base[:, :2], HIPS_MEASURED, atol=1e-4)
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -50,7 +51,7 @@ def one_torch_thread():
 
 @pytest.fixture(scope="module")
 def costs() -> dict[str, RankingCost]:
-    return {g.name: RankingCost(g, HIPS) for g in (WALK, TROT)}
+    return {g.name: RankingCost(g, SOLO12) for g in (WALK, TROT)}
 
 
 def point_line_distance(p, a, b) -> float:
@@ -154,7 +155,7 @@ def constant_com(n_actions: int, xy, z: float = 0.215) -> np.ndarray:
 )
 def test_stab_walk_triangle(costs, com_xy, expected):
     rc = costs["walk"]
-    state = nominal_state(HIPS, (0.0, 0.0))
+    state = nominal_state(SOLO12, (0.0, 0.0))
     a = WALK.encode(2, (CENTRE_CELL["walk"],))  # HL swings and lands back on its hip reference
     feet = rc._foot_plans(state)[..., 0:2]
     terms = rc.geometric_terms(state, constant_com(WALK.n_actions, com_xy), feet)
@@ -164,7 +165,7 @@ def test_stab_walk_triangle(costs, com_xy, expected):
 
 def test_stab_trot_segment_and_cent_area(costs):
     rc = costs["trot"]
-    state = nominal_state(HIPS, (0.0, 0.0))
+    state = nominal_state(SOLO12, (0.0, 0.0))
     c = CENTRE_CELL["trot"]
     a = TROT.encode(0, (c, c))  # FL + HR swing, FR-HL stance, both land back on their hips
     feet = rc._foot_plans(state)[..., 0:2]
@@ -183,8 +184,8 @@ def test_kin_threshold_just_below_and_above(costs, excess):
     rc = costs["walk"]
     w = rc.weights
     offsets = np.zeros((4, 2))
-    offsets[0, 0] = w.kin_threshold_m + excess  # FL ahead of its hip
-    state = nominal_state(HIPS, (0.0, 0.0), foot_offsets_xy=offsets)
+    offsets[0, 0] = rc.kin_threshold_m + excess  # FL ahead of its hip
+    state = nominal_state(SOLO12, (0.0, 0.0), foot_offsets_xy=offsets)
     result = rc.evaluate(state)
     # HR steps within its inner 3 x 3 cells (never a violation itself); FL stays in stance for all 8 nodes
     hr_actions = [WALK.encode(3, (ix * 5 + iy,)) for ix in range(1, 4) for iy in range(1, 4)]
@@ -196,7 +197,7 @@ def test_kin_threshold_just_below_and_above(costs, excess):
 
 
 def test_weights_combine_the_terms(costs):
-    result = costs["walk"].evaluate(nominal_state(HIPS, (0.1, 0.0)))
+    result = costs["walk"].evaluate(nominal_state(SOLO12, (0.1, 0.0)))
     w = costs["walk"].weights
     expected = result.terms @ np.array([w.opt, w.stab, w.kin, w.cent, -w.area])
     np.testing.assert_allclose(result.V, expected, rtol=1e-12)
@@ -210,7 +211,7 @@ def test_weights_combine_the_terms(costs):
 
 def moving_state(gait_name: str) -> CostState:
     rng = np.random.default_rng(11 if gait_name == "walk" else 12)
-    state = nominal_state(HIPS, (0.08, 0.03), yaw_rad=0.3, foot_offsets_xy=rng.uniform(-0.04, 0.04, (4, 2)))
+    state = nominal_state(SOLO12, (0.08, 0.03), yaw_rad=0.3, foot_offsets_xy=rng.uniform(-0.04, 0.04, (4, 2)))
     return dataclasses.replace(
         state,
         com_pos_world=state.com_pos_world + [0.01, -0.005, 0.003],
@@ -225,7 +226,7 @@ def moving_state(gait_name: str) -> CostState:
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
 @pytest.mark.parametrize("hip_path", ["reference", "optimized"])
 def test_fast_cost_matches_the_reference_loop(gait, hip_path):
-    rc = RankingCost(gait, HIPS, CostWeights(kin_hip_path=hip_path))
+    rc = RankingCost(gait, SOLO12, CostWeights(kin_hip_path=hip_path))
     state = moving_state(gait.name)
     fast = rc.evaluate(state)
     ref = rc.evaluate_reference(state)
@@ -251,7 +252,7 @@ def test_candidates_sit_on_the_grid_around_the_current_hips(costs):
 
 
 def test_failed_optimizations_tie_at_the_bottom(costs, monkeypatch):
-    rc = RankingCost(WALK, HIPS)
+    rc = RankingCost(WALK, SOLO12)
     original = rc.optimizer.solve_batch
     failed = [5, 0, 42]
 
@@ -262,7 +263,7 @@ def test_failed_optimizations_tie_at_the_bottom(costs, monkeypatch):
         return solutions
 
     monkeypatch.setattr(rc.optimizer, "solve_batch", with_failures)
-    result = rc.evaluate(nominal_state(HIPS, (0.1, 0.0)))
+    result = rc.evaluate(nominal_state(SOLO12, (0.1, 0.0)))
     assert not result.success[failed].any() and result.success.sum() == 97
     assert np.all(result.V[failed] == rc.weights.failure_cost)
     assert np.isnan(result.terms[failed]).all()
@@ -271,10 +272,10 @@ def test_failed_optimizations_tie_at_the_bottom(costs, monkeypatch):
 
 
 def test_tuned_weights_keep_greedy_stepping_sustainable():
-    walk = greedy_rollout(RankingCost(WALK, HIPS, WALK_WEIGHTS), nominal_state(HIPS, (0.1, 0.0)), 12)
+    walk = greedy_rollout(RankingCost(WALK, SOLO12, WALK_WEIGHTS), nominal_state(SOLO12, (0.1, 0.0)), 12)
     assert walk["worst_foot_hip_m"] < 0.15  # from standing the front feet lag once, then a steady crawl
     assert all(walk["sequence"].count(leg) >= 2 for leg in ("FL", "FR", "HL", "HR"))
-    trot = greedy_rollout(RankingCost(TROT, HIPS, TROT_WEIGHTS), nominal_state(HIPS, (0.1, 0.0)), 12)
+    trot = greedy_rollout(RankingCost(TROT, SOLO12, TROT_WEIGHTS), nominal_state(SOLO12, (0.1, 0.0)), 12)
     assert trot["kin"] == 0.0 and trot["repeats"] == 0.0  # the diagonal pairs alternate
 
 
@@ -303,7 +304,7 @@ def test_state_from_context():
     terrain = Terrain.from_dict({"name": "raised", "start": [0, 0], "goal_x": 1.0, "surface_z": 0.1,
                                  "regions": [{"shape": "rect", "center": [0, 0], "size": [2, 2]}]})
     ctx = context(terrain)
-    state = CostState.from_context(ctx)
+    state = CostState.from_context(ctx, FOOT_RADIUS_M)
     np.testing.assert_allclose(state.foot_pos_world[:, 2], 0.1)  # contact points, not ball centres
     assert state.com_height_ref_m == pytest.approx(0.315)
     assert state.surface_z == pytest.approx(0.1)
@@ -312,7 +313,7 @@ def test_state_from_context():
 
 
 def test_oracle_plans_three_steps_from_predicted_states():
-    planner = OraclePlanner(WALK, HIPS)
+    planner = OraclePlanner(WALK, SOLO12)
     ctx = context(flat())
     steps = planner.plan(ctx)
     assert len(steps) == WALK.steps_per_plan
@@ -341,8 +342,8 @@ def grid_terrain_with_hole(hole_xy: np.ndarray) -> Terrain:
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
 def test_oracle_skips_the_cheapest_action_over_a_hole(gait):
-    planner = OraclePlanner(gait, HIPS)
-    costs = planner.cost.evaluate(CostState.from_context(context(flat(), gait)))
+    planner = OraclePlanner(gait, SOLO12)
+    costs = planner.cost.evaluate(CostState.from_context(context(flat(), gait), FOOT_RADIUS_M))
     best = int(costs.ranking()[0])
     leg = gait.decode(best).legs[0]
     terrain = grid_terrain_with_hole(costs.footholds_xy_world[best, leg])
@@ -371,8 +372,8 @@ def islands(points_xy, radius=0.02) -> Terrain:
 def test_oracle_steps_in_place_when_no_action_is_safe():
     offsets = np.full((4, 2), 0.025)  # every candidate is >= 3.5 cm from a foot
     feet_xy = HIPS + offsets
-    planner = OraclePlanner(WALK, HIPS)
-    ranking = planner.cost.evaluate(CostState.from_context(context(flat(), foot_offsets_xy=offsets))).ranking()
+    planner = OraclePlanner(WALK, SOLO12)
+    ranking = planner.cost.evaluate(CostState.from_context(context(flat(), foot_offsets_xy=offsets), FOOT_RADIUS_M)).ranking()
     groups = list(dict.fromkeys(WALK.decode(int(a)).group for a in ranking))
 
     # every foot stands on its island: the group of the cheapest action steps in place

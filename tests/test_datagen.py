@@ -15,10 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from contactnet.cli import EXIT_USER_ERROR, main, make_planner
+from contactnet.cli import EXIT_USER_ERROR, main
 from contactnet.datagen import DatagenConfig, DatasetDirError, generate, shard_name
 from contactnet.gait import WALK
 from contactnet.network import INPUT_NAMES, load_model
+from contactnet.registry import make_planner
 
 pytestmark = pytest.mark.slow  # real episodes in PyBullet with the oracle: seconds each
 
@@ -35,6 +36,7 @@ def dataset(tmp_path_factory) -> Path:
 def test_generate_writes_shards_and_a_manifest(dataset):
     manifest = json.loads((dataset / "manifest.json").read_text())
     assert manifest["complete"] and manifest["episodes"] == 3 and manifest["gait"] == "walk"
+    assert manifest["robot"] == manifest["settings"]["robot"] == "solo12"
     assert manifest["shards"] == [shard_name(i) for i in range(3)]
     assert manifest["input_names"] == list(INPUT_NAMES) and manifest["n_actions"] == WALK.n_actions
     total = 0
@@ -70,6 +72,21 @@ def test_resume_regenerates_only_the_missing_shard_identically(dataset, tmp_path
             np.testing.assert_array_equal(shard[key], value)
 
 
+def test_a_dataset_made_before_robots_resumes_as_solo12(dataset, tmp_path):
+    copy = tmp_path / "walk"
+    copy.mkdir()
+    for path in dataset.iterdir():
+        (copy / path.name).write_bytes(path.read_bytes())
+    manifest = json.loads((copy / "manifest.json").read_text())
+    del manifest["robot"], manifest["settings"]["robot"]
+    (copy / "manifest.json").write_text(json.dumps(manifest))
+    kept = {p.name: p.stat().st_mtime_ns for p in copy.glob("shard-*.npz")}
+    assert generate(copy, SMALL, workers=1, progress=False)["complete"]
+    assert {p.name: p.stat().st_mtime_ns for p in copy.glob("shard-*.npz")} == kept
+    with pytest.raises(DatasetDirError, match="other settings"):
+        generate(copy, DatagenConfig(**{**SMALL.settings(), "robot": "go2"}), workers=1, progress=False)
+
+
 def test_foreign_or_mismatched_directories_are_refused(dataset, tmp_path, capsys):
     with pytest.raises(DatasetDirError, match="other settings"):
         generate(dataset, DatagenConfig(gait="walk", episodes=4, instances_per_episode=4, episodes_per_shard=1,
@@ -89,6 +106,9 @@ def test_config_validation():
         DatagenConfig(gait="walk", instances_per_episode=0)
     with pytest.raises(ValueError, match="episodes"):
         DatagenConfig(gait="walk", episodes=0)
+    with pytest.raises(ValueError, match="unknown robot 'moon'"):
+        DatagenConfig(gait="walk", robot="moon")
+    assert DatagenConfig(gait="walk").robot == "solo12" and DatagenConfig(gait="walk", robot="go2").robot == "go2"
 
 
 def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
@@ -127,12 +147,12 @@ def test_tiny_pipeline_datagen_train_load_plan(dataset, tmp_path, robot, capsys)
     assert "top-5" in capsys.readouterr().out
     model = load_model(model_path, expect_gait="walk")
     assert model.n_actions == WALK.n_actions and model.metadata["training"]["epochs_done"] == 5
-    from contactnet.bench import planning_contexts
+    from contactnet.bench.planner import planning_contexts
     from contactnet.terrain import random_field
 
     planner = make_planner("contactnet", WALK, robot, model=model_path)
     terrain = random_field(120, 0)
-    for ctx in planning_contexts(WALK, terrain, robot.foot_nominal_base[:, :2], 30, seed=2):
+    for ctx in planning_contexts(WALK, terrain, robot.description, 30, seed=2):
         steps = planner.plan(ctx)
         assert len(steps) == WALK.steps_per_plan
         for step in steps:

@@ -30,6 +30,17 @@ def test_trials_of_defaults_and_errors():
         trials_of("moon")
 
 
+def test_the_robot_is_in_the_key_only_when_it_is_not_solo12():
+    # Logs written before trials had a robot must still resume: a Solo12 trial keeps its old key.
+    (solo,) = trials_of("stepping_stones", planners=("contactnet",))
+    assert solo.robot == "solo12" and solo.key == "stepping_stones/seed0/walk/contactnet/noise0"
+    (go2,) = trials_of("stepping_stones", planners=("contactnet",), robot="go2")
+    assert go2.robot == "go2" and go2.key == "stepping_stones/seed0/walk/contactnet/noise0/go2"
+    assert {t.robot for t in trials_of("narrow_map", robot="go2") + trials_of("random", robot="go2")} == {"go2"}
+    random = trials_of("random", trials=1, gaits=("walk",), planners=("fixed",), removed=(50,))
+    assert random[0].key == "random/50/seed0/walk/fixed/noise0"
+
+
 def test_narrow_map_trials_cover_the_grid():
     trials = trials_of("narrow_map", widths_cm=(4.0, 5.5), gaps_cm=(18.0,), noise=0.01, trials=2)
     assert len(trials) == 2 * 1 * 2 * 2  # widths x gaps x (contactnet, fixed) x seeds

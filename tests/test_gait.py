@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactnet.gait import TROT, WALK, gait_by_name
+from contactnet.gait import TROT, WALK
+from contactnet.registry import gait_by_name
 
 
 @pytest.mark.parametrize(("gait", "n_actions", "cells", "extent"), [(WALK, 100, 25, 0.20), (TROT, 162, 9, 0.10)])

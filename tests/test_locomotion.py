@@ -37,6 +37,7 @@ def test_heuristic_planner_cycles_legs_and_leads_with_velocity(robot):
         vel_cmd_xy=np.array([0.1, 0.0]),
         terrain=flat(),
         gait=WALK,
+        com_height_ref_m=0.21,
     )
     first = planner.plan(ctx)
     second = planner.plan(ctx)

@@ -1,4 +1,5 @@
-"""ContactNet network: rank targets, normalizer, numpy == torch, top-k metric, the model file."""
+"""ContactNet network: the input u_r, rank targets, normalizer, numpy == torch, top-k metric, the model file
+(and the robot it records)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 import torch
 
+import contactnet.network as network_module
 from contactnet.network import (
     INPUT_NAMES,
     MODEL_FORMAT,
@@ -17,13 +19,93 @@ from contactnet.network import (
     ModelFileError,
     Normalizer,
     NumpyContactNet,
-    default_model_path,
     load_model,
     rank_targets,
     save_model,
     topk_accuracy,
     torch_scores,
 )
+from contactnet.network_input import (
+    N_INPUTS,
+    network_input,
+    network_input_of_context,
+    network_input_of_state,
+    network_input_one,
+)
+from contactnet.registry import model_path
+
+
+# ---- the network input u_r ---------------------------------------------------------------------
+def network_input_reference(feet_xy_world, com_pos_world, com_vel_world, vel_cmd_xy, yaw_rad, ground_z):
+    """u_r of one state, slow and obvious: rotate every world vector into the heading frame with a matrix."""
+    heading_to_world = np.array([[math.cos(yaw_rad), -math.sin(yaw_rad)], [math.sin(yaw_rad), math.cos(yaw_rad)]])
+    world_to_heading = heading_to_world.T
+    u = []
+    for leg in range(4):
+        u += list(world_to_heading @ (np.asarray(feet_xy_world[leg]) - np.asarray(com_pos_world[:2])))
+    u.append(com_pos_world[2] - ground_z)
+    u += list(world_to_heading @ np.asarray(com_vel_world[:2]))
+    u.append(com_vel_world[2])
+    u += list(vel_cmd_xy)
+    return np.array(u)
+
+
+def _random_states(rng, lead=()):
+    return (rng.normal(size=(*lead, 4, 2)), rng.normal(size=(*lead, 3)), rng.normal(size=(*lead, 3)),
+            rng.normal(size=(*lead, 2)), rng.uniform(-4, 4, size=lead), rng.normal(size=lead))
+
+
+def test_network_input_names():
+    assert len(INPUT_NAMES) == N_INPUTS == 14
+    assert network_module.INPUT_NAMES is INPUT_NAMES and network_module.network_input is network_input
+
+
+def test_network_input_vectorised_matches_the_reference():
+    rng = np.random.default_rng(5)
+    states = _random_states(rng, lead=(6, 7))
+    u = network_input(*states)
+    assert u.shape == (6, 7, 14) and u.dtype == np.float64
+    for i in range(6):
+        for j in range(7):
+            one = [np.asarray(a)[i, j] for a in states]
+            np.testing.assert_allclose(u[i, j], network_input_reference(*one), rtol=0, atol=1e-12)
+            np.testing.assert_allclose(network_input_one(*one[:4], float(one[4]), float(one[5])), u[i, j],
+                                       rtol=0, atol=1e-12)
+    # leading axes broadcast: one command, yaw and ground for a batch of states
+    feet, com, vel, cmd, yaw, ground = _random_states(rng, lead=(5,))
+    np.testing.assert_allclose(network_input(feet, com, vel, cmd[0], yaw[0], ground[0]),
+                               network_input(feet, com, vel, np.tile(cmd[0], (5, 1)), np.full(5, yaw[0]),
+                                             np.full(5, ground[0])), rtol=0, atol=0)
+    assert network_input(*_random_states(rng)).shape == (14,)
+    with pytest.raises(ValueError, match="feet"):
+        network_input(feet[:, :3], com, vel, cmd, yaw, ground)
+
+
+def test_network_input_of_context_and_state_match_the_general_function():
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(6)
+    for _ in range(50):
+        feet, com, vel, cmd, yaw, ground = _random_states(rng)
+        feet3 = np.column_stack([feet, rng.normal(size=4)])
+        ctx = SimpleNamespace(foot_pos_world=feet3, com_pos_world=com, com_vel_world=vel, vel_cmd_xy=cmd,
+                              yaw_rad=float(yaw), terrain=SimpleNamespace(surface_z=float(ground)))
+        expected = network_input(feet, com, vel, cmd, yaw, ground)
+        np.testing.assert_allclose(network_input_of_context(ctx), expected, rtol=0, atol=1e-12)
+        c, s = math.cos(yaw), math.sin(yaw)
+        state = SimpleNamespace(foot_pos_world=feet3, com_pos_world=com, com_vel_world=vel, yaw_rad=float(yaw),
+                                vel_cmd_world=np.array([c * cmd[0] - s * cmd[1], s * cmd[0] + c * cmd[1]]),
+                                surface_z=float(ground))
+        np.testing.assert_allclose(network_input_of_state(state), expected, rtol=0, atol=1e-12)
+
+
+def test_network_input_module_does_not_need_torch():
+    import subprocess
+    import sys
+
+    code = ("import sys; import contactnet.network_input; "
+            "sys.exit(1 if 'torch' in sys.modules else 0)")
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
 # ---- rank targets ------------------------------------------------------------------------------
@@ -187,11 +269,50 @@ def test_save_is_atomic_and_checked(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["walk.pt"]
 
 
-def test_default_model_path():
-    path = default_model_path("trot")
+def test_model_path():
+    path = model_path("solo12", "trot")
     assert path.name == "trot.pt" and path.parent.name == "models" and path.parent.parent.name == "contactnet"
-    with pytest.raises(ValueError):
-        default_model_path("gallop")
+    assert model_path("go2", "walk").name == "go2_walk.pt"
+
+
+def test_model_file_records_its_robot(tmp_path):
+    path = tmp_path / "walk.pt"
+    _save(path)  # no robot named: Solo12
+    assert torch.load(path, weights_only=True)["metadata"]["robot"] == "solo12"
+    assert load_model(path, expect_robot="solo12").robot == "solo12"
+    go2 = tmp_path / "go2_walk.pt"
+    _save(go2, robot="go2")
+    loaded = load_model(go2, expect_gait="walk", expect_robot="go2")
+    assert loaded.robot == "go2" and loaded.metadata["robot"] == "go2"
+    with pytest.raises(ModelFileError) as info:
+        load_model(go2, expect_robot="solo12")
+    message = str(info.value)
+    assert message.endswith("is a 'go2' model, but a 'solo12' model was expected") and "\n" not in message
+    assert str(go2) in message
+    with pytest.raises(ValueError, match="robot"):
+        save_model(tmp_path / "x.pt", *_random_model(100)[:2], {"gait": "walk", "robot": 12})
+
+
+def test_model_file_without_a_robot_is_solo12(tmp_path):
+    path = tmp_path / "walk.pt"
+    payload = _payload(path)
+    del payload["metadata"]["robot"]  # as the shipped walk.pt / trot.pt, made before the field existed
+    torch.save(payload, path)
+    assert load_model(path, expect_robot="solo12").robot == "solo12"
+    with pytest.raises(ModelFileError, match="is a 'solo12' model, but a 'go2' model was expected"):
+        load_model(path, expect_robot="go2")
+
+
+@pytest.mark.parametrize("gait", ["walk", "trot"])
+def test_shipped_models_are_solo12_models(gait):
+    path = model_path("solo12", gait)
+    if not path.exists():
+        pytest.skip(f"{path} not shipped")
+    raw = torch.load(path, weights_only=True)
+    assert "robot" not in raw["metadata"]  # the shipped files are not rewritten
+    assert load_model(path, expect_gait=gait, expect_robot="solo12").robot == "solo12"
+    with pytest.raises(ModelFileError, match="but a 'go2' model was expected"):
+        load_model(path, expect_robot="go2")
 
 
 def _payload(path: Path) -> dict:

@@ -8,16 +8,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactnet.bench import planning_contexts
-from contactnet.cli import make_planner
+from contactnet.bench.planner import planning_contexts
 from contactnet.cost import CostState, candidate_footholds_world, predicted_state
+from contactnet.frames import rotate_xy
 from contactnet.gait import TROT, WALK
 from contactnet.network import (
     ContactNet,
     ModelFileError,
     Normalizer,
     load_model,
-    network_input,
+    network_input_of_context,
     network_input_of_state,
     save_model,
 )
@@ -28,8 +28,8 @@ from contactnet.planner import (
     cell_grid,
     first_safe_step,
     landing_points,
-    rotate_xy,
 )
+from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, flat, random_field
 
 
@@ -53,7 +53,7 @@ def reference_plan(planner: ContactNetPlanner, ctx, restrict_group=None) -> list
     """The slow, obvious version: CostState objects, float64 inputs from network_input_of_state, the full
     (N_a, 4, 2) candidate array, one safety query per action in ranking order."""
     gait = planner.gait
-    state = CostState.from_context(ctx)
+    state = CostState.from_context(ctx, planner.robot.foot_radius_m)
     swing, _ = gait.action_table
     steps = []
     for j in range(gait.steps_per_plan):
@@ -80,8 +80,8 @@ def reference_plan(planner: ContactNetPlanner, ctx, restrict_group=None) -> list
 
 
 def test_network_input_of_state_matches_network_input(robot):
-    for ctx in planning_contexts(TROT, random_field(30, 1), robot.foot_nominal_base[:, :2], 10, seed=3):
-        np.testing.assert_allclose(network_input_of_state(CostState.from_context(ctx)), network_input(ctx),
+    for ctx in planning_contexts(TROT, random_field(30, 1), robot.description, 10, seed=3):
+        np.testing.assert_allclose(network_input_of_state(CostState.from_context(ctx, robot.description.foot_radius_m)), network_input_of_context(ctx),
                                    atol=1e-12)
 
 
@@ -90,7 +90,7 @@ def test_contactnet_planner_matches_the_reference(robot, models, gait):
     planner = make_planner("contactnet", gait, robot, model=models[gait.name])
     terrain = random_field(200, 2)  # two thirds of the squares gone: rankings are walked deep
     deep = 0
-    for ctx in planning_contexts(gait, terrain, robot.foot_nominal_base[:, :2], 40, seed=1):
+    for ctx in planning_contexts(gait, terrain, robot.description, 40, seed=1):
         fast = planner.plan(ctx)
         slow = reference_plan(planner, ctx)
         for a, b in zip(fast, slow, strict=False):
@@ -109,7 +109,7 @@ def test_fixed_gait_follows_the_cyclic_order_and_the_reference(robot, models):
     planner = make_planner("fixed", WALK, robot, model=models["walk"])
     assert isinstance(planner, FixedGaitPlanner)
     terrain = random_field(60, 4)
-    contexts = planning_contexts(WALK, terrain, robot.foot_nominal_base[:, :2], 12, seed=5)
+    contexts = planning_contexts(WALK, terrain, robot.description, 12, seed=5)
     for k, ctx in enumerate(contexts):
         expected = reference_plan(planner, ctx, restrict_group=k % 4)
         steps = planner.plan(ctx)
@@ -122,7 +122,7 @@ def test_fixed_gait_follows_the_cyclic_order_and_the_reference(robot, models):
 
 def test_fixed_gait_swings_in_place_when_its_leg_has_no_safe_cell(robot, models):
     planner = make_planner("fixed", WALK, robot, model=models["walk"])
-    ctx = planning_contexts(WALK, flat(), robot.foot_nominal_base[:, :2], 1, seed=0)[0]
+    ctx = planning_contexts(WALK, flat(), robot.description, 1, seed=0)[0]
     leg = WALK.swing_groups[WALK.cyclic_order[0]][0]
     foot = ctx.foot_pos_world[leg, :2]
     # A ring of ground around the foot: it stands safely, but every cell of its grid is off the ground.
@@ -175,7 +175,7 @@ def test_first_safe_step_takes_the_best_ranked_safe_action(gait):
 def test_candidate_view_ranks_every_cell(robot, models, gait):
     planner = make_planner("contactnet", gait, robot, model=models[gait.name])
     terrain = random_field(80, 0)
-    ctx = planning_contexts(gait, terrain, robot.foot_nominal_base[:, :2], 1, seed=7)[0]
+    ctx = planning_contexts(gait, terrain, robot.description, 1, seed=7)[0]
     step = planner.plan(ctx)[0]
     view = planner.last_candidates
     assert len(view.xy_world) == 4 * gait.cells_per_leg
@@ -200,7 +200,7 @@ def test_model_errors_are_clear(robot, models, tmp_path):
         make_planner("contactnet", WALK, robot, model=models["trot"])
     loaded = load_model(models["trot"])
     with pytest.raises(ValueError, match="not walk"):
-        ContactNetPlanner(WALK, robot.foot_nominal_base[:, :2], loaded)
+        ContactNetPlanner(WALK, robot.description, loaded)
 
 
 def test_oracle_continues_the_cyclic_order_past_its_evaluated_steps(robot):
@@ -208,8 +208,8 @@ def test_oracle_continues_the_cyclic_order_past_its_evaluated_steps(robot):
     from contactnet.planner import OraclePlanner
 
     for gait in (WALK, TROT):
-        oracle = OraclePlanner(gait, robot.foot_nominal_base[:, :2], evaluated_steps=1)
-        state = nominal_state(robot.foot_nominal_base[:, :2], vel_cmd_world=(0.1, 0.0))
+        oracle = OraclePlanner(gait, robot.description, evaluated_steps=1)
+        state = nominal_state(robot.description, vel_cmd_world=(0.1, 0.0))
         cyclic = gait.cyclic_order
         for k, group in enumerate(cyclic):
             step = oracle.continue_cyclically(state, gait.swing_groups[group])
@@ -218,4 +218,4 @@ def test_oracle_continues_the_cyclic_order_past_its_evaluated_steps(robot):
             hips = state.base_xy_world + robot.foot_nominal_base[list(step.legs), :2]
             assert np.all(step.footholds_xy_world[:, 0] > hips[:, 0]) and np.allclose(step.footholds_xy_world[:, 1], hips[:, 1])
     with pytest.raises(ValueError, match="evaluated_steps"):
-        OraclePlanner(WALK, robot.foot_nominal_base[:, :2], evaluated_steps=0)
+        OraclePlanner(WALK, robot.description, evaluated_steps=0)

@@ -107,7 +107,7 @@ def test_body_contact_and_tilt_are_falls(flat_sim):
     kneeling = np.array([0.0, 0.3, -2.4] * 2 + [0.0, -0.3, 2.4] * 2)
     flat_sim.reset(joint_pos=kneeling, base_height_m=0.4)
     stand(flat_sim, 0.4, target=kneeling)
-    assert flat_sim.state().base_pos_world[2] > flat_sim.config.fall_base_height_m + 0.03
+    assert flat_sim.state().base_pos_world[2] > flat_sim.fall_base_height_m + 0.03
     assert flat_sim.fall_reason().startswith("non-foot contact")
     # Rolled over by 1 rad.
     flat_sim.reset(base_height_m=0.4)

@@ -1,4 +1,7 @@
-"""Tests of contactnet.terrain: validation, files, exact fast is_safe, generators, meshes, pieces."""
+"""Tests of contactnet.terrain: validation, files, exact fast is_safe, generators, meshes, pieces.
+
+height_at / ground_z are in test_terrain_height.py, the edit operations in test_terrain_edits.py.
+"""
 
 from __future__ import annotations
 
@@ -18,10 +21,13 @@ import shapely
 from shapely.geometry import Point
 
 from contactnet import terrain as T
+from contactnet.bench.terrain import benchmark_is_safe
+from contactnet.robots import load_robot
 from contactnet.terrain import Terrain, TerrainError
 
 REPO_TERRAINS = Path(__file__).resolve().parent.parent / "terrains"
-FOOT_RADIUS_M = 0.016
+ROBOT = load_robot("solo12").description  # the scenes are checked against the robot they were made for
+FOOT_RADIUS_M = ROBOT.foot_radius_m
 CANDIDATE_OFFSETS_XY = np.array([(dx, dy) for dx in np.linspace(-0.1, 0.1, 5) for dy in np.linspace(-0.1, 0.1, 5)])
 
 
@@ -365,7 +371,8 @@ def test_is_safe_edge_cases() -> None:
 # Generators
 # ---------------------------------------------------------------------------------------------
 def nominal_feet_xy(terrain: Terrain) -> np.ndarray:
-    return terrain.start_xy + np.array([[0.1946, 0.14], [0.1946, -0.14], [-0.1946, 0.14], [-0.1946, -0.14]])
+    """The robot's nominal stance placed at the terrain's start (world x, y)."""
+    return terrain.start_xy + ROBOT.foot_nominal_base[:, :2]
 
 
 @pytest.mark.parametrize("removed", [0, 50, 80, 110, 300])
@@ -399,7 +406,7 @@ def test_stepping_stones_shapes() -> None:
     assert len(stones) == 8
     assert (shapes.count("star"), shapes.count("circle"), shapes.count("rect")) == (3, 2, 3)
     assert terrain.regions[0]["shape"] == terrain.regions[-1]["shape"] == "rect"
-    stone_geoms = [T._region_geometry(r) for r in stones]
+    stone_geoms = [T.region_geometry(r) for r in stones]
     xs = [g.bounds[0] for g in stone_geoms] + [g.bounds[2] for g in stone_geoms]
     assert 0.8 <= max(xs) - min(xs) <= 1.2
     for geom in stone_geoms:  # 10-20 cm stones (stars measured tip to tip), not touching each other
@@ -412,7 +419,7 @@ def test_stepping_stones_shapes() -> None:
 def test_every_leg_always_has_safe_candidates(factory: Callable[[], Terrain]) -> None:
     """Along the straight path, each hip's 5 x 5 candidate grid keeps some safe footholds."""
     terrain = factory()
-    hips_xy_base = T.SOLO12_HIP_XY_BASE
+    hips_xy_base = ROBOT.hip_pos_base[:, :2]
     for base_x in np.arange(terrain.start_xy[0], terrain.goal_x, 0.01):
         base_xy = np.array([base_x, terrain.start_xy[1]])
         for hip_xy_base in hips_xy_base:
@@ -427,7 +434,7 @@ def kinematic_walk(terrain: Terrain, reach_m: float = 0.15, step_m: float = 0.00
     default) as soon as it has one; otherwise the base advances while every foot stays within
     ``reach_m`` (x) of its hip. Returns the base x reached (stops when stuck)."""
     base_xy = terrain.start_xy.copy()
-    hips_xy_base = T.SOLO12_HIP_XY_BASE
+    hips_xy_base = ROBOT.hip_pos_base[:, :2]
     feet_xy = nominal_feet_xy(terrain)
     for _ in range(10_000):
         if base_xy[0] >= terrain.goal_x:
@@ -579,10 +586,18 @@ def test_summary_and_render_png(tmp_path: Path) -> None:
     assert "3 star" in text and "2 circle" in text and "5 rect" in text and "goal_x" in text
     path = terrain.render_png(tmp_path / "out" / "stones.png", dpi=40)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with_feet = terrain.render_png(tmp_path / "feet.png", dpi=40, feet_xy_start=nominal_feet_xy(terrain))
+    assert with_feet.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from matplotlib.figure import Figure
+
+    def labels(**kwargs: Any) -> list[str]:
+        return [line.get_label() for line in terrain.render(ax=Figure().add_subplot(), **kwargs).lines]
+
+    assert "nominal feet" in labels(feet_xy_start=nominal_feet_xy(terrain)) and "nominal feet" not in labels()
 
 
 def test_benchmark_rows() -> None:
-    rows = T.benchmark_is_safe(repeats=3, margins=(0.0,), sizes=(1, 100))
+    rows = benchmark_is_safe(repeats=3, margins=(0.0,), sizes=(1, 100))
     assert len(rows) == 4
     assert {"terrain", "n_points", "is_safe_median_us", "is_safe_p90_us", "shapely_median_us", "speedup"} <= set(rows[0])
     assert all(math.isfinite(r["speedup"]) and r["speedup"] > 0 for r in rows)

@@ -10,6 +10,7 @@ import pytest
 import torch
 
 import contactnet.train as train_module
+from contactnet import registry
 from contactnet.network import INPUT_NAMES, ContactNet, ModelFileError, load_model, topk_accuracy
 from contactnet.train import (
     DATASET_FORMAT,
@@ -229,11 +230,42 @@ def test_train_command_saves_a_model(tmp_path, walk_data, capsys):
     assert meta["dataset"]["instances"] == len(u) and meta["dataset"]["episodes"] == 60
     assert {"train_top1", "train_top5", "test_top1", "test_top5", "date"} <= set(meta)
     assert loaded.net.scores(u[0]).shape == (100,)
+    assert meta["robot"] == loaded.robot == "solo12" and meta["paper_top5"] == [93.48, 90.81]
 
     with pytest.raises(DatasetError, match="is a 'walk' dataset, but --gait trot"):
         train_command("trot", data, tmp_path / "trot.pt", epochs=1, progress=False)
     with pytest.raises(ModelFileError, match="is a directory"):
         train_command("walk", data, tmp_path, epochs=1, progress=False)
+    with pytest.raises(DatasetError, match="was made with 'solo12', but --robot go2"):
+        train_command("walk", data, tmp_path / "go2_walk.pt", epochs=1, progress=False, robot="go2")
+
+
+def test_the_model_records_the_datasets_robot(tmp_path, walk_data):
+    u, V, episode = walk_data
+    data = write_dataset(tmp_path / "data", u, V, episode, robot="go2")
+    assert load_dataset(data).robot == "go2"
+    out = tmp_path / "go2_walk.pt"
+    assert train_command("walk", data, out, epochs=1, progress=False, robot="go2") == 0
+    assert load_model(out, expect_robot="go2").metadata["robot"] == "go2"
+    with pytest.raises(ModelFileError, match="is a 'go2' model, but a 'solo12' model was expected"):
+        load_model(out, expect_robot="solo12")
+    with pytest.raises(DatasetError, match="robot must be a robot name"):
+        load_dataset(write_dataset(tmp_path / "bad", u, V, episode, robot=7))
+
+
+def test_a_gait_without_a_paper_figure(tmp_path, walk_data, monkeypatch, capsys):
+    from dataclasses import replace
+
+    from contactnet.gait import WALK
+
+    monkeypatch.setitem(registry._GAITS, "crawl", replace(WALK, name="crawl", paper_top5=None))
+    u, V, episode = walk_data
+    data = write_dataset(tmp_path / "data", u, V, episode, gait="crawl")
+    out = tmp_path / "crawl.pt"
+    assert train_command("crawl", data, out, epochs=1, progress=False) == 0
+    top5 = next(line for line in capsys.readouterr().out.splitlines() if "top-5" in line)
+    assert top5.rstrip().endswith("-")
+    assert load_model(out, expect_gait="crawl").metadata["paper_top5"] is None
 
 
 def test_train_command_ctrl_c_saves_nothing(tmp_path, walk_data, monkeypatch, capsys):

@@ -9,6 +9,10 @@ import numpy as np
 import pytest
 
 from contactnet import trajopt as T
+from contactnet.bench import format_table
+from contactnet.bench.trajopt import example_problem, trot_candidates, walk_candidates
+from contactnet.gait import horizon_schedule, step_schedule
+from contactnet.robots import RobotDescription
 from contactnet.trajopt import (
     ProblemBatch,
     SrbdModel,
@@ -18,26 +22,32 @@ from contactnet.trajopt import (
     TrajoptSolution,
     TrajoptWeights,
     dynamics_residual,
-    example_problem,
-    horizon_schedule,
     reference_forces,
     srbd_step,
-    step_schedule,
     trajectory_cost,
-    walk_candidates,
 )
+from contactnet.trajopt.casadi_ref import _casadi_step
 
 WALK = ((0,), (3,), (1,))
 TROT = ((0, 3), (1, 2), (0, 3))
-MODEL = SrbdModel()
 DT = 0.04
 
 
 @pytest.fixture(scope="module")
-def optimizers() -> dict[tuple[str, int], TrajectoryOptimizer]:
+def desc(robot) -> RobotDescription:
+    return robot.description
+
+
+@pytest.fixture(scope="module")
+def model(desc: RobotDescription) -> SrbdModel:
+    return SrbdModel.for_robot(desc)
+
+
+@pytest.fixture(scope="module")
+def optimizers(model: SrbdModel) -> dict[tuple[str, int], TrajectoryOptimizer]:
     """One optimizer per (solver, horizon), built once for the module."""
     return {
-        (solver, n): TrajectoryOptimizer(config=TrajoptConfig(n_nodes=n, solver=solver))
+        (solver, n): TrajectoryOptimizer(model, TrajoptConfig(n_nodes=n, solver=solver))
         for solver in ("auto", "qp-ipm", "nlp-ipopt")
         for n in (8, 24)
     }
@@ -53,12 +63,12 @@ def moving_state(yaw: float = 0.0, tilt: float = 0.01) -> np.ndarray:
     return x0
 
 
-def typical_problems() -> list[TrajoptProblem]:
+def typical_problems(desc: RobotDescription) -> list[TrajoptProblem]:
     """Typical walk and trot problems, one and three step horizons, at two headings."""
     problems = []
     for steps in (WALK, TROT, WALK[:1], TROT[:1]):
         for yaw in (0.0, 0.7):
-            problems.append(example_problem(steps, (0.1, 0.05), x0=moving_state(yaw)))
+            problems.append(example_problem(desc, steps, (0.1, 0.05), x0=moving_state(yaw)))
     return problems
 
 
@@ -69,16 +79,18 @@ def heading_forces(problem: TrajoptProblem, sol: TrajoptSolution) -> np.ndarray:
     return sol.forces_world @ rot
 
 
-def assert_force_constraints(problem: TrajoptProblem, sol: TrajoptSolution, tol: float = 1e-6) -> None:
+def assert_force_constraints(
+    model: SrbdModel, problem: TrajoptProblem, sol: TrajoptSolution, tol: float = 1e-6
+) -> None:
     """Friction pyramid, unilateral and bounded normal force on stance feet; no force on swing feet."""
     f = heading_forces(problem, sol)
     stance = np.asarray(problem.contact, dtype=bool)
     fz = f[..., 2]
     assert np.all(np.abs(f[~stance]) <= tol)
     assert np.all(fz[stance] >= -tol)
-    assert np.all(fz[stance] <= MODEL.fz_max_n + tol)
-    assert np.all(np.abs(f[..., 0]) <= MODEL.mu * fz + tol)
-    assert np.all(np.abs(f[..., 1]) <= MODEL.mu * fz + tol)
+    assert np.all(fz[stance] <= model.fz_max_n + tol)
+    assert np.all(np.abs(f[..., 0]) <= model.mu * fz + tol)
+    assert np.all(np.abs(f[..., 1]) <= model.mu * fz + tol)
 
 
 # --- schedules and references --------------------------------------------------------------------
@@ -98,12 +110,12 @@ def test_step_schedule_walk_and_trot() -> None:
         step_schedule((4,))
 
 
-def test_reference_forces_share_the_weight() -> None:
+def test_reference_forces_share_the_weight(model: SrbdModel) -> None:
     contact = horizon_schedule(WALK)
     contact[5] = False  # a flight node
-    f = reference_forces(contact, MODEL.mass_kg, MODEL.gravity)
+    f = reference_forces(contact, model.mass_kg, model.gravity)
     total = f.sum(axis=1)
-    assert np.allclose(total[contact.any(axis=1), 2], MODEL.weight_n)
+    assert np.allclose(total[contact.any(axis=1), 2], model.weight_n)
     assert np.allclose(total[5], 0.0)
     assert np.allclose(f[~contact], 0.0) and np.allclose(f[..., 0:2], 0.0)
 
@@ -111,36 +123,46 @@ def test_reference_forces_share_the_weight() -> None:
 # --- models ----------------------------------------------------------------------------------------
 
 
-def test_numpy_and_casadi_nonlinear_steps_agree() -> None:
+def test_model_comes_from_the_robot_description(desc: RobotDescription) -> None:
+    model = SrbdModel.for_robot(desc, gravity=9.8, mu=0.5)
+    assert model.mass_kg == desc.mass_kg and model.gravity == 9.8 and model.mu == 0.5
+    assert np.array_equal(model.inertia_matrix(), desc.inertia_com_standing)
+    assert model.fz_max_n == 2.0 * desc.mass_kg * 9.8  # twice the weight
+    assert model.com_height_band_m == 0.1
+    with pytest.raises(TypeError):
+        SrbdModel()  # no robot defaults
+
+
+def test_numpy_and_casadi_nonlinear_steps_agree(model: SrbdModel) -> None:
     import casadi as ca
 
     rng = np.random.default_rng(0)
     x, f = ca.SX.sym("x", 12), ca.SX.sym("f", 12)
     feet = ca.SX.sym("r", 12)
-    step = ca.Function("step", [x, f, feet], [T._casadi_step(MODEL, DT, x, f, feet, 1.0, ca.DM.zeros(3))])
+    step = ca.Function("step", [x, f, feet], [_casadi_step(model, DT, x, f, feet, 1.0, ca.DM.zeros(3))])
     for _ in range(5):
         x0 = rng.normal(0.0, 0.3, 12)
         forces, footholds = rng.normal(5.0, 3.0, (4, 3)), rng.normal(0.0, 0.2, (4, 3))
-        expected = srbd_step(MODEL, DT, x0, forces, footholds)
+        expected = srbd_step(model, DT, x0, forces, footholds)
         got = np.asarray(step(x0, forces.ravel(), footholds.ravel())).ravel()
         assert np.allclose(got, expected, atol=1e-12)
 
 
-def test_linearized_model_is_first_order_accurate() -> None:
+def test_linearized_model_is_first_order_accurate(model: SrbdModel, desc: RobotDescription) -> None:
     """The condensed linear model matches the nonlinear step to second order around the reference."""
     rng = np.random.default_rng(1)
-    base = example_problem([()], (0.0, 0.0))
-    f_ref = reference_forces(base.contact, MODEL.mass_kg, MODEL.gravity)
+    base = example_problem(desc, [()], (0.0, 0.0))
+    f_ref = reference_forces(base.contact, model.mass_kg, model.gravity)
     df, dx = rng.normal(size=f_ref.shape), rng.normal(size=12)
     errors = []
     for eps in (1e-2, 1e-3):
-        problem = example_problem([()], (0.0, 0.0), x0=base.x0 + eps * dx)
-        qp = T.build_condensed_qp(MODEL, TrajoptWeights(), DT, [problem])
+        problem = example_problem(desc, [()], (0.0, 0.0), x0=base.x0 + eps * dx)
+        qp = T.build_condensed_qp(model, TrajoptWeights(), DT, [problem])
         forces = f_ref + eps * df
         linear = qp.states(forces[None])[0]
         x = [problem.x0]
         for k in range(8):
-            x.append(srbd_step(MODEL, DT, x[-1], forces[k], problem.foot_pos_world[k]))
+            x.append(srbd_step(model, DT, x[-1], forces[k], problem.foot_pos_world[k]))
         errors.append(np.abs(linear - np.array(x)).max())
     assert errors[1] < errors[0] / 50.0  # quadratic: 100x smaller for 10x smaller deviations
 
@@ -148,18 +170,20 @@ def test_linearized_model_is_first_order_accurate() -> None:
 # --- solutions -------------------------------------------------------------------------------------
 
 
-def test_nonlinear_reference_is_dynamically_exact(optimizers) -> None:
-    for problem in typical_problems()[:4]:
+def test_nonlinear_reference_is_dynamically_exact(optimizers, model: SrbdModel, desc: RobotDescription) -> None:
+    for problem in typical_problems(desc)[:4]:
         sol = optimizers[("nlp-ipopt", len(problem.contact))].solve(problem, warm_start=False)
         assert sol.success, sol.status
-        res = dynamics_residual(MODEL, DT, sol.x, sol.forces_world, problem.foot_pos_world)
+        res = dynamics_residual(model, DT, sol.x, sol.forces_world, problem.foot_pos_world)
         assert np.abs(res).max() < 1e-7
-        assert_force_constraints(problem, sol)
+        assert_force_constraints(model, problem, sol)
 
 
 @pytest.mark.parametrize("solver", ["auto", "qp-ipm"])
-def test_fast_path_constraints_and_dynamics(optimizers, solver: str) -> None:
-    for problem in typical_problems():
+def test_fast_path_constraints_and_dynamics(
+    optimizers, model: SrbdModel, desc: RobotDescription, solver: str
+) -> None:
+    for problem in typical_problems(desc):
         sol = optimizers[(solver, len(problem.contact))].solve(problem)
         assert sol.success, sol.status
         assert sol.x.shape == (len(problem.contact) + 1, 12) and sol.forces_world.shape == (
@@ -167,20 +191,20 @@ def test_fast_path_constraints_and_dynamics(optimizers, solver: str) -> None:
             4,
             3,
         )
-        assert_force_constraints(problem, sol)
-        res = np.abs(dynamics_residual(MODEL, DT, sol.x, sol.forces_world, problem.foot_pos_world))
+        assert_force_constraints(model, problem, sol)
+        res = np.abs(dynamics_residual(model, DT, sol.x, sol.forces_world, problem.foot_pos_world))
         assert res[:, 0:6].max() < 1e-9  # translation is exact in the linearized model
         assert res[:, 6:9].max() < 1e-3  # rad, rotation linearized about level orientation
         assert res[:, 9:12].max() < 0.05  # rad/s
         assert math.isclose(
             sol.cost,
-            trajectory_cost(TrajoptWeights(), problem, MODEL, DT, sol.x, sol.forces_world),
+            trajectory_cost(TrajoptWeights(), problem, model, DT, sol.x, sol.forces_world),
             rel_tol=1e-9,
         )
 
 
-def test_fast_path_agrees_with_nonlinear_reference(optimizers) -> None:
-    for problem in typical_problems():
+def test_fast_path_agrees_with_nonlinear_reference(optimizers, desc: RobotDescription) -> None:
+    for problem in typical_problems(desc):
         n = len(problem.contact)
         ref = optimizers[("nlp-ipopt", n)].solve(problem, warm_start=False)
         for solver in ("auto", "qp-ipm"):
@@ -189,10 +213,10 @@ def test_fast_path_agrees_with_nonlinear_reference(optimizers) -> None:
             assert abs(fast.cost - ref.cost) < 0.03 * ref.cost  # cost within 3 %
 
 
-def test_interior_point_matches_casadi_qp() -> None:
+def test_interior_point_matches_casadi_qp(model: SrbdModel, desc: RobotDescription) -> None:
     """The batched interior-point method and piqp on the sparse QP solve the same problem."""
-    ipm = TrajectoryOptimizer(config=TrajoptConfig(n_nodes=8, solver="qp-ipm"))
-    piqp = TrajectoryOptimizer(config=TrajoptConfig(n_nodes=8, solver="qp-piqp"))
+    ipm = TrajectoryOptimizer(model, TrajoptConfig(n_nodes=8, solver="qp-ipm"))
+    piqp = TrajectoryOptimizer(model, TrajoptConfig(n_nodes=8, solver="qp-piqp"))
     rng = np.random.default_rng(2)
     problems = []
     for _ in range(12):  # harder than typical: fast, tilted, spinning, far footholds (constraints active)
@@ -202,7 +226,7 @@ def test_interior_point_matches_casadi_qp() -> None:
         x0[9:12] += rng.normal(0.0, 1.0, 3)
         legs = [(int(rng.integers(4)),)] if rng.random() < 0.5 else [((0, 3), (1, 2))[int(rng.integers(2))]]
         problems.append(
-            example_problem(legs, vel, x0=x0, foothold_offsets=rng.uniform(-0.15, 0.15, (1, 4, 2)))
+            example_problem(desc, legs, vel, x0=x0, foothold_offsets=rng.uniform(-0.15, 0.15, (1, 4, 2)))
         )
     batch = ipm.solve_batch(problems)
     for problem, sol in zip(problems, batch, strict=True):
@@ -210,14 +234,13 @@ def test_interior_point_matches_casadi_qp() -> None:
         assert sol.success and ref.success, (sol.status, ref.status)
         assert math.isclose(sol.cost, ref.cost, rel_tol=1e-5)
         assert np.abs(sol.forces_world - ref.forces_world).max() < 0.05  # N
-        assert_force_constraints(problem, sol)
+        assert_force_constraints(model, problem, sol)
 
 
-def test_batch_equals_single_solves(optimizers) -> None:
-    problems = typical_problems()
-    problems = [p for p in problems if len(p.contact) == 8] + walk_candidates(moving_state(0.3), (0.05, 0.0))[
-        ::9
-    ]
+def test_batch_equals_single_solves(optimizers, desc: RobotDescription) -> None:
+    problems = typical_problems(desc)
+    candidates = walk_candidates(desc, moving_state(0.3), (0.05, 0.0))
+    problems = [p for p in problems if len(p.contact) == 8] + candidates[::9]
     opt = optimizers[("qp-ipm", 8)]
     batch = opt.solve_batch(problems)
     assert len(batch) == len(problems)
@@ -227,26 +250,26 @@ def test_batch_equals_single_solves(optimizers) -> None:
         assert np.allclose(sol.x, single.x, atol=1e-7)
 
 
-def test_cost_grows_with_a_harder_reference(optimizers) -> None:
+def test_cost_grows_with_a_harder_reference(optimizers, desc: RobotDescription) -> None:
     for solver in ("auto", "qp-ipm", "nlp-ipopt"):
         opt = optimizers[(solver, 24)]
         for steps in (WALK, TROT):
             x0 = np.zeros(12)
-            x0[2] = 0.215
-            still = opt.solve(example_problem(steps, (0.0, 0.0), x0=x0), warm_start=False)
-            moving = opt.solve(example_problem(steps, (0.3, 0.0), x0=x0), warm_start=False)
+            x0[2] = desc.com_height_nominal_m
+            still = opt.solve(example_problem(desc, steps, (0.0, 0.0), x0=x0), warm_start=False)
+            moving = opt.solve(example_problem(desc, steps, (0.3, 0.0), x0=x0), warm_start=False)
             assert still.success and moving.success
             assert still.cost < moving.cost
 
 
 @pytest.mark.parametrize("solver", ["auto", "nlp-ipopt"])
-def test_warm_start_gives_the_cold_optimum(optimizers, solver: str) -> None:
+def test_warm_start_gives_the_cold_optimum(optimizers, desc: RobotDescription, solver: str) -> None:
     opt = optimizers[(solver, 24)]
-    first = example_problem(WALK, (0.1, 0.0), x0=moving_state())
+    first = example_problem(desc, WALK, (0.1, 0.0), x0=moving_state())
     x0 = moving_state()
     x0[0:3] += 0.002
     x0[9:12] += 0.03
-    second = example_problem(WALK, (0.11, 0.01), x0=x0)
+    second = example_problem(desc, WALK, (0.11, 0.01), x0=x0)
     opt.solve(first, warm_start=False)
     warm = opt.solve(second, warm_start=True)
     cold = opt.solve(second, warm_start=False)
@@ -255,11 +278,11 @@ def test_warm_start_gives_the_cold_optimum(optimizers, solver: str) -> None:
     assert np.allclose(warm.x, cold.x, atol=1e-5)
 
 
-def test_solution_is_invariant_to_the_heading(optimizers) -> None:
+def test_solution_is_invariant_to_the_heading(optimizers, desc: RobotDescription) -> None:
     """Rotating the whole problem about z rotates the solution and keeps the cost."""
     opt = optimizers[("auto", 24)]
-    base = example_problem(TROT, (0.1, 0.05), x0=moving_state(yaw=0.0))
-    turned = example_problem(TROT, (0.1, 0.05), x0=moving_state(yaw=0.0))
+    base = example_problem(desc, TROT, (0.1, 0.05), x0=moving_state(yaw=0.0))
+    turned = example_problem(desc, TROT, (0.1, 0.05), x0=moving_state(yaw=0.0))
     yaw = 1.1
     c, s = math.cos(yaw), math.sin(yaw)
     rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -283,8 +306,8 @@ def test_solution_is_invariant_to_the_heading(optimizers) -> None:
 
 
 @pytest.mark.parametrize("solver", ["auto", "qp-ipm", "nlp-ipopt"])
-def test_no_support_is_infeasible_without_raising(optimizers, solver: str) -> None:
-    problem = example_problem(WALK[:1], (0.0, 0.0))
+def test_no_support_is_infeasible_without_raising(optimizers, desc: RobotDescription, solver: str) -> None:
+    problem = example_problem(desc, WALK[:1], (0.0, 0.0))
     problem.contact = np.zeros_like(problem.contact)
     sol = optimizers[(solver, 8)].solve(problem, warm_start=False)
     assert not sol.success
@@ -292,50 +315,52 @@ def test_no_support_is_infeasible_without_raising(optimizers, solver: str) -> No
     assert sol.cost == math.inf
 
 
-def test_non_finite_input_returns_an_error_status(optimizers) -> None:
-    bad = example_problem(WALK[:1], (0.1, 0.0))
+def test_non_finite_input_returns_an_error_status(optimizers, desc: RobotDescription) -> None:
+    bad = example_problem(desc, WALK[:1], (0.1, 0.0))
     bad.x0 = bad.x0.copy()
     bad.x0[3] = np.nan
     for solver in ("auto", "qp-ipm", "nlp-ipopt"):
         sol = optimizers[(solver, 8)].solve(bad)
         assert not sol.success and sol.status == "error: non-finite input"
-    good = example_problem(WALK[:1], (0.1, 0.0))
+    good = example_problem(desc, WALK[:1], (0.1, 0.0))
     results = optimizers[("qp-ipm", 8)].solve_batch([good, bad, good])
     assert [r.success for r in results] == [True, False, True]
 
 
-def test_swing_foot_positions_may_be_nan(optimizers) -> None:
-    problem = example_problem(WALK[:1], (0.1, 0.0))
+def test_swing_foot_positions_may_be_nan(optimizers, desc: RobotDescription) -> None:
+    problem = example_problem(desc, WALK[:1], (0.1, 0.0))
     problem.foot_pos_world = problem.foot_pos_world.copy()
     problem.foot_pos_world[~problem.contact] = np.nan
     assert ProblemBatch.of([problem], 8).finite()[0]
     assert optimizers[("qp-ipm", 8)].solve(problem).success
 
 
-def test_wrong_shapes_raise() -> None:
-    opt = TrajectoryOptimizer(config=TrajoptConfig(n_nodes=8, solver="qp-ipm"))
+def test_wrong_shapes_raise(model: SrbdModel, desc: RobotDescription) -> None:
+    opt = TrajectoryOptimizer(model, TrajoptConfig(n_nodes=8, solver="qp-ipm"))
     with pytest.raises(ValueError):
-        opt.solve(example_problem(WALK, (0.1, 0.0)))  # 24 nodes for an 8-node optimizer
+        opt.solve(example_problem(desc, WALK, (0.1, 0.0)))  # 24 nodes for an 8-node optimizer
     with pytest.raises(ValueError):
-        TrajectoryOptimizer(config=TrajoptConfig(solver="magic"))
+        TrajectoryOptimizer(model, TrajoptConfig(solver="magic"))
 
 
 def test_format_table() -> None:
+    """The benchmark's rows (some with extra columns) format as one table (``contactnet.bench``)."""
     rows = [
         {"name": "a", "median_ms": 1.0, "p99_ms": 2.0},
         {"name": "b", "median_ms": 0.3, "p99_ms": 0.4, "candidates_per_s": 3000.0},
     ]
-    text = T.format_table(rows)
-    assert "a" in text and "candidates_per_s 3000.0" in text
+    header, _, row_a, row_b = format_table(rows).splitlines()
+    assert header.split() == ["name", "median_ms", "p99_ms", "candidates_per_s"]
+    assert row_a.split() == ["a", "1", "2"] and row_b.split() == ["b", "0.3", "0.4", "3000"]
 
 
-def test_candidate_batches_of_a_state() -> None:
+def test_candidate_batches_of_a_state(model: SrbdModel, desc: RobotDescription) -> None:
     """All 100 walking and 162 trotting candidates of a state solve; tol 1e-6 ranks like tol 1e-8."""
     x0 = moving_state()
-    tight = TrajectoryOptimizer(config=TrajoptConfig(n_nodes=8, solver="qp-ipm"))
-    fast = TrajectoryOptimizer(config=TrajoptConfig.for_candidates())
-    for make, size in ((walk_candidates, 100), (T.trot_candidates, 162)):
-        problems = make(x0, (0.05, 0.0))
+    tight = TrajectoryOptimizer(model, TrajoptConfig(n_nodes=8, solver="qp-ipm"))
+    fast = TrajectoryOptimizer(model, TrajoptConfig.for_candidates())
+    for make, size in ((walk_candidates, 100), (trot_candidates, 162)):
+        problems = make(desc, x0, (0.05, 0.0))
         assert len(problems) == size
         a, b = fast.solve_batch(problems), tight.solve_batch(problems)
         assert all(s.success for s in a) and all(s.success for s in b)
@@ -344,8 +369,8 @@ def test_candidate_batches_of_a_state() -> None:
         assert np.allclose(cb[np.argsort(ca)[:5]], np.sort(cb)[:5], rtol=1e-5)  # same best five
 
 
-def test_reference_states_integrate_the_user_velocity() -> None:
-    problem = example_problem(WALK, (0.2, -0.1), x0=moving_state(yaw=0.4))
+def test_reference_states_integrate_the_user_velocity(desc: RobotDescription) -> None:
+    problem = example_problem(desc, WALK, (0.2, -0.1), x0=moving_state(yaw=0.4))
     ref = T.reference_states(problem, 24, DT)
     assert np.allclose(ref, ProblemBatch.of([problem], 24).reference_states(DT)[0])
     assert np.allclose(ref[-1, 0:2], problem.x0[0:2] + 24 * DT * np.array([0.2, -0.1]))
@@ -353,10 +378,10 @@ def test_reference_states_integrate_the_user_velocity() -> None:
     assert np.allclose(ref[:, [6, 7, 9, 10, 11]], 0.0)
 
 
-def test_reference_start_pulls_the_com_back_to_its_path(optimizers) -> None:
+def test_reference_start_pulls_the_com_back_to_its_path(optimizers, desc: RobotDescription) -> None:
     """A reference path 4 cm to the left: every solver moves the CoM left, and the fast paths agree."""
     x0 = moving_state(yaw=0.4)
-    base = example_problem(WALK, (0.05, 0.0), x0=x0)
+    base = example_problem(desc, WALK, (0.05, 0.0), x0=x0)
     left_world = x0[0:2] + np.array([-np.sin(0.4), np.cos(0.4)]) * 0.04
     shifted = dataclasses.replace(base, com_xy_ref_start=left_world)
     ends = {}

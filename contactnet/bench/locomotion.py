@@ -1,37 +1,29 @@
-"""Locomotion quality on flat ground with the heuristic planner: the locomotion issue's target matrix.
+"""`contactnet bench locomotion`: walking quality on flat ground with the heuristic planner.
 
-    python benchmarks/bench_locomotion.py [--duration 60] [--workers 2]
-
-Rows: walk and trot at (vx, vy) = (0.1, 0), (-0.1, 0), (0, 0.1), (0.05, -0.05) for `--duration`
+Rows: walk and trot at (vx, vy) = (0.1, 0), (-0.1, 0), (0, 0.1), (0.05, -0.05) for ``duration_s``
 simulated seconds; walking at 0.05 m/s with a 5 N push for 1 s along +x, -x, +y, -y; and walking
 and trotting with joint-velocity noise of variance 0.01. Each row: fell, mean velocity vs command,
-yaw drift, real-time factor, optimizer median.
+yaw drift, real-time factor, optimizer median. Cases run in a process pool (``workers``).
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from contactnet.bench import format_table  # noqa: E402
+from contactnet.robots import DEFAULT_ROBOT
 
 
 def run_case(case: dict) -> dict:
-    from contactnet.gait import gait_by_name
     from contactnet.locomotion import Locomotion
     from contactnet.planner import HeuristicPlanner
-    from contactnet.robot import Solo12
+    from contactnet.registry import gait_by_name, load_robot
     from contactnet.sim import Push, SimConfig
     from contactnet.terrain import flat
 
     gait = gait_by_name(case["gait"])
     vx, vy = case["vel"]
     with Locomotion(
-        Solo12.load(),
+        load_robot(case.get("robot", DEFAULT_ROBOT)),
         flat(),
         gait,
         HeuristicPlanner(gait),
@@ -45,7 +37,7 @@ def run_case(case: dict) -> dict:
     speed_cmd = (vx**2 + vy**2) ** 0.5
     err = ((mean_v[0] - vx) ** 2 + (mean_v[1] - vy) ** 2) ** 0.5
     return {
-        "case": case["name"],
+        "case": f"{case.get('robot', DEFAULT_ROBOT)} {case['name']}",
         "fell": result["fell"],
         "sim_s": round(result["sim_time_s"], 2),
         "cmd": f"({vx:+.2f}, {vy:+.2f})",
@@ -76,17 +68,9 @@ def cases(duration: float) -> list[dict]:
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--duration", type=float, default=60.0)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--only", default="", help="run only cases whose name contains this text")
-    args = parser.parse_args()
-    todo = [c for c in cases(args.duration) if args.only in c["name"]]
-    with ProcessPoolExecutor(args.workers) as pool:
-        rows = list(pool.map(run_case, todo))
-    print(format_table(rows))
-
-
-if __name__ == "__main__":
-    main()
+def bench_locomotion(duration_s: float = 20.0, workers: int = 2, robot_name: str = DEFAULT_ROBOT,
+                     only: str = "") -> list[dict]:
+    """Every case of ``cases`` whose name contains ``only``, for one robot."""
+    todo = [dict(c, robot=robot_name) for c in cases(duration_s) if only in c["name"]]
+    with ProcessPoolExecutor(workers) as pool:
+        return list(pool.map(run_case, todo))

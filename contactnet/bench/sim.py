@@ -1,0 +1,110 @@
+"""`contactnet bench sim`: real-time factors of the PyBullet world standing, and of the whole stack walking."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from contactnet.registry import DEFAULT_ROBOT, gait_by_name, load_robot, make_planner, model_path
+
+
+def standing_real_time_factor(
+    sim_seconds: float = 4.0, sphere_feet: bool = True, terrain_name: str = "flat", with_contacts: bool = False,
+    robot_name: str = DEFAULT_ROBOT,
+) -> dict:
+    """Simulate a robot standing under a joint PD at 1 kHz; return the real-time factor and the result.
+
+    The loop reads the sensors a joint PD needs (and the foot contacts too with `with_contacts`).
+    """
+    from contactnet.sim import SimConfig, Simulator, standing_torques
+    from contactnet.terrain import resolve
+
+    robot = load_robot(robot_name)
+    terrain = resolve(terrain_name)
+    with Simulator(robot, terrain, SimConfig(sphere_feet=sphere_feet)) as sim:
+        target = robot.joint_standing
+        n = round(sim_seconds / sim.config.dt_s)
+        state = sim.state(with_contacts)
+        start = time.perf_counter()
+        for _ in range(n):
+            sim.step(standing_torques(state, target))
+            state = sim.state(with_contacts)
+        wall = time.perf_counter() - start
+        fell = sim.fallen()
+        height = float(state.base_pos_world[2] - terrain.surface_z)
+    return {"rtf": sim_seconds / wall, "wall_s": wall, "fell": fell, "base_height_m": height}
+
+
+def walking_real_time_factor(gait_name: str, sim_seconds: float = 6.4, vx: float = 0.1,
+                             planner_name: str = "heuristic", terrain_name: str = "flat",
+                             robot_name: str = DEFAULT_ROBOT) -> dict:
+    """The whole stack (planner, optimizer, 1 kHz controller, PyBullet) walking on a terrain."""
+    from contactnet.locomotion import Locomotion
+    from contactnet.terrain import resolve
+
+    gait = gait_by_name(gait_name)
+    robot = load_robot(robot_name)
+    planner = make_planner(planner_name, gait, robot)
+    with Locomotion(robot, resolve(terrain_name), gait, planner, vel_cmd_xy=(vx, 0.0)) as loco:
+        result = loco.run(sim_seconds)
+    return {"rtf": result["sim_time_s"] / result["wall_time_s"], "fell": result["fell"],
+            "trajopt_median_ms": result["trajopt_ms"]["median"], "planner_median_ms": result["planner_ms"]["median"]}
+
+
+def bench_sim(runs: int = 5, sim_seconds: float = 4.0, stack_runs: int = 3, robot_name: str = DEFAULT_ROBOT) -> list[dict]:
+    """Real-time factor of the standing simulation (joint PD at 1 kHz on `flat`).
+
+    Rows: sphere feet (ours), sphere feet with foot-contact sensing every step, and the URDF's
+    mesh feet as the reference measured in the same run (`vs_mesh_feet` is the ratio of medians).
+    Runs are interleaved so that machine noise hits every variant alike.
+    """
+    variants = {
+        "sphere feet": {"sphere_feet": True},
+        "sphere feet + contact sensing": {"sphere_feet": True, "with_contacts": True},
+        "mesh feet (reference)": {"sphere_feet": False},
+    }
+    rtfs: dict[str, list[float]] = {name: [] for name in variants}
+    fell = dict.fromkeys(variants, False)
+    for _ in range(runs):
+        for name, kwargs in variants.items():
+            result = standing_real_time_factor(sim_seconds, robot_name=robot_name, **kwargs)
+            rtfs[name].append(result["rtf"])
+            fell[name] |= result["fell"]
+    reference = float(np.median(rtfs["mesh feet (reference)"]))
+    stack_rows = []
+    cases = [("walk", "heuristic", "flat", 0.1), ("trot", "heuristic", "flat", 0.1)]
+    cases += [(gait, "contactnet", "stepping_stones", 0.05) for gait in ("walk", "trot")
+              if model_path(robot_name, gait).exists()]
+    for gait_name, planner_name, terrain_name, vx in cases:
+        results = [walking_real_time_factor(gait_name, vx=vx, planner_name=planner_name, terrain_name=terrain_name,
+                                            robot_name=robot_name)
+                   for _ in range(stack_runs)]
+        values = [r["rtf"] for r in results]
+        stack_rows.append(
+            {
+                "name": f"{robot_name} whole stack: {gait_name} {vx:g} m/s on {terrain_name}, {planner_name} planner",
+                "median_rtf": float(np.median(values)),
+                "min_rtf": float(np.min(values)),
+                "max_rtf": float(np.max(values)),
+                "vs_mesh_feet": float(np.median(values)) / reference,
+                "runs": stack_runs,
+                "sim_s_per_run": 6.4,
+                "fell": any(r["fell"] for r in results),
+                "trajopt_median_ms": float(np.median([r["trajopt_median_ms"] for r in results])),
+                "planner_median_ms": float(np.median([r["planner_median_ms"] for r in results])),
+            }
+        )
+    return stack_rows + [
+        {
+            "name": f"{robot_name} standing on flat, {name}, 1 kHz",
+            "median_rtf": float(np.median(values)),
+            "min_rtf": float(np.min(values)),
+            "max_rtf": float(np.max(values)),
+            "vs_mesh_feet": float(np.median(values)) / reference,
+            "runs": runs,
+            "sim_s_per_run": sim_seconds,
+            "fell": fell[name],
+        }
+        for name, values in rtfs.items()
+    ]

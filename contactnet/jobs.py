@@ -1,0 +1,145 @@
+"""One resumable job runner for the long commands (``contactnet datagen``, ``contactnet experiment``).
+
+A caller describes its work as `Job`s with stable keys, reads from its own files which keys are already
+done, and hands `run_jobs` a picklable job function and a result callback; the callback stores each result
+(atomically, or appended to a log) as soon as it arrives, so an interrupted run loses only the jobs in
+progress and the same call resumes with the missing ones::
+
+    done = keys_found_in_my_files()
+    run_jobs([Job(key, args) for key, args in ...], work, on_result, done=done, workers=4)
+
+The *engine* runs the missing jobs. ``"local"`` (the only one so far) is a ``spawn`` process pool on this
+machine: workers ignore SIGINT, so Ctrl-C reaches the parent only, which stops the pool at once, keeps what
+the callback stored and re-raises KeyboardInterrupt (the command then prints how to resume). With one
+worker the jobs run in this process, one after the other. A new engine (e.g. Ray) is a function with the
+signature of `_local_engine` registered in ``_ENGINES``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import os
+import signal
+import threading
+from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+#: ``engine(call, items, workers, worker_init)``: apply ``call`` to every item (in any order) and yield its
+#: results as they arrive; stop all work when the generator is closed or an exception passes through it.
+Engine = Callable[[Callable[[Any], Any], Sequence[Any], int, Callable[[], None] | None], Iterator[Any]]
+
+
+@dataclass(frozen=True)
+class Job:
+    """One unit of work: ``key`` names it across runs (resume), ``args`` is what the job function gets
+    (picklable), ``size`` how many progress units it counts for (e.g. the episodes of a shard)."""
+
+    key: Hashable
+    args: Any
+    size: int = 1
+
+
+def run_jobs(
+    jobs: Sequence[Job],
+    work: Callable[[Any], Any],
+    on_result: Callable[[Job, Any], Any],
+    done: Iterable[Hashable] = (),
+    workers: int | None = None,
+    progress: bool = True,
+    unit: str = "job",
+    engine: str = "local",
+    worker_init: Callable[[], None] | None = None,
+) -> int:
+    """Run the ``jobs`` whose key is not in ``done``; returns how many ran.
+
+    ``work(job.args)`` runs in a worker (a module-level function: it is pickled); ``on_result(job, result)``
+    runs in this process as each job finishes, in completion order; a mapping it returns is shown after the
+    progress bar (any other return value is ignored). ``workers``: processes (default: the CPU count; never more than the jobs to run); 1 runs
+    the jobs in this process. ``worker_init()`` (picklable) runs once in each worker process, not when the
+    jobs run in this process. The progress bar (tqdm on stderr: done/total in ``unit``s, rate, ETA;
+    ``progress=False`` hides it) counts every job's ``size``, the done ones included.
+
+    Ctrl-C (or any error) stops the running jobs; the results already passed to ``on_result`` stay, and the
+    exception is re-raised.
+    """
+    from tqdm import tqdm
+
+    if engine not in _ENGINES:
+        raise ValueError(f"unknown job engine {engine!r}: choose one of {', '.join(_ENGINES)}")
+    keys = [job.key for job in jobs]
+    if len(set(keys)) != len(keys):
+        raise ValueError("run_jobs: job keys must be unique")
+    done = set(done)
+    todo = [job for job in jobs if job.key not in done]
+    n_workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
+    with tqdm(total=sum(job.size for job in jobs), initial=sum(job.size for job in jobs if job.key in done),
+              unit=unit, disable=not progress, dynamic_ncols=True) as bar:
+        if not todo:
+            return 0
+        call = functools.partial(_call_indexed, work)
+        items = list(enumerate(job.args for job in todo))
+        with contextlib.closing(_ENGINES[engine](call, items, n_workers, worker_init)) as results:
+            for index, result in results:
+                job = todo[index]
+                shown = on_result(job, result)
+                bar.update(job.size)
+                if isinstance(shown, Mapping) and shown:
+                    bar.set_postfix(shown)
+    return len(todo)
+
+
+def _call_indexed(work: Callable[[Any], Any], item: tuple[int, Any]) -> tuple[int, Any]:
+    index, args = item
+    return index, work(args)
+
+
+def _worker_start(worker_init: Callable[[], None] | None) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    if worker_init is not None:
+        worker_init()
+
+
+@contextlib.contextmanager
+def _sigint_ignored() -> Iterator[None]:
+    """Ignore SIGINT while worker processes start (they inherit it: no Ctrl-C traceback from a starting
+    worker); only the main thread may touch signal handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _local_engine(call: Callable[[Any], Any], items: Sequence[Any], workers: int,
+                  worker_init: Callable[[], None] | None) -> Iterator[Any]:
+    """This machine: one worker runs in this process, more in a ``spawn`` process pool (a clean interpreter
+    per worker, safe with PyBullet and threads)."""
+    if workers == 1:
+        for item in items:
+            yield call(item)
+        return
+    import multiprocessing
+
+    with _sigint_ignored():
+        pool = multiprocessing.get_context("spawn").Pool(workers, initializer=_worker_start,
+                                                         initargs=(worker_init,))
+    try:
+        yield from pool.imap_unordered(call, items)
+        pool.close()
+    except BaseException:  # Ctrl-C, an error in a job, or the caller stopped listening (GeneratorExit)
+        pool.terminate()
+        raise
+    finally:
+        pool.join()
+
+
+_ENGINES: dict[str, Engine] = {"local": _local_engine}
+
+ENGINES = tuple(_ENGINES)  #: the engines ``run_jobs`` knows
+
+__all__ = ["ENGINES", "Job", "run_jobs"]

@@ -1,0 +1,134 @@
+"""The one place names live: gaits, planners, robots and model files.
+
+The command line's choices, the web API's enums and the live session all read these tables, so a
+gait, planner or robot registered here (or from outside the package, before they are read) is
+offered everywhere::
+
+    from contactnet import registry
+    registry.register_planner("my_planner", lambda gait, robot, model: MyPlanner(gait, robot))
+
+The tables of gaits (``contactnet.gait``) and robots (``contactnet.robots``) live beside their
+definitions and are re-exported here. Built in: gaits ``walk`` and ``trot``; planners ``contactnet``, ``fixed``, ``heuristic``, ``oracle``;
+robots ``solo12`` and ``go2`` (``contactnet.robots``). Trained models ship as
+``contactnet/models/{gait}.pt`` for Solo12 and ``{robot}_{gait}.pt`` for other robots.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from contactnet.gait import GaitSpec, gait_by_name, gait_names, register_gait
+from contactnet.planner import (
+    ContactNetPlanner,
+    FixedGaitPlanner,
+    HeuristicPlanner,
+    OraclePlanner,
+    Planner,
+)
+from contactnet.robots import (
+    DEFAULT_ROBOT,
+    Robot,
+    RobotDescription,
+    load_robot,
+    register_robot,
+    robot_names,
+    robot_spec,
+)
+
+# ---- planners ---------------------------------------------------------------------------------
+#: Builds a planner for a gait and a robot; ``model`` is the loaded network (None unless ``needs_model``).
+PlannerFactory = Callable[[GaitSpec, RobotDescription, Any], Planner]
+
+
+@dataclass(frozen=True)
+class PlannerEntry:
+    name: str
+    build: PlannerFactory
+    needs_model: bool = False  #: loads the gait's ContactNet model (``model_path``)
+    summary: str = ""
+
+
+_PLANNERS: dict[str, PlannerEntry] = {}
+
+
+def register_planner(name: str, build: PlannerFactory, needs_model: bool = False, summary: str = "") -> PlannerEntry:
+    """Make a planner known by its name (CLI ``--planner``, the web app's dropdown, experiments)."""
+    if name in _PLANNERS:
+        raise ValueError(f"a planner named {name!r} is already registered")
+    entry = PlannerEntry(name, build, needs_model, summary)
+    _PLANNERS[name] = entry
+    return entry
+
+
+def planner_names() -> tuple[str, ...]:
+    return tuple(_PLANNERS)
+
+
+def planner_entry(name: str) -> PlannerEntry:
+    try:
+        return _PLANNERS[name]
+    except KeyError:
+        raise ValueError(f"unknown planner {name!r}: choose one of {', '.join(_PLANNERS)}") from None
+
+
+def make_planner(name: str, gait: GaitSpec, robot: Robot | RobotDescription | None = None,
+                 model: str | Path | None = None) -> Planner:
+    """The planner called ``name`` for ``gait`` and ``robot`` (default Solo12). Planners that rank with the
+    network load ``model`` (default: the shipped ``model_path(robot, gait)``); a missing, broken or foreign
+    model file raises ``contactnet.network.ModelFileError``."""
+    entry = planner_entry(name)
+    if robot is None:
+        robot = load_robot(DEFAULT_ROBOT)
+    description = robot.description if isinstance(robot, Robot) else robot
+    loaded = None
+    if entry.needs_model:
+        from contactnet.network import load_model
+
+        path = model_path(description.name, gait.name) if model is None else Path(model)
+        loaded = load_model(path, expect_gait=gait.name, expect_n_actions=gait.n_actions,
+                            expect_robot=description.name, dtype="float32")
+    return entry.build(gait, description, loaded)
+
+
+# ---- model files --------------------------------------------------------------------------------
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+
+
+def model_path(robot_name: str, gait_name: str, models_dir: Path | None = None) -> Path:
+    """Where the trained model of a robot and gait lives: ``{gait}.pt`` for Solo12 (the paper's robot),
+    ``{robot}_{gait}.pt`` for the others, in ``models_dir`` (default: the package's ``models/``)."""
+    folder = MODELS_DIR if models_dir is None else Path(models_dir)
+    stem = gait_name if robot_name == DEFAULT_ROBOT else f"{robot_name}_{gait_name}"
+    return folder / f"{stem}.pt"
+
+
+# ---- the built-in tables --------------------------------------------------------------------------
+register_planner("contactnet", lambda gait, robot, model: ContactNetPlanner(gait, robot, model), needs_model=True,
+                 summary="the network ranks every candidate; the best safe one is taken (acyclic)")
+register_planner("fixed", lambda gait, robot, model: FixedGaitPlanner(gait, robot, model), needs_model=True,
+                 summary="the same network held to a fixed leg order (the paper's baseline)")
+register_planner("heuristic", lambda gait, robot, model: HeuristicPlanner(gait),
+                 summary="fixed cyclic gait with Raibert footholds, blind to holes")
+register_planner("oracle", lambda gait, robot, model: OraclePlanner(gait, robot),
+                 summary="evaluates the ranking cost of every candidate online (exact, slow)")
+
+__all__ = [
+    "DEFAULT_ROBOT",
+    "MODELS_DIR",
+    "PlannerEntry",
+    "gait_by_name",
+    "gait_names",
+    "load_robot",
+    "make_planner",
+    "model_path",
+    "planner_entry",
+    "planner_names",
+    "register_gait",
+    "register_planner",
+    "register_robot",
+    "robot_names",
+    "robot_spec",
+]

@@ -1,0 +1,371 @@
+"""A quadruped as a parameter: what a robot module states (`RobotSpec`), what is derived from its
+URDF + SRDF (`RobotDescription`, frozen plain numbers), and the loaded model (`Robot`: pinocchio).
+
+A robot module (``contactnet/robots/solo12.py``, ``go2.py``) writes one `RobotSpec`: where its files
+lie inside the `example-robot-data` wheel, the names of its legs, joints and feet, and the few numbers
+the files do not say (foot radius, torque limit when the URDF's is not the motor's, contact force cap,
+kinematic threshold of the ranking cost, fall height, controller gain overrides, how PyBullet should
+see its collisions). `Robot.load(spec)` builds the pinocchio model and derives the rest: mass,
+composite inertia, CoM, hip and nominal foot positions, standing heights, limits, reach.
+
+Conventions used across contactnet (any robot):
+- legs are ordered front-left, front-right, hind-left, hind-right (index 0..3, canonical names
+  ``LEG_NAMES``), joints per leg abduction, hip flexion, knee (pinocchio order);
+- ``q`` is pinocchio's configuration (19: base xyz, base quaternion xyzw, 12 joints), ``v`` its
+  velocity (18: base linear and angular velocity in the base frame, 12 joint velocities);
+- arrays say their frame in their name: ``_world``, ``_base`` (base link frame), ``_com`` (CoM frame:
+  origin at the CoM, axes aligned with the world but rotated by the base yaw).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from contactnet.atomic import atomic_write_bytes
+from contactnet.paths import default_cache_dir
+
+#: Canonical leg order and names of every quadruped here (a robot's own prefixes map onto these).
+LEG_NAMES: tuple[str, ...] = ("FL", "FR", "HL", "HR")
+
+#: Makes the collision element PyBullet simulates for one link of the URDF, or None to keep the URDF's:
+#: ``(link_name) -> (geometry element, origin xyz text) | None``.
+CollisionRecipe = Callable[[str], "tuple[ET.Element, str] | None"]
+
+
+class RobotDataError(RuntimeError):
+    """The robot description files are missing or unreadable (a broken installation)."""
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """What a robot module states; everything else is read from its URDF and SRDF."""
+
+    name: str
+    description_dir: str  #: folder under example-robot-data/robots/, e.g. "solo_description"
+    urdf: str  #: path of the URDF inside description_dir
+    srdf: str  #: path of the SRDF inside description_dir
+    standing_pose: str  #: SRDF group_state of the nominal stance
+    leg_prefixes: tuple[str, str, str, str]  #: the robot's names of FL, FR, HL, HR
+    joint_suffixes: tuple[str, str, str]  #: abduction, hip flexion, knee: joint = f"{prefix}_{suffix}"
+    foot_suffix: str  #: foot frame = f"{prefix}_{foot_suffix}"
+    foot_radius_m: float  #: radius of the foot ball; the foot frame is its centre
+    fz_max_n: float  #: the whole-body controller's cap on one foot's normal force
+    kin_threshold_m: float  #: ranking cost: horizontal foot-to-hip distance a stance foot may reach
+    fall_base_height_m: float  #: base origin below the ground by less than this: fallen
+    torque_limit_nm: float | None = None  #: every joint's limit; None: the URDF's effort limits
+    #: The nominal stance's (abduction, hip flexion, knee) angles of every leg, rad, instead of the SRDF
+    #: pose's (for a robot whose SRDF stance does not put the feet under the hips); None: the SRDF's.
+    standing_leg_joints_rad: tuple[float, float, float] | None = None
+    description: str = ""
+    #: ControllerGains fields this robot sets differently from the defaults, as (name, value) pairs.
+    controller_gains: tuple[tuple[str, Any], ...] = ()
+    #: How PyBullet sees the collisions (see `CollisionRecipe`); None: the URDF's meshes.
+    collision_recipe: CollisionRecipe | None = field(default=None, compare=False)
+    recipe_version: str = "v1"  #: bump when collision_recipe changes (new cached URDF file)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(f"{leg}_{kind}" for leg in self.leg_prefixes for kind in self.joint_suffixes)
+
+    @property
+    def foot_frames(self) -> tuple[str, ...]:
+        return tuple(f"{leg}_{self.foot_suffix}" for leg in self.leg_prefixes)
+
+    @property
+    def hip_frames(self) -> tuple[str, ...]:
+        """The hip flexion joints: the legs' hips."""
+        return tuple(f"{leg}_{self.joint_suffixes[1]}" for leg in self.leg_prefixes)
+
+
+@dataclass(frozen=True)
+class RobotFiles:
+    """Where a robot's description lives inside the installed example-robot-data wheel."""
+
+    urdf: Path
+    srdf: Path
+    package_root: Path  #: the folder that ``package://example-robot-data/...`` resolves against
+
+    @staticmethod
+    def locate(spec: RobotSpec) -> RobotFiles:
+        """Find the files through the installed distribution's file list (no hard-coded site-packages)."""
+        try:
+            dist = metadata.distribution("example-robot-data")
+        except metadata.PackageNotFoundError as exc:
+            raise RobotDataError(
+                "the 'example-robot-data' package is not installed (pip install example-robot-data)"
+            ) from exc
+        suffix = f"example-robot-data/robots/{spec.description_dir}/{spec.urdf}"
+        for file in dist.files or ():
+            if str(file).endswith(suffix):
+                urdf = Path(dist.locate_file(file)).resolve()
+                break
+        else:
+            raise RobotDataError(f"example-robot-data {dist.version} does not ship {suffix}")
+        description = urdf.parents[len(Path(spec.urdf).parts) - 1]
+        files = RobotFiles(urdf=urdf, srdf=description / spec.srdf, package_root=description.parent.parent.parent)
+        for path in (files.urdf, files.srdf):
+            if not path.is_file():
+                raise RobotDataError(f"missing robot file {path}")
+        return files
+
+
+def _frozen(values: Any) -> np.ndarray:
+    array = np.array(values, dtype=float)
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class RobotDescription:
+    """A robot's numbers, frozen and free of pinocchio: what planners, costs and optimizers take.
+
+    Arrays are read-only. Positions are in the base frame with the robot in its nominal stance.
+    """
+
+    name: str
+    joint_names: tuple[str, ...]  #: (12,) pinocchio order, legs in LEG_NAMES order
+    foot_frames: tuple[str, ...]  #: (4,)
+    mass_kg: float
+    inertia_com_standing: np.ndarray  #: (3, 3) composite rotational inertia about the CoM, kg m^2
+    com_base_standing: np.ndarray  #: (3,) CoM in the base frame
+    hip_pos_base: np.ndarray  #: (4, 3) hip flexion joints in the base frame
+    foot_nominal_base: np.ndarray  #: (4, 3) foot-ball centres in the nominal stance (candidate grid centres)
+    q_standing: np.ndarray  #: (19,) standing configuration, base over the origin, feet touching z = 0
+    foot_radius_m: float
+    torque_limit_nm: np.ndarray  #: (12,)
+    velocity_limit_rad_s: np.ndarray  #: (12,)
+    leg_reach_m: float  #: hip-to-foot-centre distance of a straight leg (thigh + shank)
+    fz_max_n: float
+    kin_threshold_m: float
+    fall_base_height_m: float
+    controller_gains: tuple[tuple[str, Any], ...] = ()
+    leg_names: tuple[str, ...] = LEG_NAMES
+
+    @property
+    def base_height_standing_m(self) -> float:
+        """Base-origin height above the ground in the nominal stance (feet touching)."""
+        return float(self.q_standing[2])
+
+    @property
+    def com_height_nominal_m(self) -> float:
+        """CoM height above the ground in the nominal stance."""
+        return float(self.q_standing[2] + self.com_base_standing[2])
+
+    @property
+    def joint_standing(self) -> np.ndarray:
+        """(12,) joint angles of the nominal stance, rad."""
+        return self.q_standing[7:]
+
+    @property
+    def hip_offsets_com(self) -> np.ndarray:
+        """(4, 3) hips relative to the CoM in the nominal stance (base frame)."""
+        return self.hip_pos_base - self.com_base_standing
+
+    @property
+    def weight_n(self) -> float:
+        return self.mass_kg * 9.81
+
+
+def standing_joint_positions(srdf: Path, joint_names: tuple[str, ...], pose: str) -> np.ndarray:
+    """The joint angles (rad, ``joint_names`` order) of a named SRDF group state."""
+    root = ET.parse(srdf).getroot()
+    for state in root.iter("group_state"):
+        if state.get("name") == pose:
+            values = {j.get("name"): j.get("value", "") for j in state.iter("joint")}
+            missing = [name for name in joint_names if name not in values]
+            if missing:
+                raise RobotDataError(f"{srdf}: group_state {pose!r} lacks {missing}")
+            return np.array([float(values[name]) for name in joint_names])
+    raise RobotDataError(f"{srdf}: no group_state named {pose!r}")
+
+
+def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | None = None,
+                        sphere_feet: bool = True) -> Path:
+    """Write (once) the URDF variant PyBullet simulates, and return its path.
+
+    Changes against the shipped URDF: mesh paths are absolute (a copy elsewhere cannot resolve
+    ``package://``); with ``sphere_feet`` (the default) the robot's ``collision_recipe`` replaces
+    collision shapes (typically the feet become balls of ``foot_radius_m``: mesh feet simulate about
+    half as fast). The file name carries a hash of the source and of the recipe's version, so a new
+    example-robot-data version or a new recipe makes a new file; writes are atomic.
+    """
+    source = files.urdf.read_bytes()
+    recipe = f"{spec.name}-{'sphere' if sphere_feet else 'mesh'}-feet-{spec.recipe_version}".encode()
+    digest = hashlib.sha256(source + recipe).hexdigest()[:12]
+    kind = "spherefeet" if sphere_feet else "meshfeet"
+    out = (cache_dir or default_cache_dir()) / "urdf" / f"{spec.name}_{kind}_{digest}.urdf"
+    if out.is_file():
+        return out
+    root = ET.fromstring(source)
+    for mesh in root.iter("mesh"):
+        filename = mesh.get("filename", "")
+        if filename.startswith("package://"):
+            mesh.set("filename", str(files.package_root / filename[len("package://"):]))
+    if sphere_feet and spec.collision_recipe is not None:
+        for link in root.iter("link"):
+            replacement = spec.collision_recipe(link.get("name", ""))
+            collision = link.find("collision")
+            if replacement is None:
+                continue
+            if collision is None:
+                collision = ET.SubElement(link, "collision")
+            _set_collision(collision, *replacement)
+    atomic_write_bytes(out, ET.tostring(root, xml_declaration=True, encoding="utf-8"))
+    return out
+
+
+def _set_collision(collision: ET.Element, shape: ET.Element, xyz: str) -> None:
+    origin = collision.find("origin")
+    if origin is None:
+        origin = ET.SubElement(collision, "origin")
+    origin.set("xyz", xyz)
+    origin.set("rpy", "0 0 0")
+    geometry = collision.find("geometry")
+    if geometry is None:
+        geometry = ET.SubElement(collision, "geometry")
+    for child in list(geometry):
+        geometry.remove(child)
+    geometry.append(shape)
+
+
+class Robot:
+    """A loaded robot: its frozen `description`, its pinocchio model, and kinematics queries.
+
+    Build it once with `Robot.load(spec)` (or `contactnet.robots.load_robot(name)`) and pass it around;
+    it holds a pinocchio Data for its own queries, so give each thread its own instance.
+    """
+
+    def __init__(self, spec: RobotSpec, files: RobotFiles, model: Any, description: RobotDescription,
+                 cache_dir: Path | None = None) -> None:
+        self.spec = spec
+        self.files = files
+        self.model = model
+        self.description = description
+        self.cache_dir = cache_dir
+        self.data = model.createData()
+        import pinocchio as pin
+
+        self._pin = pin
+        self._foot_ids = [model.getFrameId(f) for f in spec.foot_frames]
+
+    @staticmethod
+    def load(spec: RobotSpec, cache_dir: Path | None = None) -> Robot:
+        import pinocchio as pin
+
+        files = RobotFiles.locate(spec)
+        model = pin.buildModelFromUrdf(str(files.urdf), pin.JointModelFreeFlyer())
+        names = tuple(model.names)[2:]
+        if names != spec.joint_names:
+            raise RobotDataError(f"{files.urdf}: joint order {names}, expected {spec.joint_names}")
+        for frame in (*spec.foot_frames, *spec.hip_frames):
+            if not model.existFrame(frame):
+                raise RobotDataError(f"{files.urdf}: no frame {frame}")
+        return Robot(spec, files, model, describe(spec, files, model), cache_dir)
+
+    # ---- the description's numbers, for callers that hold the robot --------------------------
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def mass_kg(self) -> float:
+        return self.description.mass_kg
+
+    @property
+    def q_standing(self) -> np.ndarray:
+        return self.description.q_standing
+
+    @property
+    def joint_standing(self) -> np.ndarray:
+        return self.description.joint_standing
+
+    @property
+    def base_height_standing_m(self) -> float:
+        return self.description.base_height_standing_m
+
+    @property
+    def com_base_standing(self) -> np.ndarray:
+        return self.description.com_base_standing
+
+    @property
+    def inertia_com_standing(self) -> np.ndarray:
+        return self.description.inertia_com_standing
+
+    @property
+    def hip_pos_base(self) -> np.ndarray:
+        return self.description.hip_pos_base
+
+    @property
+    def foot_nominal_base(self) -> np.ndarray:
+        return self.description.foot_nominal_base
+
+    # ---- kinematics ----------------------------------------------------------------------------
+    def foot_positions_world(self, q: np.ndarray) -> np.ndarray:
+        """(4, 3) foot-ball centres in the world for configuration q (19,)."""
+        self._pin.framesForwardKinematics(self.model, self.data, np.asarray(q, dtype=float))
+        return np.array([self.data.oMf[i].translation for i in self._foot_ids])
+
+    def pybullet_urdf(self, sphere_feet: bool = True) -> Path:
+        """Path of the URDF PyBullet loads (generated once into the cache)."""
+        return write_pybullet_urdf(self.spec, self.files, self.cache_dir, sphere_feet)
+
+
+def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription:
+    """Derive a robot's numbers from its pinocchio model, SRDF and spec."""
+    import pinocchio as pin
+
+    data = model.createData()
+    q = pin.neutral(model)
+    q[7:] = standing_joint_positions(files.srdf, spec.joint_names, spec.standing_pose)
+    if spec.standing_leg_joints_rad is not None:
+        q[7:] = np.tile(spec.standing_leg_joints_rad, 4)
+
+    def frames(q_: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+        pin.framesForwardKinematics(model, data, q_)
+        return np.array([data.oMf[model.getFrameId(n)].translation for n in names])
+
+    # Put the base so that the lowest foot ball touches z = 0 (the SRDF's base pose is not used).
+    q[:7] = [0, 0, 0, 0, 0, 0, 1]
+    at_origin = q.copy()
+    feet_base = frames(at_origin, spec.foot_frames)
+    hips_base = frames(at_origin, spec.hip_frames)
+    com_base = np.asarray(pin.centerOfMass(model, data, at_origin)).copy()
+    q[2] = -feet_base[:, 2].min() + spec.foot_radius_m
+    pin.ccrba(model, data, q, np.zeros(model.nv))
+    inertia = np.asarray(data.Ig.inertia).copy()
+    # Reach of a straight leg: hip flexion joint -> knee -> foot centre, for the first leg.
+    knee = model.getJointId(spec.joint_names[2])
+    hip = model.getJointId(spec.joint_names[1])
+    foot_frame = model.frames[model.getFrameId(spec.foot_frames[0])]
+    shank = foot_frame.placement.translation if foot_frame.parentJoint == knee else np.zeros(3)
+    reach = float(np.linalg.norm(model.jointPlacements[knee].translation) + np.linalg.norm(shank))
+    del hip
+    torque = (np.full(12, spec.torque_limit_nm) if spec.torque_limit_nm is not None
+              else np.asarray(model.effortLimit[6:], dtype=float))
+    return RobotDescription(
+        name=spec.name,
+        joint_names=spec.joint_names,
+        foot_frames=spec.foot_frames,
+        mass_kg=float(pin.computeTotalMass(model)),
+        inertia_com_standing=_frozen(inertia),
+        com_base_standing=_frozen(com_base),
+        hip_pos_base=_frozen(hips_base),
+        foot_nominal_base=_frozen(feet_base),
+        q_standing=_frozen(q),
+        foot_radius_m=float(spec.foot_radius_m),
+        torque_limit_nm=_frozen(torque),
+        velocity_limit_rad_s=_frozen(model.velocityLimit[6:]),
+        leg_reach_m=reach,
+        fz_max_n=float(spec.fz_max_n),
+        kin_threshold_m=float(spec.kin_threshold_m),
+        fall_base_height_m=float(spec.fall_base_height_m),
+        controller_gains=spec.controller_gains,
+    )

@@ -1,0 +1,51 @@
+"""Solo12 (ODRI, 2.5 kg, 12 torque-controlled joints): the paper's robot, from example-robot-data.
+
+Measured facts this spec relies on (pinocchio and PyBullet agree): total mass 2.500 kg; HAA at
+(+-0.1946, +-0.0875, 0), HFE 0.014 m further out; thigh and shank 0.16 m; the foot is a ball of radius
+about 0.016 m (the foot mesh spans +-0.016 m); `straight_standing` puts the feet 0.2229 m below the base.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+from contactnet.robots.description import RobotSpec
+
+#: Radius of the foot ball (the foot mesh spans +-0.016 m), in m.
+FOOT_RADIUS_M = 0.016
+#: Peak torque of a Solo12 actuator (0.025 N m/A x gear 9 x 12 A), in N m.
+TORQUE_LIMIT_NM = 2.7
+
+
+def collision_recipe(link_name: str) -> tuple[ET.Element, str] | None:
+    """PyBullet collisions: each foot a ball of the foot's radius (the mesh foot simulates about half as
+    fast), each lower leg a thin cylinder that stops above the foot ball, so a contact of the lower leg
+    means the shin touched something."""
+    if link_name.endswith("_FOOT"):
+        return ET.Element("sphere", radius=f"{FOOT_RADIUS_M}"), "0 0 0"
+    if link_name.endswith("_LOWER_LEG"):
+        side_y = 0.008 if link_name[1] == "L" else -0.008
+        return ET.Element("cylinder", radius="0.011", length="0.125"), f"0 {side_y} -0.0725"
+    return None
+
+
+SPEC = RobotSpec(
+    name="solo12",
+    description="Solo12 (ODRI), 2.5 kg, the ContactNet paper's robot",
+    description_dir="solo_description",
+    urdf="robots/solo12.urdf",
+    srdf="srdf/solo.srdf",
+    standing_pose="straight_standing",
+    leg_prefixes=("FL", "FR", "HL", "HR"),
+    joint_suffixes=("HAA", "HFE", "KFE"),
+    foot_suffix="FOOT",
+    foot_radius_m=FOOT_RADIUS_M,
+    torque_limit_nm=TORQUE_LIMIT_NM,
+    # One foot may carry the whole robot (25 N, its weight); Solo12's knees saturate about there.
+    fz_max_n=25.0,
+    # The hip (HFE) stands 0.24 m above the ground: 0.12 m horizontally keeps the leg well inside reach.
+    kin_threshold_m=0.12,
+    fall_base_height_m=0.10,
+    collision_recipe=collision_recipe,
+    recipe_version="sphere-feet-v1",
+)

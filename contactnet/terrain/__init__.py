@@ -1,0 +1,47 @@
+"""Terrain: the steppable surface the planner checks candidate footholds against.
+
+A terrain is the union of 2D regions whose tops are steppable; everything else is a hole. The package:
+
+- ``schema``: the JSON file format (limits, :class:`TerrainError`, strict validation, reading/writing);
+- ``geometry``: :class:`Terrain`, region shapes and the fast exact point queries
+  (``is_safe``, ``height_at``, ``ground_z``);
+- ``scenes``: the paper's scenes as generators, the shipped files, name resolution
+  (``python -m contactnet.terrain`` rewrites the shipped files);
+- ``mesh``: the extruded triangle mesh; ``render``: the matplotlib top view;
+- ``edits``: pure edit operations on terrain dicts (holes, stones, moves, undo).
+"""
+
+from __future__ import annotations
+
+from contactnet.terrain.geometry import Terrain, region_geometry
+from contactnet.terrain.scenes import (
+    SHIPPED,
+    available,
+    by_name,
+    flat,
+    main,
+    narrow_stones,
+    push_field,
+    random_field,
+    resolve,
+    stepping_stones,
+    terrains_dir,
+)
+from contactnet.terrain.schema import TerrainError
+
+__all__ = [
+    "SHIPPED",
+    "Terrain",
+    "TerrainError",
+    "available",
+    "by_name",
+    "flat",
+    "main",
+    "narrow_stones",
+    "push_field",
+    "random_field",
+    "region_geometry",
+    "resolve",
+    "stepping_stones",
+    "terrains_dir",
+]

@@ -1,0 +1,100 @@
+"""Matplotlib top view of a terrain: steppable area filled, holes white, start, feet and goal line marked."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+
+
+class TerrainView(Protocol):
+    """What a top view needs of a terrain (``contactnet.terrain.Terrain`` is one)."""
+
+    name: str
+    goal_x: float
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]: ...
+
+    @property
+    def steppable(self) -> BaseGeometry: ...
+
+    @property
+    def start_xy(self) -> np.ndarray: ...
+
+
+def render(terrain: TerrainView, ax: Axes | None = None, show_start: bool = True,
+           feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> Axes:
+    """Top view: steppable area filled, holes white, start marked (``show_start``), goal line.
+
+    ``feet_xy_start`` (N, 2), world-frame x, y in metres, are marked as the feet at the start (the
+    terrain knows no robot: e.g. the CLI passes the robot's nominal stance placed at the start);
+    None marks no feet.
+    """
+    from matplotlib.patches import PathPatch
+    from matplotlib.path import Path as MplPath
+
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=_figure_size(terrain.bounds))
+    minx, miny, maxx, maxy = terrain.bounds
+    pad = 0.05 * max(maxx - minx, maxy - miny, 0.2)
+    ax.set_facecolor("white")
+    for polygon in shapely.get_parts(terrain.steppable):
+        polygon = orient(polygon, sign=1.0)
+        rings = [np.asarray(polygon.exterior.coords)] + [np.asarray(r.coords) for r in polygon.interiors]
+        path = MplPath.make_compound_path(*[MplPath(r, closed=True) for r in rings])
+        ax.add_patch(PathPatch(path, facecolor="#cdb891", edgecolor="#6b5a3a", linewidth=0.6))
+    ax.axvline(terrain.goal_x, color="#2a8a3a", linestyle="--", linewidth=1.2,
+               label=f"goal x = {terrain.goal_x:g} m")
+    if show_start:
+        ax.plot(*terrain.start_xy, marker="o", color="#c0392b", markersize=6, linestyle="none", label="start")
+    if feet_xy_start is not None:
+        feet_xy = np.asarray(feet_xy_start, dtype=float).reshape(-1, 2)
+        ax.plot(feet_xy[:, 0], feet_xy[:, 1], marker="x", color="#c0392b", markersize=5, linestyle="none",
+                label="nominal feet")
+    ax.set_xlim(min(minx, terrain.goal_x) - pad, max(maxx, terrain.goal_x) + pad)
+    ax.set_ylim(miny - pad, maxy + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(terrain.name)
+    ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
+    return ax
+
+
+def render_png(terrain: TerrainView, path: str | os.PathLike[str], dpi: int = 120,
+               feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> Path:
+    """Render the top view (start marked, and ``feet_xy_start`` if given) to a PNG with the Agg backend.
+
+    No display and no pyplot state; the parent directories are created. Returns the path written.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=_figure_size(terrain.bounds))
+    FigureCanvasAgg(figure)
+    render(terrain, ax=figure.add_subplot(), show_start=True, feet_xy_start=feet_xy_start)
+    figure.tight_layout()
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(target, dpi=dpi)
+    return target
+
+
+def _figure_size(bounds: tuple[float, float, float, float]) -> tuple[float, float]:
+    """Figure (width, height) in inches for a top view of ``bounds``, aspect clamped to 0.5..6."""
+    width, height = max(bounds[2] - bounds[0], 0.1), max(bounds[3] - bounds[1], 0.1)
+    aspect = min(max(width / height, 0.5), 6.0)
+    return (min(4.0 * aspect, 14.0), min(4.0 * aspect, 14.0) / aspect + 1.0)

@@ -1,0 +1,75 @@
+"""The resumable job runner: skips the done keys, reports every result once (in this process or from a spawn
+pool), keeps finished results when a job fails, and stops cleanly on a real Ctrl-C."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from contactnet.jobs import ENGINES, Job, run_jobs
+
+
+def test_in_process_runs_the_missing_jobs_in_order():
+    seen = []
+    ran = run_jobs([Job(k, k * 10) for k in "abcd"], str.upper, lambda job, r: seen.append((job.key, r)),
+                   done={"b"}, workers=1, progress=False)
+    assert ran == 3 and seen == [("a", "A" * 10), ("c", "C" * 10), ("d", "D" * 10)]
+    assert run_jobs([Job("a", "x")], str.upper, lambda job, r: seen.append(r), done=["a"], progress=False) == 0
+    assert len(seen) == 3
+
+
+def test_a_pool_reports_every_result_once():
+    seen = {}
+    jobs = [Job(i, float(i), size=2) for i in range(7)]
+    ran = run_jobs(jobs, abs, lambda job, r: seen.setdefault(job.key, r), done={0, 3}, workers=3, progress=False)
+    assert ran == 5 and seen == {i: float(i) for i in (1, 2, 4, 5, 6)}
+
+
+def test_errors_keep_finished_results_and_bad_calls_are_refused():
+    seen = []
+    with pytest.raises(ValueError, match="could not convert"):
+        run_jobs([Job(1, "1.5"), Job(2, "nan?"), Job(3, "3")], float, lambda job, r: seen.append(r), workers=1,
+                 progress=False)
+    assert seen == [1.5]
+    with pytest.raises(ValueError, match="unique"):
+        run_jobs([Job(1, "1"), Job(1, "2")], float, lambda job, r: None, progress=False)
+    with pytest.raises(ValueError, match="unknown job engine 'moon'"):
+        run_jobs([Job(1, "1")], float, lambda job, r: None, engine="moon", progress=False)
+    assert ENGINES == ("local",)
+
+
+SCRIPT = """
+import sys, time
+from contactnet.jobs import Job, run_jobs
+
+jobs = [Job(i, 0.05 if i < 2 else 60.0) for i in range(6)]
+try:
+    run_jobs(jobs, time.sleep, lambda job, r: print("done", job.key, flush=True), workers=2, progress=False)
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+    sys.exit(130)
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT")
+def test_ctrl_c_stops_the_pool_at_once_without_worker_tracebacks():
+    process = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, start_new_session=True)
+    lines = []
+    deadline = time.monotonic() + 60
+    while len(lines) < 2 and time.monotonic() < deadline:
+        line = process.stdout.readline()
+        assert line, process.communicate()
+        lines.append(line.strip())
+    assert sorted(lines) == ["done 0", "done 1"]
+    time.sleep(0.5)  # both workers are in their 60 s jobs
+    start = time.monotonic()
+    os.killpg(process.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers included
+    out, err = process.communicate(timeout=30)
+    assert process.returncode == 130 and out.strip() == "interrupted", (out, err)
+    assert time.monotonic() - start < 20 and "Traceback" not in err, err

@@ -1,0 +1,175 @@
+"""Robots as parameters: Solo12 is the robot the paper and FACTS.md describe; Go2 loads, stands and
+walks through the same code; no Solo12 number lives outside its module."""
+
+from __future__ import annotations
+
+import ast
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from contactnet import registry
+from contactnet.robots import RobotDataError, RobotFiles, load_robot, robot_spec
+from contactnet.robots.solo12 import FOOT_RADIUS_M, TORQUE_LIMIT_NM
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_files_come_from_the_installed_distribution():
+    files = RobotFiles.locate(robot_spec("solo12"))
+    assert files.urdf.name == "solo12.urdf" and files.urdf.is_file()
+    assert "site-packages" in str(files.urdf)
+    assert (files.package_root / "example-robot-data" / "robots" / "solo_description").is_dir()
+
+
+def test_mass_frames_and_dimensions(robot):
+    description = robot.description
+    assert robot.mass_kg == pytest.approx(2.5, abs=1e-3)
+    assert robot.model.nq == 19 and robot.model.nv == 18
+    assert tuple(robot.model.names)[2:] == description.joint_names
+    for frame in description.foot_frames:
+        assert robot.model.existFrame(frame)
+    hips = robot.hip_pos_base
+    np.testing.assert_allclose(np.abs(hips[:, 0]), 0.1946, atol=1e-4)
+    np.testing.assert_allclose(np.abs(hips[:, 1]), 0.1015, atol=1e-4)
+    # Signs: FL front-left, FR front-right, HL hind-left, HR hind-right.
+    np.testing.assert_array_equal(np.sign(hips[:, :2]), [[1, 1], [1, -1], [-1, 1], [-1, -1]])
+    np.testing.assert_allclose(description.torque_limit_nm, TORQUE_LIMIT_NM)
+    assert TORQUE_LIMIT_NM == pytest.approx(2.7)
+    assert description.leg_reach_m == pytest.approx(0.32, abs=0.01)  # 0.16 m thigh + 0.16 m shank (+ offsets)
+
+
+def test_standing_pose_puts_feet_on_the_ground(robot):
+    np.testing.assert_allclose(robot.joint_standing, [0, 0.8, -1.6, 0, 0.8, -1.6, 0, -0.8, 1.6, 0, -0.8, 1.6])
+    feet = robot.foot_positions_world(robot.q_standing)
+    np.testing.assert_allclose(feet[:, 2], FOOT_RADIUS_M, atol=1e-9)
+    assert robot.base_height_standing_m == pytest.approx(0.2229 + FOOT_RADIUS_M, abs=1e-3)
+    # Feet under the hips, at the leg's natural lateral offset.
+    np.testing.assert_allclose(robot.foot_nominal_base[:, 0], robot.hip_pos_base[:, 0], atol=1e-9)
+    np.testing.assert_allclose(np.abs(robot.foot_nominal_base[:, 1]), 0.14695, atol=1e-4)
+    assert robot.description.com_height_nominal_m == pytest.approx(0.215, abs=1e-3)
+
+
+def test_composite_inertia_is_the_rigid_body_one(robot):
+    inertia = robot.inertia_com_standing
+    np.testing.assert_allclose(inertia, inertia.T, atol=1e-12)
+    np.testing.assert_allclose(np.diag(inertia), [0.0300, 0.0515, 0.0680], atol=5e-4)
+    assert np.all(np.linalg.eigvalsh(inertia) > 0)
+    assert robot.com_base_standing[2] == pytest.approx(-0.024, abs=1e-3)
+
+
+def test_description_is_frozen(robot):
+    description = robot.description
+    with pytest.raises(ValueError):
+        description.hip_pos_base[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        description.mass_kg = 3.0
+
+
+def test_pybullet_urdf_has_sphere_feet_and_absolute_meshes(robot):
+    path = robot.pybullet_urdf()
+    assert path == robot.pybullet_urdf()  # generated once, then reused
+    root = ET.parse(path).getroot()
+    for mesh in root.iter("mesh"):
+        assert not mesh.get("filename").startswith("package://")
+    for link in root.iter("link"):
+        if link.get("name").endswith("_FOOT"):
+            sphere = link.find("collision/geometry/sphere")
+            assert sphere is not None and float(sphere.get("radius")) == pytest.approx(FOOT_RADIUS_M)
+    mesh_feet = robot.pybullet_urdf(sphere_feet=False)
+    assert mesh_feet != path and mesh_feet.is_file()
+
+
+def test_go2_is_described_from_its_own_files(tmp_path):
+    go2 = load_robot("go2", cache_dir=tmp_path)
+    description = go2.description
+    assert description.name == "go2"
+    assert 15.0 < description.mass_kg < 17.0  # the 15 kg class
+    assert description.joint_names[:3] == ("FL_hip_joint", "FL_thigh_joint", "FL_calf_joint")
+    assert description.foot_frames == ("FL_foot", "FR_foot", "RL_foot", "RR_foot")  # hind legs: our HL, HR
+    np.testing.assert_allclose(description.torque_limit_nm[:3], [23.7, 23.7, 45.43])  # from its URDF
+    np.testing.assert_array_equal(np.sign(description.hip_pos_base[:, :2]), [[1, 1], [1, -1], [-1, 1], [-1, -1]])
+    feet = go2.foot_positions_world(description.q_standing)
+    np.testing.assert_allclose(feet[:, 2], description.foot_radius_m, atol=1e-9)
+    np.testing.assert_allclose(description.foot_nominal_base[:, 0], description.hip_pos_base[:, 0], atol=1e-3)
+    assert description.com_height_nominal_m > 0.25
+    assert go2.pybullet_urdf().is_file()
+
+
+def test_unknown_robot_is_a_clear_error():
+    with pytest.raises(RobotDataError, match="unknown robot 'atlas'.*solo12"):
+        load_robot("atlas")
+
+
+def test_registry_names_every_robot():
+    assert {"solo12", "go2"} <= set(registry.robot_names())
+
+
+# Solo12's distinctive numbers: hip x and y, nominal foot y, CoM height, foot radius, torque limit,
+# standing foot depth, HAA y. They belong in contactnet/robots/solo12.py (and the tests) only.
+SOLO12_NUMBERS = {0.1946, 0.1015, 0.14695, 0.215, 0.016, 2.7, 0.2229, 0.0875}
+
+
+def _numbers_in_code(path: Path) -> set[float]:
+    """Numeric literals of a module's code (docstrings and comments are text, not code)."""
+    tree = ast.parse(path.read_text())
+    return {node.value for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, float)}
+
+
+def test_no_solo12_number_outside_its_module():
+    offenders = []
+    for folder in ("contactnet", "app"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            if path.name == "solo12.py" and path.parent.name == "robots":
+                continue
+            found = _numbers_in_code(path) & SOLO12_NUMBERS
+            if found:
+                offenders.append(f"{path.relative_to(ROOT)}: {sorted(found)}")
+    assert not offenders, "Solo12 numbers outside contactnet/robots/solo12.py:\n" + "\n".join(offenders)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["solo12", "go2"])
+def test_robot_stands_10_s_under_the_whole_body_controller(name, tmp_path):
+    """All four feet in stance, the controller holding the initial CoM with the weight shared: no fall."""
+    from contactnet.controller import ControlTarget, WholeBodyController
+    from contactnet.sim import Simulator
+    from contactnet.terrain import flat
+
+    robot = load_robot(name, cache_dir=tmp_path)
+    controller = WholeBodyController(robot)
+    with Simulator(robot, flat()) as sim:
+        state = sim.state()
+        com, _, feet, _ = controller.kinematics(state.q_pinocchio(), state.v_pinocchio())
+        target = ControlTarget(com_pos=com, com_vel=np.zeros(3), rpy=np.zeros(3), ang_vel=np.zeros(3),
+                               forces=np.tile([0.0, 0.0, robot.mass_kg * 9.81 / 4], (4, 1)),
+                               stance=np.ones(4, dtype=bool), swing_pos=feet, swing_vel=np.zeros((4, 3)))
+        for tick in range(10_000):
+            sim.step(controller.torques(state.q_pinocchio(), state.v_pinocchio(), target))
+            state = sim.state(with_contacts=False)
+            if tick % 100 == 0:
+                assert sim.fall_reason(state) is None, f"{name} fell at {sim.t_s:.2f} s"
+        assert sim.fall_reason() is None
+        assert abs(state.base_pos_world[2] - robot.base_height_standing_m) < 0.03
+        np.testing.assert_allclose(state.base_pos_world[:2], [0.0, 0.0], atol=0.02)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gait_name", ["walk", "trot"])
+def test_go2_walks_and_trots_with_the_heuristic_planner(gait_name, tmp_path):
+    """The issue's Go2 target: flat ground, vx = 0.1 m/s for 20 s, no fall, progress >= 75 % of the command."""
+    from contactnet.locomotion import Locomotion
+    from contactnet.terrain import flat
+
+    robot = load_robot("go2", cache_dir=tmp_path)
+    gait = registry.gait_by_name(gait_name)
+    planner = registry.make_planner("heuristic", gait, robot)
+    with Locomotion(robot, flat(), gait, planner, vel_cmd_xy=(0.1, 0.0)) as loco:
+        summary = loco.run(20.0, stop_at_goal=False)
+    assert not summary["fell"], summary["fall_reason"]
+    assert summary["sim_time_s"] == pytest.approx(20.0)
+    assert summary["mean_velocity_xy"][0] >= 0.075
+    assert abs(summary["mean_velocity_xy"][1]) < 0.02
