@@ -3,26 +3,26 @@
 PyBullet is not thread-safe, so one thread (started by `LiveSession.start`) builds, steps,
 rebuilds and closes the `Locomotion` (and with it the `Simulator`). Everyone else - web handlers,
 viser callbacks, the scene updater - talks to it in two ways only:
-- `submit(command)` puts a command on a queue and returns a Future (resolved once the thread has
-  applied it; `call` waits for it);
-- `view` is the latest `LiveView`, an immutable picture of the session that the thread replaces
-  (one reference assignment) after every chunk of simulation. Readers never lock, and the
-  simulation never waits for a reader.
+- `submit(command)` puts a command (`app/commands.py`) on a queue and returns a Future (resolved
+  once the thread has applied it; `call` waits for it);
+- `view` is the latest `LiveView` (`app/view.py`), an immutable picture of the session that the
+  thread replaces (one reference assignment) after every chunk of simulation. Readers never lock,
+  and the simulation never waits for a reader.
+
+The session owns the current terrain: the `Terrain` it simulates, its dict form with the edit history
+(undo), and its label. Loading, editing and undoing are commands, applied by the session thread, so
+the terrain, its history and what viewers see always change together (`app/editing.py` is the
+service in front of them; see docs/architecture.md).
 
 Real-time pacing: the thread advances the simulation in chunks of at most `chunk_ticks` (10 ms)
 toward `anchor_sim + speed * (wall - anchor_wall)` and sleeps when it is ahead, which also lets
 the web threads run. If it falls more than `max_lag_s` behind (a slow machine), it drops the debt
 instead of running in a burst to catch up.
-
-`ViewTracker` turns successive `Snapshot`s into what a viewer draws (CoM path, gait-schedule
-history, the candidate footholds of the current step, planner timings). It does not know about
-viser either; `app/scene.py` draws a `LiveView`, `app/recordings.py` records it.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import queue
 import threading
 import time
@@ -36,373 +36,46 @@ from typing import Any
 
 import numpy as np
 
-from contactnet.gait import GaitSpec, gait_by_name
-from contactnet.locomotion import Locomotion, Snapshot
-from contactnet.robot import Solo12
+from app.commands import (
+    ApplyPush,
+    Command,
+    EditTerrain,
+    NudgeVelocity,
+    RenameTerrain,
+    Reset,
+    SetGait,
+    SetNoise,
+    SetPaused,
+    SetPlanner,
+    SetSpeed,
+    SetTerrain,
+    SetVelocity,
+    TogglePause,
+    UndoTerrainEdit,
+    check_command,
+)
+from app.editor import EditHistory, to_terrain
+from app.planners import PlannerFactory, default_planner_factory
+from app.settings import VELOCITY_LIMIT_M_S, ServeSettings
+from app.view import LiveView, SessionStatus, ViewTracker
+from contactnet import registry
+from contactnet.locomotion import Locomotion
+from contactnet.robots import load_robot
 from contactnet.sim import Push, SimConfig
 from contactnet.terrain import Terrain
 
 log = logging.getLogger("contactnet.app.live")
 
-GAITS = ("walk", "trot")
-PLANNERS = ("contactnet", "fixed", "heuristic")
 NOISE_VARIANCE = 0.01  # the paper's joint-velocity noise, (rad/s)^2
-VELOCITY_LIMIT = 0.3  # m/s, per axis
-PUSH_FORCE_LIMIT = 20.0  # N, magnitude
-PUSH_DURATION_LIMIT = 5.0  # s
-SPEED_RANGE = (0.1, 2.0)
-HISTORY_NODES = 125  # gait-schedule history shown: 125 nodes of 40 ms = 5 s
-COM_PATH_POINTS = 4000
-COM_PATH_STEP_M = 0.005
-TIMING_PLANS = 120
-
-
-# ---- commands ------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class SetVelocity:
-    vx: float
-    vy: float
 
 
 @dataclass(frozen=True)
-class NudgeVelocity:
-    """Add (dvx, dvy) to the commanded velocity, clipped to the limits (keyboard shortcuts: applied in
-    order by the session thread, so quick presses add up)."""
+class Pacing:
+    """How the session thread keeps real time."""
 
-    dvx: float
-    dvy: float
-
-
-@dataclass(frozen=True)
-class ApplyPush:
-    fx: float
-    fy: float
-    duration_s: float
-
-
-@dataclass(frozen=True)
-class Reset:
-    pass
-
-
-@dataclass(frozen=True)
-class SetPaused:
-    paused: bool
-
-
-@dataclass(frozen=True)
-class TogglePause:
-    """Pause a running session, run a paused one, restart one that fell or reached the goal."""
-
-
-@dataclass(frozen=True)
-class SetSpeed:
-    speed: float
-
-
-@dataclass(frozen=True)
-class SetGait:
-    gait: str
-
-
-@dataclass(frozen=True)
-class SetPlanner:
-    planner: str
-
-
-@dataclass(frozen=True)
-class SetNoise:
-    on: bool
-
-
-@dataclass(frozen=True)
-class SetTerrain:
-    terrain: Terrain
-    label: str
-
-
-Command = (
-    SetVelocity
-    | NudgeVelocity
-    | ApplyPush
-    | Reset
-    | SetPaused
-    | TogglePause
-    | SetSpeed
-    | SetGait
-    | SetPlanner
-    | SetNoise
-    | SetTerrain
-)
-
-
-def check_command(command: Command) -> None:
-    """Reject values the simulation must never see (ValueError). The REST layer checks first, with
-    field-level messages; this is the last line for every other caller."""
-
-    def finite(*values: float) -> bool:
-        return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
-
-    if isinstance(command, SetVelocity):
-        if not (finite(command.vx, command.vy) and max(abs(command.vx), abs(command.vy)) <= VELOCITY_LIMIT):
-            raise ValueError(f"velocity must be finite with |vx|, |vy| <= {VELOCITY_LIMIT} m/s")
-    elif isinstance(command, NudgeVelocity):
-        if not (
-            finite(command.dvx, command.dvy) and max(abs(command.dvx), abs(command.dvy)) <= 2 * VELOCITY_LIMIT
-        ):
-            raise ValueError(f"velocity change must be finite with |dvx|, |dvy| <= {2 * VELOCITY_LIMIT} m/s")
-    elif isinstance(command, ApplyPush):
-        if not (
-            finite(command.fx, command.fy, command.duration_s)
-            and math.hypot(command.fx, command.fy) <= PUSH_FORCE_LIMIT + 1e-9
-            and 0.0 < command.duration_s <= PUSH_DURATION_LIMIT
-        ):
-            raise ValueError(
-                f"push needs |f| <= {PUSH_FORCE_LIMIT} N and 0 < duration <= {PUSH_DURATION_LIMIT} s"
-            )
-    elif isinstance(command, SetSpeed):
-        if not (finite(command.speed) and SPEED_RANGE[0] <= command.speed <= SPEED_RANGE[1]):
-            raise ValueError(f"speed must be in [{SPEED_RANGE[0]}, {SPEED_RANGE[1]}]")
-    elif isinstance(command, SetGait):
-        if command.gait not in GAITS:
-            raise ValueError(f"unknown gait {command.gait!r}: choose one of {', '.join(GAITS)}")
-    elif isinstance(command, SetPlanner):
-        if command.planner not in PLANNERS:
-            raise ValueError(f"unknown planner {command.planner!r}: choose one of {', '.join(PLANNERS)}")
-    elif isinstance(command, SetTerrain):
-        if not isinstance(command.terrain, Terrain):
-            raise ValueError("SetTerrain needs a validated Terrain")
-
-
-# ---- planners ------------------------------------------------------------------------------------
-def default_planner_factory(
-    name: str, gait: GaitSpec, model_dir: str | Path | None = None
-) -> tuple[Any, str, str | None]:
-    """(planner, name of the planner actually used, note).
-
-    `contactnet` and `fixed` load `{model_dir}/{gait}.pt`, by default the shipped model
-    (`contactnet/models/{gait}.pt`). When that file is missing or cannot be used, the session runs
-    the heuristic planner instead and the note says why (shown in the status panel and the API)."""
-    from contactnet.cli import make_planner
-    from contactnet.network import ModelFileError, default_model_path
-
-    if name == "heuristic":
-        return make_planner("heuristic", gait), "heuristic", None
-    model = default_model_path(gait.name) if model_dir is None else Path(model_dir) / f"{gait.name}.pt"
-    try:
-        return make_planner(name, gait, model=model), name, None
-    except ModelFileError as exc:
-        if model.exists():
-            log.warning("the %s model cannot be used: %s", gait.name, exc)
-            note = f"{name} planner unavailable, {exc}: using heuristic"
-        else:
-            note = (
-                f"{name} planner: no trained {gait.name} model yet ({model.name} not found): using heuristic"
-            )
-    except Exception as exc:  # noqa: BLE001 - keep the tool usable whatever went wrong
-        log.exception("could not build the %s planner", name)
-        note = f"the {name} planner could not be built ({exc}): using heuristic"
-    return make_planner("heuristic", gait), "heuristic", note
-
-
-# ---- what viewers see ----------------------------------------------------------------------------
-@dataclass(frozen=True)
-class CandidateView:
-    """Candidate footholds of the current step, world XY, with what is known about each.
-
-    `rank` is the planner's ranking position (0 = best) when the planner ranks candidates, else
-    None; `chosen` indexes the candidate(s) taken (one per swinging leg), when on the grid."""
-
-    xy_world: np.ndarray  # (N, 2)
-    safe: np.ndarray  # (N,) bool
-    leg: np.ndarray  # (N,) int, the leg each candidate belongs to
-    rank: np.ndarray | None = None  # (N,) int
-    chosen: tuple[int, ...] = ()
-
-
-@dataclass(frozen=True)
-class SessionStatus:
-    running: bool  # advancing (not paused, not done)
-    paused: bool
-    done: str | None  # "fell: ..." or "goal reached"
-    speed: float
-    real_time_factor: float  # simulated / wall time over the last ~2 s of running
-    terrain: str
-    gait: str
-    planner: str  # as asked
-    planner_active: str  # as used
-    planner_note: str | None
-    noise: bool
-    pushes: int  # pushes applied since the last (re)start
-    error: str | None = None
-
-
-@dataclass(frozen=True)
-class LiveView:
-    """One immutable picture of the session (world frame, SI units)."""
-
-    seq: int
-    snapshot: Snapshot
-    status: SessionStatus
-    terrain: Terrain
-    terrain_version: int
-    gait: GaitSpec
-    foot_pos_world: np.ndarray  # (4, 3) foot-ball centres
-    candidates: CandidateView | None
-    com_path: np.ndarray  # (M, 3) actual CoM positions so far (decimated)
-    stance_history: np.ndarray  # (K, 4) bool planned stance per node, oldest first
-    stance_history_node0: int  # node index of stance_history[0]
-    planned_contact: np.ndarray  # (H, 4) bool contact plan from plan_t0_s
-    plan_t0_s: float
-    timing: np.ndarray  # (P, 3): sim time of each plan, planner ms, optimizer ms
-    push_force_world: np.ndarray  # (3,) sum of the active pushes
-    wall_time_s: float  # when the view was made (time.monotonic())
-
-
-class ViewTracker:
-    """Turns successive snapshots of one Locomotion into `LiveView` parts. Use from one thread
-    (it runs forward kinematics on the robot model it is given)."""
-
-    def __init__(self, robot: Solo12, terrain: Terrain, gait: GaitSpec):
-        self.robot = robot
-        self.terrain = terrain
-        self.gait = gait
-        self.reset()
-
-    def reset(self) -> None:
-        self._steps_seen = -1
-        self._candidates: CandidateView | None = None
-        self._com_buffer = np.zeros((256, 3))
-        self._com_n = 0
-        self._stance: deque[np.ndarray] = deque(maxlen=HISTORY_NODES)
-        self._stance_array = np.ones((0, 4), dtype=bool)
-        self._last_node = -1
-        self._timing: deque[tuple[float, float, float]] = deque(maxlen=TIMING_PLANS)
-        self._timing_array = np.zeros((0, 3))
-        self._planned_contact = np.ones((0, 4), dtype=bool)
-        self._plan_t0_s = 0.0
-
-    def update(self, snap: Snapshot) -> dict[str, Any]:
-        """The LiveView fields derived from `snap` (arrays are fresh or unchanged objects)."""
-        gait = self.gait
-        q = snap.q
-        foot_pos = self.robot.foot_positions_world(q)
-        if snap.steps != self._steps_seen:
-            self._steps_seen = snap.steps
-            if snap.planned_steps:
-                self._candidates = self._candidate_view(snap)
-                self._timing.append((snap.t_s, snap.last_planner_ms, snap.last_trajopt_ms))
-                self._timing_array = np.array(self._timing)
-                step_s = gait.step_duration_s
-                self._plan_t0_s = math.floor(snap.t_s / step_s + 1e-6) * step_s
-                self._planned_contact = gait.horizon_contact([s.legs for s in snap.planned_steps])
-        node = int(snap.t_s / gait.node_dt_s + 1e-6)
-        if node != self._last_node:
-            first = node if self._last_node < 0 else self._last_node + 1
-            for _ in range(first, node + 1):
-                self._stance.append(np.asarray(snap.stance, dtype=bool).copy())
-            self._last_node = node
-            self._stance_array = np.array(self._stance)
-        if snap.t_s > 0.0:  # before the first tick the controller has no CoM yet
-            self._add_com_point(np.asarray(snap.com_pos, dtype=float))
-        return {
-            "foot_pos_world": foot_pos,
-            "candidates": self._candidates,
-            "com_path": self._com_buffer[: self._com_n],
-            "stance_history": self._stance_array,
-            "stance_history_node0": self._last_node - len(self._stance) + 1,
-            "planned_contact": self._planned_contact,
-            "plan_t0_s": self._plan_t0_s,
-            "timing": self._timing_array,
-        }
-
-    def _add_com_point(self, com: np.ndarray) -> None:
-        """Append to the CoM path when it moved COM_PATH_STEP_M. Points below the count are never
-        overwritten in place (views handed out stay valid); a full buffer is replaced by a new one."""
-        n = self._com_n
-        if n and np.linalg.norm(com - self._com_buffer[n - 1]) < COM_PATH_STEP_M:
-            return
-        if n == len(self._com_buffer):
-            keep = self._com_buffer[n // 2 : n] if n >= COM_PATH_POINTS else self._com_buffer[:n]
-            self._com_buffer = np.zeros((max(2 * len(keep), 256), 3))
-            self._com_buffer[: len(keep)] = keep
-            n = len(keep)
-        self._com_buffer[n] = com
-        self._com_n = n + 1
-
-    def _candidate_view(self, snap: Snapshot) -> CandidateView:
-        """The planner's own ranking when the snapshot carries one (a future `Snapshot.candidates`
-        with xy_world, safe, rank, chosen), else the candidate grid of the legs of the current step
-        around their hip references, coloured by safety."""
-        ranked = getattr(snap, "candidates", None)
-        if ranked is not None:
-            xy = np.asarray(ranked.xy_world, dtype=float)
-            leg = np.asarray(getattr(ranked, "leg", np.full(len(xy), -1)), dtype=int)
-            chosen = getattr(ranked, "chosen", None)
-            chosen_t = () if chosen is None else tuple(np.atleast_1d(chosen).astype(int).tolist())
-            return CandidateView(
-                xy_world=xy,
-                safe=np.asarray(ranked.safe, dtype=bool),
-                leg=leg,
-                rank=np.asarray(ranked.rank, dtype=int),
-                chosen=chosen_t,
-            )
-        step = snap.planned_steps[0]
-        legs = list(step.legs)
-        base_xy = np.asarray(snap.q[:2], dtype=float)
-        x, y, z, w = snap.q[3:7]
-        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-        c, s = math.cos(yaw), math.sin(yaw)
-        hip_ref = base_xy + self.robot.foot_nominal_base[:, :2] @ np.array([[c, s], [-s, c]])
-        grid = self.gait.candidates_world(hip_ref, yaw)[legs]  # (L, C, 2)
-        xy = grid.reshape(-1, 2)
-        leg = np.repeat(np.asarray(legs, dtype=int), grid.shape[1])
-        chosen = []
-        half_spacing = 0.5 * self.gait.grid_spacing_m
-        for j, foothold in enumerate(np.asarray(step.footholds_xy_world)):
-            distance = np.linalg.norm(grid[j] - foothold, axis=1)
-            k = int(np.argmin(distance))
-            if distance[k] < half_spacing:
-                chosen.append(j * grid.shape[1] + k)
-        return CandidateView(xy_world=xy, safe=self.terrain.is_safe(xy), leg=leg, chosen=tuple(chosen))
-
-
-def gait_chart(view: LiveView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The gait schedule as step shapes: (t (S,), past stance (S, 4), planned stance (S, 4)) with
-    two samples per node boundary, NaN-free (0/1 values; the plot maps them to bars)."""
-    dt = view.gait.node_dt_s
-    now_node = view.stance_history_node0 + len(view.stance_history) - 1
-    plan_node0 = int(round(view.plan_t0_s / dt))
-    future = view.planned_contact[max(0, now_node + 1 - plan_node0) :]
-    nodes = len(view.stance_history) + len(future)
-    if nodes == 0:
-        return np.zeros(2), np.zeros((2, 4)), np.zeros((2, 4))
-    past = np.zeros((nodes, 4))
-    planned = np.zeros((nodes, 4))
-    past[: len(view.stance_history)] = view.stance_history
-    planned[len(view.stance_history) :] = future
-    edges = (view.stance_history_node0 + np.arange(nodes + 1)) * dt
-    t = np.stack([edges[:-1], edges[1:]], axis=1).ravel()
-    return t, np.repeat(past, 2, axis=0), np.repeat(planned, 2, axis=0)
-
-
-# ---- the session ---------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class SessionConfig:
-    """How a live session starts."""
-
-    terrain: Terrain
-    terrain_label: str = "stepping_stones"
-    gait: str = "walk"
-    planner: str = "contactnet"
-    vx: float = 0.05
-    vy: float = 0.0
-    noise: bool = False
-    speed: float = 1.0
-    paused: bool = False
-    chunk_ticks: int = 10
-    max_lag_s: float = 1.0
-    publish_period_s: float = 1.0 / 60.0
+    chunk_ticks: int = 10  #: control ticks (1 ms) simulated between two looks at the queue
+    max_lag_s: float = 1.0  #: further behind than this: drop the debt instead of catching up
+    publish_period_s: float = 1.0 / 60.0  #: a new LiveView at most this often while running
 
 
 @dataclass
@@ -419,11 +92,19 @@ class LiveSession:
 
     def __init__(
         self,
-        config: SessionConfig,
-        planner_factory: Callable[[str, GaitSpec], tuple[Any, str, str | None]] = default_planner_factory,
-        robot_cache_dir=None,
+        settings: ServeSettings,
+        terrain: Terrain,
+        terrain_label: str | None = None,
+        *,
+        planner_factory: PlannerFactory = default_planner_factory,
+        robot_cache_dir: Path | None = None,
+        pacing: Pacing = Pacing(),
     ):
-        self.config = config
+        """A session of ``settings.robot`` with the settings' gait, planner, velocity, noise, speed and
+        pause, on ``terrain`` (shown as ``terrain_label``, default its name). Nothing runs before `start`."""
+        self.settings = settings
+        self.pacing = pacing
+        self._initial_terrain = (terrain, terrain_label or terrain.name)
         self._planner_factory = planner_factory
         self._robot_cache_dir = robot_cache_dir
         self._commands: queue.Queue[tuple[Command | None, Future]] = queue.Queue()
@@ -469,8 +150,9 @@ class LiveSession:
         self._commands.put((command, future))
         return future
 
-    def call(self, command: Command, timeout: float = 30.0) -> None:
-        self.submit(command).result(timeout)
+    def call(self, command: Command, timeout: float = 30.0) -> Any:
+        """Submit and wait; the command's result (None for most; EditTerrain: whether it changed anything)."""
+        return self.submit(command).result(timeout)
 
     @property
     def view(self) -> LiveView | None:
@@ -489,14 +171,17 @@ class LiveSession:
     # ---- the session thread ------------------------------------------------------------------------
     def _run(self) -> None:
         try:
-            self._robot = Solo12.load(self._robot_cache_dir)
-            cfg = self.config
-            self._terrain, self._terrain_label = cfg.terrain, cfg.terrain_label
+            settings = self.settings
+            self._robot = load_robot(settings.robot, self._robot_cache_dir)
+            self._terrain, self._terrain_label = self._initial_terrain
+            self._terrain_base_label = self._terrain_label  # "<base> (edited)" after an edit
+            self._terrain_history = EditHistory(self._terrain.to_dict())
             self._terrain_version = 0
-            self._gait_name, self._planner_name, self._noise = cfg.gait, cfg.planner, cfg.noise
-            self._vel = (cfg.vx, cfg.vy)
-            self._speed = cfg.speed
-            self._paused = cfg.paused
+            self._gait_name, self._planner_name = settings.gait, settings.planner
+            self._noise = settings.noise
+            self._vel = (settings.vx_m_s, settings.vy_m_s)
+            self._speed = settings.sim_speed
+            self._paused = settings.paused
             self._error: str | None = None
             self._seq = 0
             self._loco: Locomotion | None = None
@@ -513,10 +198,11 @@ class LiveSession:
             if self._loco is not None:
                 self._loco.close()
 
-    def _build(self) -> None:
-        """(Re)build the Locomotion (and its PyBullet world) for the current settings."""
-        gait = gait_by_name(self._gait_name)
-        planner, active, note = self._planner_factory(self._planner_name, gait)
+    def _build(self, publish: bool = True) -> None:
+        """(Re)build the Locomotion (and its PyBullet world) for the current settings; ``publish=False``
+        leaves publishing the new view to the caller (a command publishes once it is fully applied)."""
+        gait = registry.gait_by_name(self._gait_name)
+        planner, active, note = self._planner_factory(self._planner_name, gait, self._robot)
         sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0)
         loco = Locomotion(self._robot, self._terrain, gait, planner, sim_config, vel_cmd_xy=self._vel)
         if self._loco is not None:
@@ -524,14 +210,15 @@ class LiveSession:
         self._loco = loco
         self._planner_active, self._planner_note = active, note
         self._tracker = ViewTracker(self._robot, self._terrain, gait)
-        self._after_restart()
+        self._after_restart(publish)
 
-    def _after_restart(self) -> None:
+    def _after_restart(self, publish: bool = True) -> None:
         self._pushes: list[Push] = []
         self._done: str | None = None
         self._tracker.reset()
         self._anchor()
-        self._publish()
+        if publish:
+            self._publish()
 
     def _anchor(self) -> None:
         self._anchor_wall = time.perf_counter()
@@ -544,7 +231,7 @@ class LiveSession:
         return not self._paused and self._done is None and self._error is None
 
     def _loop(self) -> None:
-        cfg = self.config
+        cfg = self.pacing
         dt = self._loco.sim.config.dt_s
         while not self._stop:
             self._drain(block=not self._running)
@@ -601,23 +288,25 @@ class LiveSession:
                 future.set_result(None)
                 return
             try:
-                self._apply(command)
+                result = self._apply(command)
             except Exception as exc:  # noqa: BLE001 - handed back to the caller
                 self._publish()
                 future.set_exception(exc)
                 continue
             self._publish()  # before resolving: whoever waited sees the effect in `view`
-            future.set_result(None)
+            future.set_result(result)
 
-    def _apply(self, command: Command) -> None:
+    def _apply(self, command: Command) -> Any:
+        """Apply one command (session thread); returns the command's result (see `call`)."""
         loco = self._loco
         was_running = self._running
+        result = None
         if isinstance(command, SetVelocity):
             self._vel = (float(command.vx), float(command.vy))
             loco.set_command(*self._vel)
         elif isinstance(command, NudgeVelocity):
             self._vel = tuple(
-                float(np.clip(round(v + d, 3), -VELOCITY_LIMIT, VELOCITY_LIMIT))
+                float(np.clip(round(v + d, 3), -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S))
                 for v, d in zip(self._vel, (command.dvx, command.dvy), strict=True)
             )
             loco.set_command(*self._vel)
@@ -651,11 +340,31 @@ class LiveSession:
         elif isinstance(command, SetNoise):
             self._rebuild(noise=bool(command.on))
         elif isinstance(command, SetTerrain):
+            history = EditHistory(command.terrain.to_dict())  # a new terrain forgets the undo steps
             self._rebuild(terrain=(command.terrain, command.label))
+            self._terrain_history, self._terrain_base_label = history, command.label
+        elif isinstance(command, EditTerrain):
+            history = self._terrain_history
+            new = command.edit(history.current, *command.args)
+            if new == history.current:
+                return False
+            self._rebuild(terrain=(to_terrain(new), self._edited_label()))
+            history.apply(new)
+            result = True
+        elif isinstance(command, UndoTerrainEdit):
+            previous = self._terrain_history.previous  # EditError when there is nothing to undo
+            self._rebuild(terrain=(to_terrain(previous), self._edited_label()))
+            self._terrain_history.undo()
+        elif isinstance(command, RenameTerrain):
+            self._terrain_label = self._terrain_base_label = command.label
         else:  # pragma: no cover - check_command lets only known commands through
             raise ValueError(f"unknown command {command!r}")
         if self._running and not was_running:
             self._anchor()
+        return result
+
+    def _edited_label(self) -> str:
+        return f"{self._terrain_base_label} (edited)"
 
     def _rebuild(
         self,
@@ -675,7 +384,7 @@ class LiveSession:
         if terrain is not None:
             self._terrain, self._terrain_label = terrain
         try:
-            self._build()
+            self._build(publish=False)  # the terrain's history changes after this: publish both at once
         except Exception:
             self._gait_name, self._planner_name, self._noise, self._terrain, self._terrain_label = old
             raise
@@ -716,6 +425,7 @@ class LiveSession:
             noise=self._noise,
             pushes=len(self._pushes),
             error=self._error,
+            robot=self._robot.name,
         )
         self._seq += 1
         self._view = LiveView(
@@ -727,6 +437,8 @@ class LiveSession:
             gait=loco.gait,
             push_force_world=push_force,
             wall_time_s=time.monotonic(),
+            terrain_dict=self._terrain_history.current,
+            terrain_can_undo=self._terrain_history.can_undo,
             **parts,
         )
         self._last_publish = wall

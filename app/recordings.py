@@ -43,8 +43,10 @@ import numpy as np
 import viser
 import zstandard
 
-from app.live import LiveView, SessionStatus, ViewTracker
 from app.scene import LiveScene
+from app.settings import RECORD_RATE_RANGE_HZ
+from app.view import LiveView, SessionStatus, ViewTracker
+from contactnet.robots import DEFAULT_ROBOT, Robot, load_robot
 
 DEFAULT_RATE_HZ = 12.0
 FRAME_SLACK_S = 5e-4
@@ -69,31 +71,27 @@ def stop_quietly(server: viser.ViserServer) -> None:
         server.stop()
 
 
-def default_urdf() -> Path:
-    from contactnet.robot import RobotFiles
-
-    return RobotFiles.locate().urdf
-
-
 class SceneRecorder:
     """Records `LiveView`s into a .viser scene at `rate_hz` of simulated time.
 
     `server`: a viser server to draw on and serialize; by default a headless one on a free
-    loopback port, owned (and stopped) by the recorder. Use from one thread."""
+    loopback port, owned (and stopped) by the recorder. `robot`: the robot drawn (default Solo12).
+    Use from one thread."""
 
     def __init__(
         self,
         server: viser.ViserServer | None = None,
         *,
-        urdf_path: Path | None = None,
+        robot: Robot | None = None,
         rate_hz: float = DEFAULT_RATE_HZ,
         max_duration_s: float = MAX_DURATION_S,
     ):
-        if not 0.5 <= rate_hz <= 60.0:
-            raise ValueError(f"rate_hz must be in [0.5, 60], got {rate_hz}")
+        low, high = RECORD_RATE_RANGE_HZ
+        if not low <= rate_hz <= high:
+            raise ValueError(f"rate_hz must be in [{low:g}, {high:g}], got {rate_hz}")
         self._own_server = server is None
         self.server = server if server is not None else quiet_viser_server()
-        self.scene = LiveScene(self.server, urdf_path or default_urdf())
+        self.scene = LiveScene(self.server, robot if robot is not None else load_robot(DEFAULT_ROBOT))
         self.rate_hz = rate_hz
         self.max_duration_s = max_duration_s
         self._serializer = None
@@ -190,6 +188,7 @@ def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
         planner_note=None,
         noise=loco.sim.config.joint_vel_noise_var > 0,
         pushes=len(loco.sim.pushes),
+        robot=loco.robot.name,
     )
     return LiveView(
         seq=loco.tick,
@@ -240,19 +239,17 @@ class FileRecording:
     The constructor checks the path and reserves a temporary file (`RecordingPathError` if it
     cannot); call `add(loco)` whenever the loop has advanced (a frame is kept every 1 / rate_hz
     simulated seconds: step the loop by `period_s`), then `save()`; `close()` (or leaving the
-    `with` block) removes the temporary file if nothing was saved."""
+    `with` block) removes the temporary file if nothing was saved. The robot drawn is the loop's."""
 
     def __init__(
         self,
         path: str | os.PathLike,
         rate_hz: float = DEFAULT_RATE_HZ,
         max_duration_s: float = MAX_DURATION_S,
-        urdf_path: Path | None = None,
     ):
         self.path, self._tmp = reserve_output(path)
         self.rate_hz = rate_hz
         self._max_duration_s = max_duration_s
-        self._urdf_path = urdf_path
         self._recorder: SceneRecorder | None = None
         self._tracker: ViewTracker | None = None
         self.size_bytes = 0
@@ -278,7 +275,7 @@ class FileRecording:
         """Record the loop's current state if a frame is due; True if recorded."""
         if self._recorder is None:
             self._recorder = SceneRecorder(
-                urdf_path=self._urdf_path, rate_hz=self.rate_hz, max_duration_s=self._max_duration_s
+                robot=loco.robot, rate_hz=self.rate_hz, max_duration_s=self._max_duration_s
             )
             self._tracker = ViewTracker(loco.robot, loco.terrain, loco.gait)
         return self._recorder.add(view_of(loco, self._tracker))
@@ -421,13 +418,12 @@ class RecordingStore:
 
 
 class LiveRecorder:
-    """Start/stop recordings of the live session; `feed(view)` is called by the viewer's update loop."""
+    """Start/stop recordings of the live session (of ``robot``, default Solo12); `feed(view)` is called by
+    the viewer's update loop."""
 
-    def __init__(
-        self, store: RecordingStore, urdf_path: Path | None = None, rate_hz: float = DEFAULT_RATE_HZ
-    ):
+    def __init__(self, store: RecordingStore, robot: Robot | None = None, rate_hz: float = DEFAULT_RATE_HZ):
         self.store = store
-        self.urdf_path = urdf_path
+        self.robot = robot
         self.rate_hz = rate_hz
         self._lock = threading.Lock()
         self._recorder: SceneRecorder | None = None
@@ -454,7 +450,7 @@ class LiveRecorder:
         with self._lock:
             if self._recorder is not None:
                 raise RuntimeError(f"already recording {self._name}")
-            self._recorder = SceneRecorder(urdf_path=self.urdf_path, rate_hz=self.rate_hz)
+            self._recorder = SceneRecorder(robot=self.robot, rate_hz=self.rate_hz)
             self._name = self.store.new_name(label)
             self._started_wall = time.monotonic()
             return self._name

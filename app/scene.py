@@ -1,10 +1,9 @@
-"""The 3D scene of a live session in viser: Solo12 on the terrain, candidate disks, planned steps,
+"""The 3D scene of a live session in viser: the robot on the terrain, candidate disks, planned steps,
 CoM paths and force arrows. `LiveScene.update(view)` draws one `LiveView`.
 
 Cheap updates matter (the simulation shares the process and the GIL): every node is created once
 and later only its changed properties are sent. Per update that is the robot (12 joint rotations
-and the base pose: we compute the joint rotations directly from the URDF joint axes instead of
-yourdfpy's scene-graph update, which costs ~5 ms) and the force lines; the disks, steps and
+and the base pose, `app/robot_display.py`) and the force lines; the disks, steps and
 planned CoM path change at replanning (a few Hz); the actual CoM path is drawn in fixed chunks of
 which only the newest one changes; the terrain mesh only when the terrain does.
 
@@ -14,25 +13,20 @@ The scene draws on any viser server: the live one (browsers), or a headless one 
 
 from __future__ import annotations
 
-import math
-from functools import partial
-from pathlib import Path
-
 import numpy as np
 import trimesh
 import viser
-from viser.extras import ViserUrdf
 
-from app.live import LiveView
-from contactnet.robot import FOOT_RADIUS_M, JOINT_NAMES
+from app.robot_display import RobotDisplay
+from app.view import LiveView
+from contactnet.robots import Robot
 
-ROBOT_ROOT = "/robot"
-ROBOT_MESH_CELL_M = 0.004
 DISK_RADIUS_M = 0.017
 DISK_HEIGHT_M = 0.004
 DISK_POOL = 100  # walk: 4 legs x 25 candidates at most (a future ranking of every leg's grid)
 STEP_POOL = 6  # 3 planned steps x 2 legs (trot)
-FORCE_SCALE_M_PER_N = 0.012
+#: Foot forces are drawn relative to the robot's weight: a foot carrying all of it draws this long.
+WEIGHT_ARROW_M = 0.3
 PUSH_SCALE_M_PER_N = 0.02
 COM_CHUNK = 200  # points per chunk of the actual CoM path
 
@@ -89,113 +83,6 @@ def disk_style(
     return colors, scales
 
 
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of wxyz quaternions, broadcast over leading axes."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        axis=-1,
-    )
-
-
-def cluster_decimate(mesh: trimesh.Trimesh, cell_m: float) -> trimesh.Trimesh:
-    """A lighter copy of a mesh by vertex clustering: vertices in one cell of a `cell_m` grid merge
-    into their mean; faces that collapse or repeat are dropped."""
-    keys = np.floor(np.asarray(mesh.vertices) / cell_m).astype(np.int64)
-    _, cluster, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    cluster = cluster.ravel()
-    vertices = np.zeros((len(counts), 3))
-    np.add.at(vertices, cluster, mesh.vertices)
-    vertices /= counts[:, None]
-    faces = cluster[np.asarray(mesh.faces)]
-    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 0] != faces[:, 2])]
-    _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
-    return trimesh.Trimesh(vertices, faces[np.sort(first)], process=False)
-
-
-def load_display_urdf(urdf_path: Path):
-    """Solo12's URDF for display, its visual meshes decimated (51k -> ~10k triangles at 4 mm): a
-    software-rendering browser (no GPU) spends most of each frame on the robot's triangles."""
-    import yourdfpy
-
-    urdf = yourdfpy.URDF.load(
-        urdf_path,
-        build_scene_graph=True,
-        load_meshes=True,
-        build_collision_scene_graph=False,
-        load_collision_meshes=False,
-        filename_handler=partial(yourdfpy.filename_handler_magic, dir=urdf_path.parent),
-    )
-    for name, mesh in list(urdf.scene.geometry.items()):
-        urdf.scene.geometry[name] = cluster_decimate(mesh, ROBOT_MESH_CELL_M)
-    return urdf
-
-
-class _RobotPose:
-    """Poses Solo12's ViserUrdf from a pinocchio configuration.
-
-    Joints map by name from pinocchio's order (JOINT_NAMES) to the URDF's. A revolute joint's
-    frame is origin * rotation(axis, q): its position never changes and its rotation is the
-    origin's quaternion times the axis-angle one, so one update is 12 quaternion products.
-    Falls back to ViserUrdf.update_cfg if viser's internals are not as expected.
-    """
-
-    def __init__(self, server: viser.ViserServer, urdf_path: Path):
-        self.root = server.scene.add_frame(ROBOT_ROOT, show_axes=False)
-        self.urdf = ViserUrdf(
-            server,
-            load_display_urdf(urdf_path),
-            root_node_name=ROBOT_ROOT,
-            mesh_color_override=(0.32, 0.34, 0.40),
-        )
-        names = self.urdf.get_actuated_joint_names()
-        self.cfg_from_pin = np.array([JOINT_NAMES.index(n) for n in names])
-        self.urdf.update_cfg(np.zeros(len(names)))  # sets every joint frame's fixed position
-        self._fast = None
-        try:
-            joints = list(self.urdf._urdf.joint_map.values())
-            frames = list(self.urdf._joint_frames)[: len(joints)]
-            handles, pin_index, origin_q, axes = [], [], [], []
-            for joint, frame in zip(joints, frames, strict=True):
-                if joint.type not in ("revolute", "continuous"):
-                    continue
-                handles.append(frame)
-                pin_index.append(JOINT_NAMES.index(joint.name))
-                origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin)
-                origin_q.append(viser.transforms.SO3.from_matrix(origin[:3, :3]).wxyz)
-                axis = np.asarray(joint.axis, dtype=float)
-                axes.append(axis / np.linalg.norm(axis))
-            self._fast = (handles, np.array(pin_index), np.array(origin_q), np.array(axes))
-        except (AttributeError, ValueError, TypeError):
-            self._fast = None
-        self._last_q: np.ndarray | None = None
-
-    def set(self, q: np.ndarray) -> None:
-        q = np.asarray(q, dtype=float)
-        if self._last_q is not None and np.array_equal(q, self._last_q):
-            return
-        self._last_q = q.copy()
-        x, y, z, w = q[3:7]
-        self.root.position = q[:3]
-        self.root.wxyz = np.array([w, x, y, z])
-        joints = q[7:]
-        if self._fast is None:
-            self.urdf.update_cfg(joints[self.cfg_from_pin])
-            return
-        handles, pin_index, origin_q, axes = self._fast
-        half = 0.5 * joints[pin_index]
-        motion = np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * axes], axis=1)
-        wxyz = _quat_mul(origin_q, motion)
-        for handle, value in zip(handles, wxyz, strict=True):
-            handle.wxyz = value
-
-
 def _segments(points: np.ndarray) -> np.ndarray:
     """(N, 3) polyline -> (N - 1, 2, 3) segments (at least one, degenerate if needed)."""
     points = np.asarray(points, dtype=np.float32)
@@ -238,11 +125,13 @@ def arrow_segments(tail: np.ndarray, tip: np.ndarray, head_fraction: float = 0.2
 class LiveScene:
     """Scene nodes of one session on one viser server; `update(view)` sends what changed."""
 
-    def __init__(self, server: viser.ViserServer, urdf_path: Path):
+    def __init__(self, server: viser.ViserServer, robot: Robot):
         self.server = server
+        self.foot_radius_m = robot.description.foot_radius_m
+        self.force_scale_m_per_n = WEIGHT_ARROW_M / robot.description.weight_n
         scene = server.scene
         scene.set_up_direction("+z")
-        self.robot = _RobotPose(server, urdf_path)
+        self.robot = RobotDisplay(server, robot)
         disk = trimesh.creation.cylinder(radius=DISK_RADIUS_M, height=DISK_HEIGHT_M, sections=20)
         self.disks = scene.add_batched_meshes_simple(
             "/plan/candidates",
@@ -368,7 +257,7 @@ class LiveScene:
         positions = np.tile(HIDDEN_POS, (STEP_POOL, 1))
         colors = np.tile(STEP_COLORS[0], (STEP_POOL, 1))
         k = 0
-        z = view.terrain.surface_z + FOOT_RADIUS_M
+        z = view.terrain.surface_z + self.foot_radius_m
         for j, step in enumerate(view.snapshot.planned_steps[:3]):
             footholds = np.asarray(step.footholds_xy_world)
             safe = view.terrain.is_safe(footholds) & bool(step.safe)
@@ -382,9 +271,9 @@ class LiveScene:
 
     def _draw_forces(self, view: LiveView) -> None:
         feet = view.foot_pos_world.copy()
-        feet[:, 2] -= FOOT_RADIUS_M
+        feet[:, 2] -= self.foot_radius_m
         forces = np.asarray(view.snapshot.forces, dtype=float)
-        self.forces.points = arrow_segments(feet, feet + FORCE_SCALE_M_PER_N * forces)
+        self.forces.points = arrow_segments(feet, feet + self.force_scale_m_per_n * forces)
         push = view.push_force_world
         if np.any(push):
             base = np.asarray(view.snapshot.q[:3], dtype=float)
@@ -429,7 +318,3 @@ def default_camera(view: LiveView) -> tuple[np.ndarray, np.ndarray]:
     position = look_at + np.array([-0.75, -1.0, 0.85])
     return position, look_at
 
-
-def yaw_of(q: np.ndarray) -> float:
-    x, y, z, w = q[3:7]
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))

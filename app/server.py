@@ -3,20 +3,19 @@ viser server (the 3D view and its control panel), around one live session.
 
 viser cannot be mounted inside FastAPI (it is its own websocket server), so it runs on its own
 port; the front page embeds viser's client (served here at /viewer/) with `?websocket=` pointing
-at that port. `contactnet serve` calls `serve()`; tests build a `ContactnetApp` directly.
+at that port. `contactnet serve` calls `serve(settings)` (`app.settings.ServeSettings`); tests build
+a `ContactnetApp` directly. The request and response models are in `app/api_models.py`.
 """
 
-from __future__ import annotations
-
+# No `from __future__ import annotations` here: the settings endpoint's body model is built at run time
+# (from the registry) and FastAPI must see the class itself, not its name.
 import functools
 import logging
-import math
 import os
 import sys
 import threading
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import uvicorn
 from fastapi import FastAPI, HTTPException, Query, Request
@@ -25,8 +24,25 @@ from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
-from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from app.api_models import (
+    Info,
+    PauseCommand,
+    PushCommand,
+    RecordingEntry,
+    RecordingStart,
+    RecordingStatus,
+    Saved,
+    State,
+    TerrainEntry,
+    TerrainList,
+    TerrainSelect,
+    VelocityCommand,
+    json_safe,
+    settings_command_model,
+    state_of,
+)
+from app.commands import ApplyPush, Reset, SetGait, SetNoise, SetPaused, SetPlanner, SetSpeed, SetVelocity
 from app.editing import TerrainService
 from app.editor import (
     MAX_UPLOAD_BYTES,
@@ -36,26 +52,12 @@ from app.editor import (
     is_shipped,
     parse_upload,
 )
-from app.live import (
-    PUSH_DURATION_LIMIT,
-    PUSH_FORCE_LIMIT,
-    SPEED_RANGE,
-    VELOCITY_LIMIT,
-    ApplyPush,
-    LiveSession,
-    LiveView,
-    Reset,
-    SessionConfig,
-    SetGait,
-    SetNoise,
-    SetPaused,
-    SetPlanner,
-    SetSpeed,
-    SetVelocity,
-    default_planner_factory,
-)
-from app.recordings import LiveRecorder, RecordingStore, default_urdf, viser_html
+from app.live import LiveSession
+from app.planners import default_planner_factory
+from app.recordings import LiveRecorder, RecordingStore, viser_html
+from app.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, VELOCITY_LIMIT_M_S, ServeSettings
 from app.viewer import Viewer
+from contactnet.robots import load_robot
 from contactnet.terrain import Terrain, resolve, terrains_dir
 
 log = logging.getLogger("contactnet.app.server")
@@ -68,244 +70,32 @@ TerrainName = Annotated[str, PathParam(pattern=TERRAIN_NAME, description="file s
 RecordingName = Annotated[str, PathParam(pattern=r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")]
 
 
-# ---- request and response models --------------------------------------------------------------
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", strict=True)
-
-
-class VelocityCommand(_Strict):
-    """Commanded base velocity in the robot's horizontal frame."""
-
-    vx: float = Field(
-        ..., ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, forward"
-    )
-    vy: float = Field(
-        0.0, ge=-VELOCITY_LIMIT, le=VELOCITY_LIMIT, allow_inf_nan=False, description="m/s, left"
-    )
-
-
-class PushCommand(_Strict):
-    """A horizontal push on the base (world frame), starting now."""
-
-    fx: float = Field(0.0, ge=-PUSH_FORCE_LIMIT, le=PUSH_FORCE_LIMIT, allow_inf_nan=False, description="N")
-    fy: float = Field(0.0, ge=-PUSH_FORCE_LIMIT, le=PUSH_FORCE_LIMIT, allow_inf_nan=False, description="N")
-    duration: float = Field(1.0, gt=0.0, le=PUSH_DURATION_LIMIT, allow_inf_nan=False, description="s")
-
-    @model_validator(mode="after")
-    def _magnitude(self) -> PushCommand:
-        magnitude = math.hypot(self.fx, self.fy)
-        if magnitude > PUSH_FORCE_LIMIT:
-            raise ValueError(
-                f"fx, fy: push force |(fx, fy)| = {magnitude:.3g} N exceeds {PUSH_FORCE_LIMIT:g} N"
-            )
-        return self
-
-
-class PauseCommand(_Strict):
-    paused: bool
-
-
-class SettingsCommand(_Strict):
-    """Any subset of the session settings. Gait, planner and noise restart the robot."""
-
-    gait: Literal["walk", "trot"] | None = None
-    planner: Literal["contactnet", "fixed", "heuristic"] | None = None
-    noise: bool | None = Field(None, description="Gaussian joint-velocity noise, variance 0.01 (rad/s)^2")
-    speed: float | None = Field(
-        None,
-        ge=SPEED_RANGE[0],
-        le=SPEED_RANGE[1],
-        allow_inf_nan=False,
-        description="simulated seconds per wall-clock second",
-    )
-
-
-class TerrainSelect(_Strict):
-    """A terrain for the session: a file in terrains/ (or a shipped generator), or 'random'."""
-
-    name: str = Field(..., pattern=r"^(random|[A-Za-z0-9][A-Za-z0-9_-]{0,63})$")
-    removed: int | None = Field(None, ge=0, le=300, description="random: squares removed (0..300)")
-    seed: int = Field(0, ge=0, le=2**31 - 1, description="random: seed")
-
-
-class RecordingStart(_Strict):
-    label: str = Field("", max_length=40, pattern=r"^[A-Za-z0-9_ -]*$")
-
-
-class State(BaseModel):
-    """The live session now."""
-
-    t_s: float
-    running: bool
-    paused: bool
-    done: str | None
-    fell: bool
-    fall_reason: str | None
-    reached_goal: bool
-    speed: float
-    real_time_factor: float
-    terrain: str
-    gait: str
-    planner: str
-    planner_active: str
-    planner_note: str | None
-    noise: bool
-    vel_cmd: tuple[float, float]
-    base_position: tuple[float, float, float]
-    com_position: tuple[float, float, float]
-    com_velocity: tuple[float, float, float]
-    stance: tuple[bool, bool, bool, bool]
-    foot_contact: tuple[bool, bool, bool, bool]
-    steps: int
-    rank_chosen: int | None
-    last_planner_ms: float
-    last_trajopt_ms: float
-    pushes: int
-    push_force: tuple[float, float, float]
-    error: str | None
-    recording: bool
-    viser_port: int
-
-
-class TerrainEntry(BaseModel):
-    name: str
-    shipped: bool
-    url: str
-
-
-class TerrainList(BaseModel):
-    terrains: list[TerrainEntry]
-    generators: list[str] = ["random"]
-    current: str
-
-
-class Saved(BaseModel):
-    name: str
-    path: str
-
-
-class RecordingEntry(BaseModel):
-    name: str
-    size_bytes: int
-    modified: float
-    download_url: str
-    html_url: str
-    play_url: str
-
-
-class RecordingStatus(BaseModel):
-    recording: bool
-    name: str | None
-    frames: int
-    duration_s: float
-    last_saved: str | None
-
-
-class Info(BaseModel):
-    viser_port: int
-    viewer_url: str
-    version: str
-
-
-def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
-    s, snap = view.status, view.snapshot
-    q = snap.q
-    return State(
-        t_s=snap.t_s,
-        running=s.running,
-        paused=s.paused,
-        done=s.done,
-        fell=snap.fell,
-        fall_reason=snap.fall_reason,
-        reached_goal=snap.reached_goal,
-        speed=s.speed,
-        real_time_factor=s.real_time_factor,
-        terrain=s.terrain,
-        gait=s.gait,
-        planner=s.planner,
-        planner_active=s.planner_active,
-        planner_note=s.planner_note,
-        noise=s.noise,
-        vel_cmd=snap.vel_cmd_xy,
-        base_position=tuple(float(v) for v in q[:3]),
-        com_position=tuple(float(v) for v in snap.com_pos),
-        com_velocity=tuple(float(v) for v in snap.com_vel),
-        stance=tuple(bool(v) for v in snap.stance),
-        foot_contact=tuple(bool(v) for v in snap.foot_contact),
-        steps=snap.steps,
-        rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
-        last_planner_ms=snap.last_planner_ms,
-        last_trajopt_ms=snap.last_trajopt_ms,
-        pushes=s.pushes,
-        push_force=tuple(float(v) for v in view.push_force_world),
-        error=s.error,
-        recording=recording,
-        viser_port=viser_port,
-    )
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    return value
-
-
 # ---- the application ----------------------------------------------------------------------------
-@dataclass(frozen=True)
-class AppConfig:
-    host: str = "127.0.0.1"
-    port: int = 8000
-    viser_port: int = 8080
-    terrain: str = "stepping_stones"
-    gait: str = "walk"
-    planner: str = "contactnet"
-    vx: float = 0.05
-    vy: float = 0.0
-    paused: bool = False
-    terrains_dir: Path | None = None
-    recordings_dir: Path = Path("recordings")
-    models_dir: Path | None = None  # {gait}.pt of contactnet/fixed; None: the shipped models
-    scene_hz: float = 30.0
-    record_hz: float = 12.0
-
-
 class ContactnetApp:
     """The whole tool: live session, viser viewer, terrain service, recorder and the FastAPI app."""
 
-    def __init__(self, config: AppConfig):
-        self.config = config
-        terrain, label = self._initial_terrain(config.terrain)
+    def __init__(self, settings: ServeSettings):
+        self.settings = settings
+        terrain, label = self._initial_terrain(settings.terrain)
         self.session = LiveSession(
-            SessionConfig(
-                terrain=terrain,
-                terrain_label=label,
-                gait=config.gait,
-                planner=config.planner,
-                vx=config.vx,
-                vy=config.vy,
-                paused=config.paused,
-            ),
-            planner_factory=functools.partial(default_planner_factory, model_dir=config.models_dir),
+            settings,
+            terrain,
+            label,
+            planner_factory=functools.partial(default_planner_factory, model_dir=settings.models_dir),
         ).start()
         try:
-            urdf = default_urdf()
-            self.terrains = TerrainService(
-                self.session, TerrainStore(config.terrains_dir or terrains_dir()), terrain, label
-            )
-            self.recordings = RecordingStore(config.recordings_dir)
-            self.recorder = LiveRecorder(self.recordings, urdf, rate_hz=config.record_hz)
+            self.robot = load_robot(settings.robot)  # for drawing (the session thread has its own)
+            self.terrains = TerrainService(self.session, TerrainStore(settings.terrains_dir or terrains_dir()))
+            self.recordings = RecordingStore(settings.recordings_dir)
+            self.recorder = LiveRecorder(self.recordings, self.robot, rate_hz=settings.record_hz)
             self.viewer = Viewer(
                 self.session,
                 self.terrains,
                 self.recorder,
-                urdf,
-                host=config.host,
-                port=config.viser_port,
-                scene_hz=config.scene_hz,
+                self.robot,
+                host=settings.host,
+                port=settings.viser_port,
+                scene_hz=settings.scene_hz,
             )
         except BaseException:
             self.session.stop()
@@ -337,15 +127,16 @@ class ContactnetApp:
 def create_api(app: ContactnetApp) -> FastAPI:
     api = FastAPI(
         title="contactnet",
-        description="Drive, push and inspect the live Solo12 session; manage terrains and recordings. "
-        "The 3D view is at / (viser, port given by GET /api/info).",
+        description=f"Drive, push and inspect the live {app.settings.robot} session; manage terrains and "
+        "recordings. The 3D view is at / (viser, port given by GET /api/info).",
         version="0.1.0",
     )
+    SettingsCommand = settings_command_model()  # noqa: N806 - a model class
 
     @api.exception_handler(RequestValidationError)
     async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
         """FastAPI's 422, but JSON-safe when the bad input was NaN or infinite (JSON allows neither)."""
-        return JSONResponse(status_code=422, content={"detail": _json_safe(jsonable_encoder(exc.errors()))})
+        return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
 
     def run(command, timeout: float = COMMAND_TIMEOUT_S) -> State:
         try:
@@ -375,20 +166,29 @@ def create_api(app: ContactnetApp) -> FastAPI:
     # ---- session ------------------------------------------------------------------------------------
     @api.get("/api/info", response_model=Info, tags=["session"])
     def info() -> Info:
-        return Info(viser_port=app.viser_port, viewer_url="/viewer/", version="0.1.0")
+        return Info(viser_port=app.viser_port, viewer_url="/viewer/", version="0.1.0", robot=app.settings.robot)
 
     @api.get("/api/state", response_model=State, tags=["session"])
     def get_state() -> State:
         return app.state()
 
-    @api.post("/api/command", response_model=State, tags=["session"])
+    @api.post(
+        "/api/command",
+        response_model=State,
+        tags=["session"],
+        description=f"Set the commanded velocity (|vx|, |vy| <= {VELOCITY_LIMIT_M_S:g} m/s).",
+    )
     def command(body: VelocityCommand) -> State:
-        """Set the commanded velocity (|vx|, |vy| <= 0.3 m/s)."""
         return run(SetVelocity(body.vx, body.vy))
 
-    @api.post("/api/push", response_model=State, tags=["session"])
+    @api.post(
+        "/api/push",
+        response_model=State,
+        tags=["session"],
+        description=f"Push the base now (|f| <= {PUSH_FORCE_LIMIT_N:g} N, "
+        f"0 < duration <= {PUSH_DURATION_LIMIT_S:g} s).",
+    )
     def push(body: PushCommand) -> State:
-        """Push the base now (|f| <= 20 N, 0 < duration <= 5 s)."""
         return run(ApplyPush(body.fx, body.fy, body.duration))
 
     @api.post("/api/reset", response_model=State, tags=["session"])
@@ -435,7 +235,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
 
     @api.get("/api/terrains/{name}", tags=["terrains"])
     def get_terrain(name: TerrainName) -> dict[str, Any]:
-        """The terrain file (DESIGN.md "Terrain file" format)."""
+        """The terrain file (the "Terrain file" format of docs/architecture.md)."""
         try:
             return app.terrains.store.load(name).to_dict()
         except FileNotFoundError as exc:
@@ -454,7 +254,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
                     "application/json": {
                         "schema": {
                             "type": "object",
-                            "description": "a terrain (DESIGN.md 'Terrain file'); at most 1 MB",
+                            "description": "a terrain (docs/architecture.md 'Terrain file'); at most 1 MB",
                             "required": ["name", "start", "goal_x", "regions"],
                         }
                     }
@@ -565,7 +365,7 @@ class BackgroundServer:
         self.thread.join(10)
 
 
-def serve(config: AppConfig) -> int:
+def serve(settings: ServeSettings) -> int:
     """Run the tool until interrupted (Ctrl-C)."""
     logging.basicConfig(
         level=os.environ.get("CONTACTNET_LOG", "INFO"),
@@ -573,15 +373,15 @@ def serve(config: AppConfig) -> int:
         format="%(asctime)s %(name)s %(levelname)s: %(message)s",
     )
     logging.getLogger("websockets").setLevel(logging.WARNING)
-    app = ContactnetApp(config)
+    app = ContactnetApp(settings)
     try:
         print(
-            f"contactnet: open http://{config.host}:{config.port}/  "
-            f"(3D view: viser on port {app.viser_port}; API docs: http://{config.host}:{config.port}/docs)",
+            f"contactnet: open http://{settings.host}:{settings.port}/  "
+            f"(3D view: viser on port {app.viser_port}; API docs: http://{settings.host}:{settings.port}/docs)",
             file=sys.stderr,
             flush=True,
         )
-        uvicorn.Server(uvicorn.Config(app.api, host=config.host, port=config.port, log_level="warning")).run()
+        uvicorn.Server(uvicorn.Config(app.api, host=settings.host, port=settings.port, log_level="warning")).run()
     finally:
         app.close()
     return 0

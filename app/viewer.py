@@ -1,6 +1,6 @@
 """The viser side of the tool: one ViserServer with the scene, the control panel and the terrain
-editor, and the loop that keeps them up to date (scene ~30 Hz, panel and plots ~5 Hz, following
-cameras ~10 Hz, recordings at their own rate). The loop only reads `session.view`; it never
+editor (`app/gui.py`), and the loop that keeps them up to date (scene ~30 Hz, panel and plots ~5 Hz,
+following cameras ~10 Hz, recordings at their own rate). The loop only reads `session.view`; it never
 waits for the simulation, and the simulation never waits for it.
 """
 
@@ -12,16 +12,15 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
-import numpy as np
 import viser
 
-from app.editing import EditorPanel, TerrainService
+from app.editing import TerrainService
 from app.gui import ControlPanel
 from app.live import LiveSession
 from app.recordings import LiveRecorder, stop_quietly
 from app.scene import LiveScene, default_camera
+from contactnet.robots import Robot
 
 log = logging.getLogger("contactnet.app.viewer")
 
@@ -38,17 +37,16 @@ class UpdateStats:
         self.scene_cpu_s.append(cpu_s)
         del self.scene_cpu_s[:-2000]
 
-    def median_ms(self) -> float:
-        return 1e3 * float(np.median(self.scene_cpu_s)) if self.scene_cpu_s else 0.0
-
 
 class Viewer:
+    """The live viser server: draws the session's views of ``robot`` and runs the control panel."""
+
     def __init__(
         self,
         session: LiveSession,
         terrains: TerrainService,
         recorder: LiveRecorder,
-        urdf_path: Path,
+        robot: Robot,
         host: str = "127.0.0.1",
         port: int = 8080,
         scene_hz: float = 30.0,
@@ -63,9 +61,8 @@ class Viewer:
             self.server.initial_camera.position = tuple(position)
             self.server.initial_camera.look_at = tuple(look_at)
             self.server.initial_camera.up = (0.0, 0.0, 1.0)
-        self.scene = LiveScene(self.server, urdf_path)
+        self.scene = LiveScene(self.server, robot)
         self.panel = ControlPanel(self.server, session, terrains, recorder)
-        self.editor = EditorPanel(self.server, terrains)
         self.scene_period = 1.0 / scene_hz
         self.stats = UpdateStats()
         self._stop = threading.Event()

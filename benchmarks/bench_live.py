@@ -76,15 +76,16 @@ def viewer_frame(page):
 def run_case(
     n_browsers: int, priority: str, seconds: float, viewport: tuple[int, int], record: bool, workdir: Path
 ) -> dict:
-    from app.live import Reset
+    from app.commands import Reset
     from app.recordings import free_port
-    from app.server import AppConfig, BackgroundServer, ContactnetApp
+    from app.server import BackgroundServer, ContactnetApp
+    from app.settings import ServeSettings
 
     app = ContactnetApp(
-        AppConfig(
+        ServeSettings(
             terrain="flat",
             gait="walk",
-            vx=0.05,
+            vx_m_s=0.05,
             viser_port=free_port(),
             recordings_dir=workdir / "recordings",
         )

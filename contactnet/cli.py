@@ -9,6 +9,7 @@ import json
 import sys
 from pathlib import Path
 
+from app.settings import VELOCITY_LIMIT_M_S
 from contactnet import registry
 
 EXIT_USER_ERROR = 2
@@ -212,18 +213,22 @@ def _port_number(name: str):
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from app.server import AppConfig, serve
+    from app.server import serve
+    from app.settings import settings_from_args
     from contactnet.terrain import resolve
 
     resolve(args.terrain)  # a bad terrain is a one-line user error before anything starts
-    return serve(AppConfig(host=args.host, port=args.port, viser_port=args.viser_port, terrain=args.terrain,
-                           gait=args.gait, planner=args.planner, vx=args.vx, recordings_dir=Path(args.recordings)))
+    try:
+        settings = settings_from_args(args)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    return serve(settings)
 
 
 def cmd_datagen(args: argparse.Namespace) -> int:
     from contactnet.datagen import DatagenConfig, generate
 
-    config = DatagenConfig(gait=args.gait, episodes=args.episodes, seed=args.seed,
+    config = DatagenConfig(gait=args.gait, robot=args.robot, episodes=args.episodes, seed=args.seed,
                            episodes_per_shard=args.episodes_per_shard,
                            instances_per_episode=args.instances_per_episode)
     try:
@@ -245,7 +250,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     from contactnet.train import train_command
 
     return train_command(
-        args.gait, args.data, args.out, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
+        args.gait, args.data, args.out, robot=args.robot, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
         seed=args.seed, split=args.split, threads=args.threads, max_minutes=args.max_minutes,
         save_partial=args.save_partial, progress=not args.quiet,
     )
@@ -258,7 +263,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
     trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
-                       model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm)
+                       model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot)
     if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
         robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
@@ -293,7 +298,8 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--gait", choices=registry.gait_names(), default="walk")
     serve.add_argument("--planner", choices=registry.planner_names(), default="contactnet",
                        help="falls back to heuristic when the planner's model is missing")
-    serve.add_argument("--vx", type=_bounded_float("--vx", -0.3, 0.3), default=0.05, help="m/s")
+    serve.add_argument("--vx", type=_bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
+                       help="m/s")
     serve.add_argument("--recordings", default="recordings", metavar="DIR", help="folder of scene recordings")
     serve.set_defaults(func=cmd_serve)
 
@@ -305,8 +311,10 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--planner", choices=registry.planner_names(), required=True)
     sim.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
     sim.add_argument("--model", metavar="FILE.pt", help="model of contactnet/fixed (default: the shipped one)")
-    sim.add_argument("--vx", type=_bounded_float("--vx", -0.3, 0.3), default=0.05, help="m/s")
-    sim.add_argument("--vy", type=_bounded_float("--vy", -0.3, 0.3), default=0.0, help="m/s")
+    sim.add_argument("--vx", type=_bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
+                     help="m/s")
+    sim.add_argument("--vy", type=_bounded_float("--vy", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.0,
+                     help="m/s")
     sim.add_argument("--duration", type=_bounded_float("--duration", 0.1, 3600), default=60.0, help="s")
     sim.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                      help="variance of joint-velocity noise, (rad/s)^2")
@@ -330,8 +338,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     train = sub.add_parser("train", help="train a ContactNet model")
     train.add_argument("--gait", choices=registry.gait_names(), required=True)
-    train.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT,
-                       help="the robot the dataset was made with (checked against it)")
+    train.add_argument("--robot", choices=registry.robot_names(), default=None,
+                       help="the robot the dataset must have been made with (default: the dataset's)")
     train.add_argument("--data", required=True)
     train.add_argument("--out", required=True)
     train.add_argument("--epochs", type=_positive_int("--epochs", 10**6), default=1000)

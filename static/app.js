@@ -117,6 +117,7 @@ async function toggleRecording() {
 
 async function main() {
   const info = await api("/api/info");
+  if (info.robot) $("subtitle").textContent = `acyclic contact planning for ${info.robot}`;
   // Extra query parameters of this page go to the viewer (e.g. ?fixedDpr=0.5 renders at half
   // resolution on slow machines, ?showStats shows the frame rate).
   const extra = new URLSearchParams(location.search);

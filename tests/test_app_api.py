@@ -10,7 +10,9 @@ import pytest
 from fastapi.testclient import TestClient
 
 from app.recordings import free_port
-from app.server import AppConfig, ContactnetApp
+from app.server import ContactnetApp
+from app.settings import ServeSettings
+from contactnet import registry
 from contactnet.terrain import Terrain, terrains_dir
 
 
@@ -19,12 +21,11 @@ def save_random_model(path, gait: str) -> None:
     import numpy as np
     import torch
 
-    from contactnet.gait import gait_by_name
     from contactnet.network import ContactNet, Normalizer, save_model
 
     torch.manual_seed(0)
     u = np.random.default_rng(0).normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
-    save_model(path, ContactNet(gait_by_name(gait).n_actions).eval(), Normalizer.fit(u), {"gait": gait})
+    save_model(path, ContactNet(registry.gait_by_name(gait).n_actions).eval(), Normalizer.fit(u), {"gait": gait})
 
 
 @pytest.fixture(scope="module")
@@ -35,10 +36,10 @@ def app(tmp_path_factory):
     models = tmp_path_factory.mktemp("models")
     save_random_model(models / "trot.pt", "trot")  # and no walk model: walk falls back to heuristic
     instance = ContactnetApp(
-        AppConfig(
+        ServeSettings(
             terrain="flat",
             planner="heuristic",
-            vx=0.0,
+            vx_m_s=0.0,
             viser_port=free_port(),
             terrains_dir=terrains,
             recordings_dir=tmp_path_factory.mktemp("rec"),
@@ -63,6 +64,21 @@ def test_state_and_info(client, app):
     assert state["terrain"] == "flat" and state["gait"] == "walk" and state["viser_port"] == app.viser_port
     assert client.get("/api/info").json()["viser_port"] == app.viser_port
     assert "/api/command" in client.get("/openapi.json").json()["paths"]
+
+
+def test_openapi_enums_are_the_registry_names(client):
+    """The settings body offers exactly the registry's gaits and planners (no list of its own)."""
+    schema = client.get("/openapi.json").json()
+    properties = schema["components"]["schemas"]["SettingsCommand"]["properties"]
+
+    def enum(field: str) -> tuple:
+        (choice,) = [option for option in properties[field]["anyOf"] if "enum" in option]
+        return tuple(choice["enum"])
+
+    assert enum("gait") == registry.gait_names()
+    assert enum("planner") == registry.planner_names()
+    velocity = schema["components"]["schemas"]["VelocityCommand"]["properties"]["vx"]
+    assert (velocity["minimum"], velocity["maximum"]) == (-0.3, 0.3)
 
 
 def test_command_moves_the_robot(client):
@@ -91,7 +107,7 @@ def test_command_moves_the_robot(client):
         ("/api/push", {"fx": 5.0, "duration": 5.5}, "duration"),
         ("/api/settings", {"speed": 3.0}, "speed"),
         ("/api/settings", {"gait": "gallop"}, "gait"),
-        ("/api/settings", {"planner": "oracle"}, "planner"),
+        ("/api/settings", {"planner": "teleport"}, "planner"),
         ("/api/session/terrain", {"name": "../etc/passwd"}, "name"),
         ("/api/session/terrain", {"name": "random", "removed": 301}, "removed"),
     ],
@@ -258,13 +274,13 @@ def test_clicks_in_the_3d_view_edit_the_terrain(client, app):
     from types import SimpleNamespace
 
     from app import editor
-    from app.editing import ray_to_plane
+    from app.panels.terrain_editor import ray_to_plane
 
     assert ray_to_plane((0.3, 0.1, 1.0), (0.0, 0.0, -1.0), 0.0) == pytest.approx((0.3, 0.1))
     assert ray_to_plane((0.3, 0.1, 1.0), (0.0, 0.0, 1.0), 0.0) is None  # looking up
     assert ray_to_plane((0.3, 0.1, 1.0), (1.0, 0.0, 0.0), 0.0) is None  # parallel
     client.post("/api/session/terrain", json={"name": "stepping_stones"})
-    panel = app.viewer.editor
+    panel = app.viewer.panel.editor
     before = Terrain.from_dict(app.terrains.current).steppable.area
     version = app.session.view.terrain_version
 

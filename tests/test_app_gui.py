@@ -22,7 +22,8 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 from app.recordings import free_port
-from app.server import AppConfig, ContactnetApp
+from app.server import ContactnetApp
+from app.settings import ServeSettings
 from contactnet.terrain import Terrain, terrains_dir
 
 
@@ -91,7 +92,7 @@ def app(tmp_path_factory):
     models = tmp_path_factory.mktemp("models")
     save_random_models(models)
     instance = ContactnetApp(
-        AppConfig(terrain="flat", planner="heuristic", vx=0.0, viser_port=free_port(), terrains_dir=terrains,
+        ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, viser_port=free_port(), terrains_dir=terrains,
                   recordings_dir=tmp_path_factory.mktemp("recordings"), models_dir=models)
     )
     yield instance
@@ -111,7 +112,7 @@ def state(app):
 
 
 def test_velocity_sliders_stop_and_hotkeys(app, browser):
-    panel = app.viewer.panel
+    panel = app.viewer.panel.drive
     browser.set(panel.vx, 0.12)
     browser.set(panel.vy, -0.04)
     wait_for(lambda: state(app).vel_cmd == (0.12, -0.04), what="the sliders' velocity")
@@ -132,7 +133,7 @@ def test_velocity_sliders_stop_and_hotkeys(app, browser):
 
 
 def test_pause_run_reset_and_speed(app, browser):
-    panel = app.viewer.panel
+    panel = app.viewer.panel.drive
     browser.key(panel.shortcuts["P"])
     wait_for(lambda: state(app).paused, what="P pauses")
     browser.key(panel.shortcuts["P"])
@@ -155,7 +156,7 @@ def test_pause_run_reset_and_speed(app, browser):
 
 
 def test_push_buttons_use_the_force_and_duration_sliders(app, browser):
-    panel = app.viewer.panel
+    panel = app.viewer.panel.push
     browser.set(panel.push_force, 3.0)
     browser.set(panel.push_duration, 5.0)
     wait_for(lambda: (panel.push_force.value, panel.push_duration.value) == (3.0, 5.0), what="sliders")
@@ -164,12 +165,12 @@ def test_push_buttons_use_the_force_and_duration_sliders(app, browser):
         browser.click(panel.push_buttons, direction)  # 5 s pushes: each adds to those still active
         wait_for(lambda total=total: np.allclose(state(app).push_force[:2], total), what=f"push {direction}")
     assert state(app).pushes == pushes + 4
-    browser.click(panel.reset_button)
+    browser.click(app.viewer.panel.drive.reset_button)
     wait_for(lambda: state(app).pushes == 0, what="reset")
 
 
 def test_gait_planner_and_noise(app, browser):
-    panel = app.viewer.panel
+    panel = app.viewer.panel.gait_planner
     browser.set(panel.gait, "trot")
     wait_for(lambda: state(app).gait == "trot", what="trot")
     browser.set(panel.planner, "contactnet")
@@ -189,7 +190,7 @@ def test_gait_planner_and_noise(app, browser):
 
 
 def test_terrain_picker_files_and_random_field(app, browser):
-    panel = app.viewer.panel
+    panel = app.viewer.panel.terrain
     assert panel.terrain_pick.value == "flat"  # the picker starts on the session's terrain
     browser.set(panel.terrain_pick, "random")
     wait_for(lambda: panel.removed.visible and panel.seed.visible, what="N and seed to show")
@@ -211,8 +212,8 @@ def test_terrain_picker_files_and_random_field(app, browser):
 
 
 def test_record_button(app, browser):
-    panel = app.viewer.panel
-    browser.click(panel.run_button)
+    panel = app.viewer.panel.recording
+    browser.click(app.viewer.panel.drive.run_button)
     wait_for(lambda: not state(app).paused, what="running")
     browser.click(panel.record_button)
     wait_for(lambda: app.recorder.recording, what="recording")
@@ -227,7 +228,7 @@ def test_record_button(app, browser):
 def test_terrain_editor(app, browser):
     from app import editor
 
-    panel = app.viewer.editor
+    panel = app.viewer.panel.editor
     app.terrains.load("stepping_stones")
     area = Terrain.from_dict(app.terrains.current).steppable.area
     n = len(app.terrains.current["regions"])
@@ -290,12 +291,12 @@ def test_terrain_editor(app, browser):
     browser.set(panel.tool, "off")
     for _ in range(10):  # all the way back to the loaded terrain
         browser.click(panel.undo_button)
-    wait_for(lambda: len(regions()) == n and not app.terrains.history.can_undo, what="undo to the start")
+    wait_for(lambda: len(regions()) == n and not app.terrains.can_undo, what="undo to the start")
     assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(area)
 
 
 def test_terrain_upload(app, browser):
-    panel = app.viewer.editor
+    panel = app.viewer.panel.editor
     narrow = (terrains_dir() / "narrow_stones.json").read_bytes()
     browser.upload(panel.upload, "narrow.json", narrow)
     wait_for(lambda: state(app).terrain == "narrow_stones (uploaded)", what="the uploaded terrain")
@@ -311,5 +312,5 @@ def test_recenter_camera(app, browser):
     panel = app.viewer.panel
     client_id = next(iter(app.viewer.server.get_clients()))
     panel.camera._state[client_id]["follow"] = False  # as after the user orbits
-    browser.click(panel.recenter)
+    browser.click(panel.drive.recenter)
     wait_for(lambda: panel.camera.following(client_id), what="following again")

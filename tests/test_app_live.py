@@ -1,5 +1,5 @@
-"""The live session (app/live.py) without any web layer, the scene's fast robot posing, and the
-recorder driven from a plain loop."""
+"""The live session (app/live.py) without any web layer, the serve settings, the scene's fast robot
+posing, and the recorder driven from a plain loop."""
 
 from __future__ import annotations
 
@@ -9,22 +9,22 @@ from functools import partial
 import numpy as np
 import pytest
 
-from app.live import (
+from app.commands import (
     ApplyPush,
-    LiveSession,
     NudgeVelocity,
     Reset,
-    SessionConfig,
     SetGait,
     SetPaused,
     SetPlanner,
     SetSpeed,
     SetTerrain,
     SetVelocity,
-    ViewTracker,
-    default_planner_factory,
-    gait_chart,
 )
+from app.live import LiveSession
+from app.planners import default_planner_factory
+from app.settings import ServeSettings
+from app.view import ViewTracker, gait_chart
+from contactnet import registry
 from contactnet.terrain import flat, stepping_stones
 
 
@@ -44,14 +44,13 @@ def save_random_models(folder) -> None:
     the ContactNet planner then ranks candidates at random, and still takes the first safe one."""
     import torch
 
-    from contactnet.gait import gait_by_name
     from contactnet.network import ContactNet, Normalizer, save_model
 
     rng = np.random.default_rng(0)
     u = rng.normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
     for gait in ("walk", "trot"):
         torch.manual_seed(0)
-        save_model(folder / f"{gait}.pt", ContactNet(gait_by_name(gait).n_actions).eval(), Normalizer.fit(u),
+        save_model(folder / f"{gait}.pt", ContactNet(registry.gait_by_name(gait).n_actions).eval(), Normalizer.fit(u),
                    {"gait": gait})
 
 
@@ -65,7 +64,9 @@ def random_models(tmp_path_factory):
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
     live = LiveSession(
-        SessionConfig(terrain=flat(), terrain_label="flat", planner="heuristic", vx=0.0),
+        ServeSettings(planner="heuristic", vx_m_s=0.0),
+        flat(),
+        "flat",
         planner_factory=partial(default_planner_factory, model_dir=tmp_path_factory.mktemp("no_models")),
         robot_cache_dir=tmp_path_factory.mktemp("cache"),
     ).start()
@@ -126,7 +127,7 @@ def test_pause_stops_the_clock_and_reset_restarts(session):
         ApplyPush(1.0, 0.0, 6.0),
         SetSpeed(0.0),
         SetGait("gallop"),
-        SetPlanner("oracle"),
+        SetPlanner("teleport"),
         SetTerrain("flat", "flat"),
     ],
 )
@@ -157,10 +158,9 @@ def test_broken_model_falls_back_with_the_reason(tmp_path):
 
 def test_shipped_model_is_the_default(monkeypatch, random_models):
     """Without a model folder the factory loads contactnet/models/{gait}.pt."""
-    import contactnet.network
     from contactnet.gait import WALK
 
-    monkeypatch.setattr(contactnet.network, "default_model_path", lambda gait: random_models / f"{gait}.pt")
+    monkeypatch.setattr(registry, "MODELS_DIR", random_models)
     planner, active, note = default_planner_factory("contactnet", WALK)
     assert (type(planner).__name__, active, note) == ("ContactNetPlanner", "contactnet", None)
 
@@ -169,7 +169,9 @@ def test_contactnet_session_shows_the_ranking(random_models, tmp_path):
     """A ContactNet planner session (random weights) yields ranked candidates with the chosen cell:
     every candidate ranked before the chosen one is unsafe (the planner takes the first safe one)."""
     live = LiveSession(
-        SessionConfig(terrain=stepping_stones(), terrain_label="stepping_stones", planner="contactnet"),
+        ServeSettings(planner="contactnet"),
+        stepping_stones(),
+        "stepping_stones",
         planner_factory=partial(default_planner_factory, model_dir=random_models),
         robot_cache_dir=tmp_path,
     ).start()
@@ -193,12 +195,13 @@ def test_contactnet_session_shows_the_ranking(random_models, tmp_path):
     finally:
         live.stop()
     # drawn: one disk per candidate at its place, coloured and sized as disk_style says
-    from app.recordings import default_urdf, quiet_viser_server, stop_quietly
+    from app.recordings import quiet_viser_server, stop_quietly
     from app.scene import HIDDEN_POS, LiveScene, disk_style
+    from contactnet.robots import load_robot
 
     server = quiet_viser_server()
     try:
-        scene = LiveScene(server, default_urdf())
+        scene = LiveScene(server, load_robot("solo12"))
         scene.update(view)
         positions, colors = scene.disks.batched_positions, scene.disks.batched_colors
         np.testing.assert_allclose(positions[:n, :2], cand.xy_world, atol=1e-6)
@@ -271,12 +274,12 @@ def test_gait_chart_is_a_step_shape(session):
 
 
 def test_candidates_of_the_swinging_leg(robot):
-    from contactnet.cli import make_planner
     from contactnet.gait import WALK
     from contactnet.locomotion import Locomotion
 
     terrain = stepping_stones()
-    with Locomotion(robot, terrain, WALK, make_planner("heuristic", WALK), vel_cmd_xy=(0.05, 0.0)) as loco:
+    planner = registry.make_planner("heuristic", WALK, robot)
+    with Locomotion(robot, terrain, WALK, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
         tracker = ViewTracker(robot, terrain, WALK)
         loco.advance(5)
         snap = loco.snapshot()
@@ -290,15 +293,28 @@ def test_candidates_of_the_swinging_leg(robot):
     assert np.allclose(np.diff(spacing), WALK.grid_spacing_m, atol=1e-3)
 
 
-def test_fast_robot_pose_matches_yourdfpy(robot):
+@pytest.mark.parametrize("robot_name, collada", [("solo12", True), ("go2", True), ("go2", False)])
+def test_fast_robot_pose_matches_yourdfpy(robot_name, collada, tmp_path, monkeypatch):
     """The scene poses the robot with its own joint rotations; check them against ViserUrdf's
-    reference update (yourdfpy's scene graph), joint by joint."""
-    from app.recordings import quiet_viser_server, stop_quietly
-    from app.scene import _RobotPose
+    reference update (yourdfpy's scene graph), joint by joint. Go2's COLLADA visuals load and are
+    decimated to the triangle budget like Solo12's STL meshes; where trimesh cannot read COLLADA
+    (no pycollada), its collision meshes are shown instead."""
+    import trimesh
 
+    from app.recordings import quiet_viser_server, stop_quietly
+    from app.robot_display import ROBOT_MESH_CELL_M, ROBOT_TRIANGLE_BUDGET, RobotDisplay
+    from contactnet.robots import load_robot
+
+    if not collada:
+        formats = [f for f in trimesh.available_formats() if f != "dae"]
+        monkeypatch.setattr(trimesh, "available_formats", lambda: formats)
+    robot = load_robot(robot_name, tmp_path)
     server = quiet_viser_server()
     try:
-        pose = _RobotPose(server, robot.files.urdf)
+        pose = RobotDisplay(server, robot)
+        assert pose.display.visual == collada and pose.display.triangles <= ROBOT_TRIANGLE_BUDGET
+        if robot_name == "solo12":
+            assert pose.display.cell_m == ROBOT_MESH_CELL_M  # as before: 4 mm cells
         assert pose._fast is not None
         rng = np.random.default_rng(0)
         q = robot.q_standing.copy()
@@ -349,7 +365,7 @@ def test_camera_follows_until_the_user_moves_it(session):
     from dataclasses import replace
     from types import SimpleNamespace
 
-    from app.gui import _CameraFollow
+    from app.camera import CameraFollow
 
     class Camera:
         def __init__(self, client):
@@ -369,7 +385,7 @@ def test_camera_follows_until_the_user_moves_it(session):
         initial_camera=initial,
         get_clients=lambda: {7: client},
     )
-    follow = _CameraFollow(server)
+    follow = CameraFollow(server)
 
     def report(position, look_at):
         camera = Camera(client)
@@ -409,3 +425,47 @@ def test_arrow_segments_have_a_shaft_and_a_symmetric_head():
         np.testing.assert_allclose(mid, tip - 0.25 * (tip - tail), atol=1e-6)
         length = np.linalg.norm(tip - tail)
         np.testing.assert_allclose(np.linalg.norm(arrow[1, 1] - arrow[2, 1]), 0.25 * length, atol=1e-6)
+
+
+def test_the_session_owns_the_terrain_and_its_history(tmp_path):
+    """Loads, edits, undos and renames are session commands: every published view's terrain, terrain
+    dict, undo state and label belong together (the terrain service keeps no copy)."""
+    from app import editor
+    from app.commands import EditTerrain, RenameTerrain, UndoTerrainEdit
+    from contactnet.terrain import Terrain
+
+    published = []
+
+    class RecordedSession(LiveSession):
+        def _publish(self) -> None:
+            super()._publish()
+            published.append(self._view)
+
+    live = RecordedSession(
+        ServeSettings(planner="heuristic", vx_m_s=0.0), flat(), "flat",
+        planner_factory=partial(default_planner_factory, model_dir=tmp_path), robot_cache_dir=tmp_path,
+    ).start()
+    try:
+        assert live.view.terrain_dict == flat().to_dict() and not live.view.terrain_can_undo
+        live.call(SetTerrain(stepping_stones(), "stones"))
+        version = live.view.terrain_version
+        assert live.call(EditTerrain(editor.punch_hole, ((0.12, 0.12),))) is True
+        view = live.view
+        assert (view.status.terrain, view.terrain_can_undo, view.terrain_version) == (
+            "stones (edited)", True, version + 1)
+        assert Terrain.from_dict(view.terrain_dict).steppable.area == pytest.approx(
+            stepping_stones().steppable.area - 0.0025)
+        assert live.call(EditTerrain(editor.fill_hole, ((0.0, 0.0),))) is False  # solid ground: no change
+        assert live.view.terrain_version == version + 1
+        live.call(UndoTerrainEdit())
+        assert live.view.terrain_dict == stepping_stones().to_dict() and not live.view.terrain_can_undo
+        with pytest.raises(editor.EditError, match="nothing to undo"):
+            live.call(UndoTerrainEdit())
+        live.call(RenameTerrain("my_stones"))
+        assert live.view.status.terrain == "my_stones" and live.view.terrain_version == version + 2
+        live.call(EditTerrain(editor.punch_hole, ((0.12, 0.12),)))
+        assert live.view.status.terrain == "my_stones (edited)"
+    finally:
+        live.stop()
+    for view in published:
+        assert view.terrain.to_dict() == Terrain.from_dict(view.terrain_dict).to_dict()

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from test_app_live import wait_for
 
+from app.commands import SetPaused, SetPlanner, SetVelocity
 from app.headless import CHROMIUM, LAUNCH_ARGS
-from app.live import SetPaused, SetPlanner, SetVelocity
 
 ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
 
@@ -30,15 +30,16 @@ def live(tmp_path_factory):
     from test_app_live import save_random_models
 
     from app.recordings import free_port
-    from app.server import AppConfig, BackgroundServer, ContactnetApp
+    from app.server import BackgroundServer, ContactnetApp
+    from app.settings import ServeSettings
 
     models = tmp_path_factory.mktemp("models")
     save_random_models(models)  # ContactNet with random weights: independent of the shipped models
     app = ContactnetApp(
-        AppConfig(
+        ServeSettings(
             terrain="stepping_stones",
             planner="contactnet",
-            vx=0.05,
+            vx_m_s=0.05,
             paused=True,
             viser_port=free_port(),
             recordings_dir=tmp_path_factory.mktemp("recordings"),

@@ -100,7 +100,7 @@ def test_bench_sim_json():
     shipped = [gait for gait in ("walk", "trot") if model_path("solo12", gait).exists()]
     assert len(rows) == 5 + len(shipped)  # 3 standing, 2 heuristic whole-stack, 1 per shipped model
     for gait in shipped:
-        assert f"whole stack: {gait} 0.05 m/s on stepping_stones, contactnet planner" in rows
+        assert f"solo12 whole stack: {gait} 0.05 m/s on stepping_stones, contactnet planner" in rows
     for row in rows.values():
         assert row["median_rtf"] > 0 and row["fell"] is False
 

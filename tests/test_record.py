@@ -75,14 +75,15 @@ def test_the_web_tool_lists_and_plays_a_cli_recording(tmp_path):
     from fastapi.testclient import TestClient
 
     from app.recordings import free_port, viser_html
-    from app.server import AppConfig, ContactnetApp
+    from app.server import ContactnetApp
+    from app.settings import ServeSettings
 
     folder = tmp_path / "recordings"
     folder.mkdir()
     assert main([*SIMULATE, "--duration", "0.5", "--record", str(folder / "cli-demo.viser")]) == 0
     assert [r.name for r in RecordingStore(folder).list()] == ["cli-demo.viser"]
     app = ContactnetApp(
-        AppConfig(terrain="flat", planner="heuristic", vx=0.0, paused=True, viser_port=free_port(),
+        ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, paused=True, viser_port=free_port(),
                   recordings_dir=folder)
     )
     try:

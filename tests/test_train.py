@@ -10,7 +10,6 @@ import pytest
 import torch
 
 import contactnet.train as train_module
-from contactnet import registry
 from contactnet.network import INPUT_NAMES, ContactNet, ModelFileError, load_model, topk_accuracy
 from contactnet.train import (
     DATASET_FORMAT,
@@ -256,9 +255,10 @@ def test_the_model_records_the_datasets_robot(tmp_path, walk_data):
 def test_a_gait_without_a_paper_figure(tmp_path, walk_data, monkeypatch, capsys):
     from dataclasses import replace
 
+    from contactnet import gait as gait_table
     from contactnet.gait import WALK
 
-    monkeypatch.setitem(registry._GAITS, "crawl", replace(WALK, name="crawl", paper_top5=None))
+    monkeypatch.setitem(gait_table._GAITS, "crawl", replace(WALK, name="crawl", paper_top5=None))
     u, V, episode = walk_data
     data = write_dataset(tmp_path / "data", u, V, episode, gait="crawl")
     out = tmp_path / "crawl.pt"

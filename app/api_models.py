@@ -1,0 +1,212 @@
+"""The REST API's request and response models (pydantic): bounds from `app.settings`, gait and
+planner names from `contactnet.registry`, and `state_of`, the State of a LiveView."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, create_model, model_validator
+
+from app.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
+from app.view import LiveView
+from contactnet import registry
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class VelocityCommand(_Strict):
+    """Commanded base velocity in the robot's horizontal frame."""
+
+    vx: float = Field(
+        ..., ge=-VELOCITY_LIMIT_M_S, le=VELOCITY_LIMIT_M_S, allow_inf_nan=False, description="m/s, forward"
+    )
+    vy: float = Field(
+        0.0, ge=-VELOCITY_LIMIT_M_S, le=VELOCITY_LIMIT_M_S, allow_inf_nan=False, description="m/s, left"
+    )
+
+
+class PushCommand(_Strict):
+    """A horizontal push on the base (world frame), starting now."""
+
+    fx: float = Field(0.0, ge=-PUSH_FORCE_LIMIT_N, le=PUSH_FORCE_LIMIT_N, allow_inf_nan=False, description="N")
+    fy: float = Field(0.0, ge=-PUSH_FORCE_LIMIT_N, le=PUSH_FORCE_LIMIT_N, allow_inf_nan=False, description="N")
+    duration: float = Field(1.0, gt=0.0, le=PUSH_DURATION_LIMIT_S, allow_inf_nan=False, description="s")
+
+    @model_validator(mode="after")
+    def _magnitude(self) -> PushCommand:
+        magnitude = math.hypot(self.fx, self.fy)
+        if magnitude > PUSH_FORCE_LIMIT_N:
+            raise ValueError(
+                f"fx, fy: push force |(fx, fy)| = {magnitude:.3g} N exceeds {PUSH_FORCE_LIMIT_N:g} N"
+            )
+        return self
+
+
+class PauseCommand(_Strict):
+    paused: bool
+
+
+def settings_command_model() -> type[BaseModel]:
+    """The body of POST /api/settings: any subset of the session settings, gait and planner one of the
+    registry's names (read now: build the API after registering your own)."""
+    return create_model(
+        "SettingsCommand",
+        __base__=_Strict,
+        __doc__="Any subset of the session settings. Gait, planner and noise restart the robot.",
+        gait=(Literal[registry.gait_names()] | None, None),  # type: ignore[valid-type]
+        planner=(Literal[registry.planner_names()] | None, None),  # type: ignore[valid-type]
+        noise=(
+            bool | None,
+            Field(None, description="Gaussian joint-velocity noise, variance 0.01 (rad/s)^2"),
+        ),
+        speed=(
+            float | None,
+            Field(
+                None,
+                ge=SIM_SPEED_RANGE[0],
+                le=SIM_SPEED_RANGE[1],
+                allow_inf_nan=False,
+                description="simulated seconds per wall-clock second",
+            ),
+        ),
+    )
+
+
+class TerrainSelect(_Strict):
+    """A terrain for the session: a file in terrains/ (or a shipped generator), or 'random'."""
+
+    name: str = Field(..., pattern=r"^(random|[A-Za-z0-9][A-Za-z0-9_-]{0,63})$")
+    removed: int | None = Field(None, ge=0, le=300, description="random: squares removed (0..300)")
+    seed: int = Field(0, ge=0, le=2**31 - 1, description="random: seed")
+
+
+class RecordingStart(_Strict):
+    label: str = Field("", max_length=40, pattern=r"^[A-Za-z0-9_ -]*$")
+
+
+class State(BaseModel):
+    """The live session now."""
+
+    t_s: float
+    running: bool
+    paused: bool
+    done: str | None
+    fell: bool
+    fall_reason: str | None
+    reached_goal: bool
+    speed: float
+    real_time_factor: float
+    terrain: str
+    gait: str
+    planner: str
+    planner_active: str
+    planner_note: str | None
+    noise: bool
+    vel_cmd: tuple[float, float]
+    base_position: tuple[float, float, float]
+    com_position: tuple[float, float, float]
+    com_velocity: tuple[float, float, float]
+    stance: tuple[bool, bool, bool, bool]
+    foot_contact: tuple[bool, bool, bool, bool]
+    steps: int
+    rank_chosen: int | None
+    last_planner_ms: float
+    last_trajopt_ms: float
+    pushes: int
+    push_force: tuple[float, float, float]
+    error: str | None
+    recording: bool
+    viser_port: int
+    robot: str
+
+
+class TerrainEntry(BaseModel):
+    name: str
+    shipped: bool
+    url: str
+
+
+class TerrainList(BaseModel):
+    terrains: list[TerrainEntry]
+    generators: list[str] = ["random"]
+    current: str
+
+
+class Saved(BaseModel):
+    name: str
+    path: str
+
+
+class RecordingEntry(BaseModel):
+    name: str
+    size_bytes: int
+    modified: float
+    download_url: str
+    html_url: str
+    play_url: str
+
+
+class RecordingStatus(BaseModel):
+    recording: bool
+    name: str | None
+    frames: int
+    duration_s: float
+    last_saved: str | None
+
+
+class Info(BaseModel):
+    viser_port: int
+    viewer_url: str
+    version: str
+    robot: str
+
+
+def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
+    s, snap = view.status, view.snapshot
+    q = snap.q
+    return State(
+        t_s=snap.t_s,
+        running=s.running,
+        paused=s.paused,
+        done=s.done,
+        fell=snap.fell,
+        fall_reason=snap.fall_reason,
+        reached_goal=snap.reached_goal,
+        speed=s.speed,
+        real_time_factor=s.real_time_factor,
+        terrain=s.terrain,
+        gait=s.gait,
+        planner=s.planner,
+        planner_active=s.planner_active,
+        planner_note=s.planner_note,
+        noise=s.noise,
+        vel_cmd=snap.vel_cmd_xy,
+        base_position=tuple(float(v) for v in q[:3]),
+        com_position=tuple(float(v) for v in snap.com_pos),
+        com_velocity=tuple(float(v) for v in snap.com_vel),
+        stance=tuple(bool(v) for v in snap.stance),
+        foot_contact=tuple(bool(v) for v in snap.foot_contact),
+        steps=snap.steps,
+        rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
+        last_planner_ms=snap.last_planner_ms,
+        last_trajopt_ms=snap.last_trajopt_ms,
+        pushes=s.pushes,
+        push_force=tuple(float(v) for v in view.push_force_world),
+        error=s.error,
+        recording=recording,
+        viser_port=viser_port,
+        robot=s.robot,
+    )
+
+
+def json_safe(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value

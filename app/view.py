@@ -1,0 +1,210 @@
+"""What viewers see of a session: `LiveView`, one immutable picture (world frame, SI units), and
+`ViewTracker`, which turns successive `Snapshot`s of one Locomotion into the parts of a LiveView that
+need history (CoM path, gait-schedule history, the candidate footholds of the current step, planner
+timings). Nothing here knows about viser: `app/scene.py` draws a `LiveView`, `app/recordings.py`
+records it, `app/live.py` publishes one after every chunk of simulation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from contactnet.gait import GaitSpec
+from contactnet.locomotion import Snapshot
+from contactnet.robots import Robot
+from contactnet.terrain import Terrain
+
+HISTORY_NODES = 125  # gait-schedule history shown: 125 nodes of 40 ms = 5 s
+COM_PATH_POINTS = 4000
+COM_PATH_STEP_M = 0.005
+TIMING_PLANS = 120
+
+
+@dataclass(frozen=True)
+class CandidateView:
+    """Candidate footholds of the current step, world XY, with what is known about each.
+
+    `rank` is the planner's ranking position (0 = best) when the planner ranks candidates, else
+    None; `chosen` indexes the candidate(s) taken (one per swinging leg), when on the grid."""
+
+    xy_world: np.ndarray  # (N, 2)
+    safe: np.ndarray  # (N,) bool
+    leg: np.ndarray  # (N,) int, the leg each candidate belongs to
+    rank: np.ndarray | None = None  # (N,) int
+    chosen: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class SessionStatus:
+    running: bool  # advancing (not paused, not done)
+    paused: bool
+    done: str | None  # "fell: ..." or "goal reached"
+    speed: float
+    real_time_factor: float  # simulated / wall time over the last ~2 s of running
+    terrain: str
+    gait: str
+    planner: str  # as asked
+    planner_active: str  # as used
+    planner_note: str | None
+    noise: bool
+    pushes: int  # pushes applied since the last (re)start
+    error: str | None = None
+    robot: str = ""  # the robot's registry name
+
+
+@dataclass(frozen=True)
+class LiveView:
+    """One immutable picture of the session (world frame, SI units)."""
+
+    seq: int
+    snapshot: Snapshot
+    status: SessionStatus
+    terrain: Terrain
+    terrain_version: int
+    gait: GaitSpec
+    foot_pos_world: np.ndarray  # (4, 3) foot-ball centres
+    candidates: CandidateView | None
+    com_path: np.ndarray  # (M, 3) actual CoM positions so far (decimated)
+    stance_history: np.ndarray  # (K, 4) bool planned stance per node, oldest first
+    stance_history_node0: int  # node index of stance_history[0]
+    planned_contact: np.ndarray  # (H, 4) bool contact plan from plan_t0_s
+    plan_t0_s: float
+    timing: np.ndarray  # (P, 3): sim time of each plan, planner ms, optimizer ms
+    push_force_world: np.ndarray  # (3,) sum of the active pushes
+    wall_time_s: float  # when the view was made (time.monotonic())
+    #: The session's terrain as a dict (the JSON form `terrain` was built from; edits apply to it), and
+    #: whether an edit can be undone. None / False for views made outside a live session (`view_of`).
+    terrain_dict: dict[str, Any] | None = None
+    terrain_can_undo: bool = False
+
+
+class ViewTracker:
+    """Turns successive snapshots of one Locomotion into `LiveView` parts. Use from one thread
+    (it runs forward kinematics on the robot model it is given)."""
+
+    def __init__(self, robot: Robot, terrain: Terrain, gait: GaitSpec):
+        self.robot = robot
+        self.terrain = terrain
+        self.gait = gait
+        self.reset()
+
+    def reset(self) -> None:
+        self._steps_seen = -1
+        self._candidates: CandidateView | None = None
+        self._com_buffer = np.zeros((256, 3))
+        self._com_n = 0
+        self._stance: deque[np.ndarray] = deque(maxlen=HISTORY_NODES)
+        self._stance_array = np.ones((0, 4), dtype=bool)
+        self._last_node = -1
+        self._timing: deque[tuple[float, float, float]] = deque(maxlen=TIMING_PLANS)
+        self._timing_array = np.zeros((0, 3))
+        self._planned_contact = np.ones((0, 4), dtype=bool)
+        self._plan_t0_s = 0.0
+
+    def update(self, snap: Snapshot) -> dict[str, Any]:
+        """The LiveView fields derived from `snap` (arrays are fresh or unchanged objects)."""
+        gait = self.gait
+        q = snap.q
+        foot_pos = self.robot.foot_positions_world(q)
+        if snap.steps != self._steps_seen:
+            self._steps_seen = snap.steps
+            if snap.planned_steps:
+                self._candidates = self._candidate_view(snap)
+                self._timing.append((snap.t_s, snap.last_planner_ms, snap.last_trajopt_ms))
+                self._timing_array = np.array(self._timing)
+                step_s = gait.step_duration_s
+                self._plan_t0_s = math.floor(snap.t_s / step_s + 1e-6) * step_s
+                self._planned_contact = gait.horizon_contact([s.legs for s in snap.planned_steps])
+        node = int(snap.t_s / gait.node_dt_s + 1e-6)
+        if node != self._last_node:
+            first = node if self._last_node < 0 else self._last_node + 1
+            for _ in range(first, node + 1):
+                self._stance.append(np.asarray(snap.stance, dtype=bool).copy())
+            self._last_node = node
+            self._stance_array = np.array(self._stance)
+        if snap.t_s > 0.0:  # before the first tick the controller has no CoM yet
+            self._add_com_point(np.asarray(snap.com_pos, dtype=float))
+        return {
+            "foot_pos_world": foot_pos,
+            "candidates": self._candidates,
+            "com_path": self._com_buffer[: self._com_n],
+            "stance_history": self._stance_array,
+            "stance_history_node0": self._last_node - len(self._stance) + 1,
+            "planned_contact": self._planned_contact,
+            "plan_t0_s": self._plan_t0_s,
+            "timing": self._timing_array,
+        }
+
+    def _add_com_point(self, com: np.ndarray) -> None:
+        """Append to the CoM path when it moved COM_PATH_STEP_M. Points below the count are never
+        overwritten in place (views handed out stay valid); a full buffer is replaced by a new one."""
+        n = self._com_n
+        if n and np.linalg.norm(com - self._com_buffer[n - 1]) < COM_PATH_STEP_M:
+            return
+        if n == len(self._com_buffer):
+            keep = self._com_buffer[n // 2 : n] if n >= COM_PATH_POINTS else self._com_buffer[:n]
+            self._com_buffer = np.zeros((max(2 * len(keep), 256), 3))
+            self._com_buffer[: len(keep)] = keep
+            n = len(keep)
+        self._com_buffer[n] = com
+        self._com_n = n + 1
+
+    def _candidate_view(self, snap: Snapshot) -> CandidateView:
+        """The planner's own ranking when the snapshot carries one (a future `Snapshot.candidates`
+        with xy_world, safe, rank, chosen), else the candidate grid of the legs of the current step
+        around their hip references, coloured by safety."""
+        ranked = getattr(snap, "candidates", None)
+        if ranked is not None:
+            xy = np.asarray(ranked.xy_world, dtype=float)
+            leg = np.asarray(getattr(ranked, "leg", np.full(len(xy), -1)), dtype=int)
+            chosen = getattr(ranked, "chosen", None)
+            chosen_t = () if chosen is None else tuple(np.atleast_1d(chosen).astype(int).tolist())
+            return CandidateView(
+                xy_world=xy,
+                safe=np.asarray(ranked.safe, dtype=bool),
+                leg=leg,
+                rank=np.asarray(ranked.rank, dtype=int),
+                chosen=chosen_t,
+            )
+        step = snap.planned_steps[0]
+        legs = list(step.legs)
+        base_xy = np.asarray(snap.q[:2], dtype=float)
+        x, y, z, w = snap.q[3:7]
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        c, s = math.cos(yaw), math.sin(yaw)
+        hip_ref = base_xy + self.robot.foot_nominal_base[:, :2] @ np.array([[c, s], [-s, c]])
+        grid = self.gait.candidates_world(hip_ref, yaw)[legs]  # (L, C, 2)
+        xy = grid.reshape(-1, 2)
+        leg = np.repeat(np.asarray(legs, dtype=int), grid.shape[1])
+        chosen = []
+        half_spacing = 0.5 * self.gait.grid_spacing_m
+        for j, foothold in enumerate(np.asarray(step.footholds_xy_world)):
+            distance = np.linalg.norm(grid[j] - foothold, axis=1)
+            k = int(np.argmin(distance))
+            if distance[k] < half_spacing:
+                chosen.append(j * grid.shape[1] + k)
+        return CandidateView(xy_world=xy, safe=self.terrain.is_safe(xy), leg=leg, chosen=tuple(chosen))
+
+
+def gait_chart(view: LiveView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The gait schedule as step shapes: (t (S,), past stance (S, 4), planned stance (S, 4)) with
+    two samples per node boundary, NaN-free (0/1 values; the plot maps them to bars)."""
+    dt = view.gait.node_dt_s
+    now_node = view.stance_history_node0 + len(view.stance_history) - 1
+    plan_node0 = int(round(view.plan_t0_s / dt))
+    future = view.planned_contact[max(0, now_node + 1 - plan_node0) :]
+    nodes = len(view.stance_history) + len(future)
+    if nodes == 0:
+        return np.zeros(2), np.zeros((2, 4)), np.zeros((2, 4))
+    past = np.zeros((nodes, 4))
+    planned = np.zeros((nodes, 4))
+    past[: len(view.stance_history)] = view.stance_history
+    planned[len(view.stance_history) :] = future
+    edges = (view.stance_history_node0 + np.arange(nodes + 1)) * dt
+    t = np.stack([edges[:-1], edges[1:]], axis=1).ravel()
+    return t, np.repeat(past, 2, axis=0), np.repeat(planned, 2, axis=0)
