@@ -1,4 +1,4 @@
-"""How the project drives a headless browser (the browser tests and `benchmarks/bench_live.py`): Debian's
+"""How the project drives a headless browser (the browser tests and `app/bench_live.py`): Debian's
 chromium with software WebGL (SwiftShader), no GPU, no sandbox (CI containers run as root)."""
 
 CHROMIUM = "/usr/bin/chromium"

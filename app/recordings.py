@@ -46,6 +46,7 @@ import zstandard
 from app.scene import LiveScene
 from app.settings import RECORD_RATE_RANGE_HZ
 from app.view import LiveView, SessionStatus, ViewTracker
+from contactnet.atomic import atomic_write_bytes
 from contactnet.robots import DEFAULT_ROBOT, Robot, load_robot
 
 DEFAULT_RATE_HZ = 12.0
@@ -285,8 +286,8 @@ class FileRecording:
         if self._recorder is None:
             raise RuntimeError("nothing recorded")
         data = self._recorder.finish()
-        self._tmp.write_bytes(data)
-        self._tmp.replace(self.path)
+        atomic_write_bytes(self.path, data)
+        self._tmp.unlink(missing_ok=True)
         self.size_bytes = len(data)
         return self.path
 
@@ -410,11 +411,7 @@ class RecordingStore:
 
     def save(self, data: bytes, name: str) -> Path:
         path = self.path(name)
-        self.directory.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp")
-        tmp.write_bytes(data)
-        tmp.replace(path)
-        return path
+        return atomic_write_bytes(path, data)
 
 
 class LiveRecorder:

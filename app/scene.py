@@ -244,7 +244,7 @@ class LiveScene:
         if cand is not None:
             n = min(len(cand.xy_world), DISK_POOL)
             positions[:n, :2] = cand.xy_world[:n]
-            positions[:n, 2] = view.terrain.surface_z + 0.5 * DISK_HEIGHT_M + 0.001
+            positions[:n, 2] = view.terrain.ground_z(cand.xy_world[:n]) + 0.5 * DISK_HEIGHT_M + 0.001
             rank = None if cand.rank is None else cand.rank[:n]
             colors[:n], scales[:n] = disk_style(cand.safe[:n], rank, cand.chosen)
             # taller disks stand on the ground
@@ -257,11 +257,11 @@ class LiveScene:
         positions = np.tile(HIDDEN_POS, (STEP_POOL, 1))
         colors = np.tile(STEP_COLORS[0], (STEP_POOL, 1))
         k = 0
-        z = view.terrain.surface_z + self.foot_radius_m
         for j, step in enumerate(view.snapshot.planned_steps[:3]):
             footholds = np.asarray(step.footholds_xy_world)
             safe = view.terrain.is_safe(footholds) & bool(step.safe)
-            for xy, ok in zip(footholds, safe, strict=True):
+            ball_z = view.terrain.ground_z(footholds) + self.foot_radius_m
+            for xy, z, ok in zip(footholds, ball_z, safe, strict=True):
                 if k < STEP_POOL:
                     positions[k] = (xy[0], xy[1], z)
                     colors[k] = STEP_COLORS[min(j, 2)] if ok else UNSAFE_STEP_COLOR
@@ -314,7 +314,7 @@ class LiveScene:
 def default_camera(view: LiveView) -> tuple[np.ndarray, np.ndarray]:
     """(position, look_at) behind and to the right of the robot, looking ahead along +x."""
     base = np.asarray(view.snapshot.q[:3], dtype=float)
-    look_at = np.array([base[0] + 0.25, base[1], view.terrain.surface_z + 0.05])
+    look_at = np.array([base[0] + 0.25, base[1], float(view.terrain.ground_z(base[:2])) + 0.05])
     position = look_at + np.array([-0.75, -1.0, 0.85])
     return position, look_at
 

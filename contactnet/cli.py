@@ -125,7 +125,12 @@ def cmd_terrain(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from contactnet.bench import format_table, run
 
-    rows = run(args.what, robot_name=args.robot)
+    if args.what == "live":  # the web tool's benchmark lives with the web tool
+        from app.bench_live import bench_live
+
+        rows = bench_live()
+    else:
+        rows = run(args.what, robot_name=args.robot)
     if args.json:
         print(json.dumps({"benchmark": args.what, "rows": rows}, indent=2))
     else:
@@ -378,7 +383,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.set_defaults(func=cmd_experiment)
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
-    bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion"])
+    bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion", "live"])
     bench.add_argument("--robot", choices=registry.robot_names(), default=None,
                        help="the robot of the benchmarks that run one (default solo12)")
     bench.add_argument("--json", action="store_true")

@@ -44,7 +44,7 @@ ahead. For the walk the difference is smaller but in the same direction (V_stab 
 
 Fast path (``RankingCost.evaluate``): one batched optimizer call for all candidates
 (``TrajectoryOptimizer.solve_batch``) and vectorized numpy for the geometry. Reference
-(``RankingCost.evaluate_reference``): one ``solve`` per candidate, shapely polygons, Python loops. The
+(``reference_evaluate`` in ``tests/test_cost.py``): one ``solve`` per candidate, shapely polygons, Python loops. The
 tests check that both give the same V and ranking.
 
 Failed optimizations (infeasible, iteration limit, numerical failure) get ``V = CostWeights.failure_cost``
@@ -97,7 +97,7 @@ class CostState:
     vel_cmd_world: np.ndarray  #: (2,) commanded velocity, world frame
     com_height_ref_m: float  #: absolute z of the CoM reference
     com_xy_ref_start: np.ndarray | None = None  #: (2,) start of the CoM xy reference (None: the CoM)
-    surface_z: float = 0.0  #: ground height the swinging feet land on
+    ground_z: float = 0.0  #: ground height under the robot (``Terrain.ground_z``): where the swinging feet land
 
     @classmethod
     def from_context(cls, ctx, foot_radius_m: float) -> CostState:  # noqa: ANN001 - planner.PlanningContext
@@ -105,7 +105,7 @@ class CostState:
         height reference is relative to the ground)."""
         feet = np.array(ctx.foot_pos_world, dtype=float)
         feet[:, 2] -= foot_radius_m
-        surface_z = float(ctx.terrain.surface_z)
+        ground_z = float(ctx.terrain.ground_z(np.asarray(ctx.com_pos_world, dtype=float)[:2]))
         return cls(
             com_pos_world=np.array(ctx.com_pos_world, dtype=float),
             com_vel_world=np.array(ctx.com_vel_world, dtype=float),
@@ -115,8 +115,8 @@ class CostState:
             base_xy_world=np.array(ctx.base_xy_world, dtype=float),
             yaw_rad=float(ctx.yaw_rad),
             vel_cmd_world=np.asarray(ctx.vel_cmd_world(), dtype=float),
-            com_height_ref_m=float(ctx.com_height_ref_m) + surface_z,
-            surface_z=surface_z,
+            com_height_ref_m=float(ctx.com_height_ref_m) + ground_z,
+            ground_z=ground_z,
         )
 
     def x0(self) -> np.ndarray:
@@ -206,7 +206,6 @@ class RankingCost:
                 n_nodes=gait.nodes_per_step, dt_s=gait.node_dt_s, solver="qp-ipm", tol=self.trajopt_config.tol
             )
         self.optimizer = TrajectoryOptimizer(self.model, self.trajopt_config, self.trajopt_weights)
-        self._reference_optimizer: TrajectoryOptimizer | None = None
 
     # ---- candidates ------------------------------------------------------------------------
     @property
@@ -249,7 +248,7 @@ class RankingCost:
         now = np.asarray(state.foot_pos_world, dtype=float)
         landed = np.repeat(now[None], self.n_actions, axis=0)
         landed[..., 0:2] = self.candidate_footholds(state)
-        landed[..., 2] = np.where(swing, state.surface_z, now[:, 2])
+        landed[..., 2] = np.where(swing, state.ground_z, now[:, 2])
         plans = np.repeat(now[None, None], self.n_actions, axis=0).repeat(n, axis=1)
         plans[:, touchdown:] = landed[:, None]
         return plans
@@ -373,79 +372,6 @@ class RankingCost:
             solutions=solutions,
         )
 
-    # ---- reference -------------------------------------------------------------------------
-    def reference_optimizer(self) -> TrajectoryOptimizer:
-        """An independent solver of the same QP for the reference: casadi + piqp (sparse), one at a time."""
-        if self._reference_optimizer is None:
-            config = TrajoptConfig(n_nodes=self.gait.nodes_per_step, dt_s=self.gait.node_dt_s, solver="auto")
-            self._reference_optimizer = TrajectoryOptimizer(self.model, config, self.trajopt_weights)
-        return self._reference_optimizer
-
-    def evaluate_reference(self, state: CostState, optimizer: TrajectoryOptimizer | None = None) -> CostBreakdown:
-        """The same V, plainly: one optimizer ``solve`` per action, shapely polygons, Python loops."""
-        from shapely.geometry import MultiPoint, Point
-
-        opt = optimizer or self.reference_optimizer()
-        w = self.weights
-        gait = self.gait
-        t0 = time.perf_counter()
-        rot = rotation_2d(state.yaw_rad)
-        feet_now = np.asarray(state.foot_pos_world, dtype=float)
-        hips_now = [np.asarray(state.base_xy_world) + rot @ self.hip_ref_xy_base[leg] for leg in range(4)]
-        grid_base = np.asarray(state.base_xy_world) + self.grid_lead_s * np.asarray(state.vel_cmd_world)
-        n = gait.nodes_per_step
-        terms, success, coms, footholds, solutions = [], [], [], [], []
-        opt_time = 0.0
-        for index in range(gait.n_actions):
-            action = gait.decode(index)
-            contact = gait.step_contact(action.legs)
-            feet = np.repeat(feet_now[None], n, axis=0)
-            for leg, offset in zip(action.legs, action.offsets_xy, strict=True):
-                landing = grid_base + rot @ self.hip_ref_xy_base[leg] + rot @ offset
-                for k in range(gait.n_stance_pre + gait.n_swing, n):
-                    feet[k, leg] = (landing[0], landing[1], state.surface_z)
-            problem = TrajoptProblem(
-                x0=state.x0(),
-                contact=contact,
-                foot_pos_world=feet,
-                com_vel_ref_xy=np.asarray(state.vel_cmd_world, dtype=float),
-                com_height_ref_m=float(state.com_height_ref_m),
-                yaw_ref_rad=float(state.yaw_rad),
-                com_xy_ref_start=state.com_xy_ref_start,
-            )
-            ts = time.perf_counter()
-            sol = opt.solve(problem, warm_start=False)
-            opt_time += time.perf_counter() - ts
-            solutions.append(sol)
-            success.append(sol.success)
-            coms.append(sol.x[:, 0:3])
-            footholds.append(feet[-1, :, 0:2])
-            com_xy = sol.x[:, 0:2]
-            stab = kin = 0.0
-            for k in range(n):
-                stance = [leg for leg in range(4) if contact[k, leg]]
-                hull = MultiPoint([tuple(feet[k, leg, 0:2]) for leg in stance]).convex_hull
-                stab += max(hull.distance(Point(*com_xy[j])) for j in (k, k + 1))
-                for leg in stance:
-                    worst = 0.0
-                    for j in (k, k + 1):
-                        if w.kin_hip_path == "optimized":
-                            hip = hips_now[leg] + (com_xy[j] - com_xy[0])
-                        else:
-                            hip = hips_now[leg] + j * gait.node_dt_s * np.asarray(state.vel_cmd_world)
-                        worst = max(worst, float(np.hypot(*(feet[k, leg, 0:2] - hip))))
-                    if worst > self.kin_threshold_m:
-                        kin += 1.0 + (worst - self.kin_threshold_m) / w.kin_ramp_m
-            final = MultiPoint([tuple(feet[-1, leg, 0:2]) for leg in range(4)]).convex_hull
-            cent = final.centroid.distance(Point(*com_xy[-1]))
-            terms.append([sol.cost, stab, kin, cent, final.area])
-        breakdown = self._finish(
-            np.array(terms, dtype=float), np.array(success), np.array(coms), np.array(footholds), solutions
-        )
-        breakdown.optimizer_s = opt_time
-        breakdown.total_s = time.perf_counter() - t0
-        return breakdown
-
 
 def predicted_state(
     state: CostState, footholds_xy_world: np.ndarray, legs: tuple[int, ...], duration_s: float
@@ -460,7 +386,7 @@ def predicted_state(
     com[2] = state.com_height_ref_m
     feet = np.array(state.foot_pos_world, dtype=float)
     for leg, xy in zip(legs, np.asarray(footholds_xy_world, dtype=float).reshape(-1, 2), strict=True):
-        feet[leg] = (xy[0], xy[1], state.surface_z)
+        feet[leg] = (xy[0], xy[1], state.ground_z)
     ref = None if state.com_xy_ref_start is None else np.asarray(state.com_xy_ref_start, dtype=float) + shift
     return CostState(
         com_pos_world=com,
@@ -473,7 +399,7 @@ def predicted_state(
         vel_cmd_world=vel.copy(),
         com_height_ref_m=state.com_height_ref_m,
         com_xy_ref_start=ref,
-        surface_z=state.surface_z,
+        ground_z=state.ground_z,
     )
 
 

@@ -271,14 +271,15 @@ class Locomotion:
         foot_pos[..., 2] -= self.foot_radius_m  # contact points, not ball centres
         for j, step in enumerate(steps):
             touchdown_node = j * gait.nodes_per_step + gait.n_stance_pre + gait.n_swing
-            for leg, xy in zip(step.legs, step.footholds_xy_world, strict=True):
+            ground_z = self.terrain.ground_z(step.footholds_xy_world)
+            for leg, xy, z in zip(step.legs, step.footholds_xy_world, ground_z, strict=True):
                 foot_pos[touchdown_node:, leg, :2] = xy
-                foot_pos[touchdown_node:, leg, 2] = self.terrain.surface_z
+                foot_pos[touchdown_node:, leg, 2] = z
         t_now = self.sim.t_s
         first = steps[0]
         swings = {}
         for leg, xy in zip(first.legs, first.footholds_xy_world, strict=True):
-            end = np.array([xy[0], xy[1], self.terrain.surface_z + self.foot_radius_m])
+            end = np.array([xy[0], xy[1], foot_pos[gait.n_stance_pre + gait.n_swing, leg, 2] + self.foot_radius_m])
             swings[leg] = SwingTrajectory(
                 start_world=ctx.foot_pos_world[leg].copy(),
                 end_world=end,
@@ -324,7 +325,7 @@ class Locomotion:
             contact=contact,
             foot_pos_world=foot_pos,
             com_vel_ref_xy=self._vel_cmd_world.copy(),
-            com_height_ref_m=self.terrain.surface_z + self.com_height_ref_m,
+            com_height_ref_m=float(self.terrain.ground_z(com[:2])) + self.com_height_ref_m,
             yaw_ref_rad=self.yaw_ref_rad,
             com_xy_ref_start=self.com_xy_ref.copy(),
         )

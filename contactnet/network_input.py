@@ -98,7 +98,7 @@ def network_input_of_context(ctx: Any) -> np.ndarray:
         np.asarray(ctx.com_vel_world, dtype=np.float64),
         np.asarray(ctx.vel_cmd_xy, dtype=np.float64),
         float(ctx.yaw_rad),
-        float(ctx.terrain.surface_z),
+        float(ctx.terrain.ground_z(np.asarray(ctx.com_pos_world, dtype=np.float64)[:2])),
     )
 
 
@@ -114,7 +114,7 @@ def network_input_of_state(state: Any) -> np.ndarray:
         np.asarray(state.com_vel_world, dtype=np.float64),
         np.array([c * cmd_x + s * cmd_y, -s * cmd_x + c * cmd_y]),
         float(state.yaw_rad),
-        float(state.surface_z),
+        float(state.ground_z),
     )
 
 

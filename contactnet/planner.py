@@ -284,17 +284,11 @@ def first_safe_step(
 
 def cell_grid(gait: GaitSpec, footholds_xy_world: np.ndarray) -> np.ndarray:
     """(4, cells_per_leg, 2) every leg's candidate cells, from (N_a, 4, 2) feet after each action (the
-    ranking cost's ``footholds_xy_world``): the inverse of ``landing_points``."""
+    ranking cost's ``footholds_xy_world``). An action lands its legs on ``grid[gait.action_cells]``."""
     legs, cells = gait.action_cells
     grid = np.full((4, gait.cells_per_leg, 2), np.nan)
     grid[legs, cells] = np.asarray(footholds_xy_world)[np.arange(gait.n_actions)[:, None], legs]
     return grid
-
-
-def landing_points(gait: GaitSpec, cell_xy_world: np.ndarray) -> np.ndarray:
-    """(N_a, legs_per_step, 2) landing points of every action from the (4, cells_per_leg, 2) grid cells."""
-    legs, cells = gait.action_cells
-    return cell_xy_world[legs, cells]
 
 
 def step_in_place(gait: GaitSpec, order: np.ndarray, foot_pos_world: np.ndarray, terrain: Terrain) -> PlannedStep:
@@ -428,7 +422,7 @@ class ContactNetPlanner:
         cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
         cmd_world = to_world @ cmd_xy
         shift = cmd_world * gait.step_duration_s
-        ground_z = float(ctx.terrain.surface_z)
+        ground_z = float(ctx.terrain.ground_z(com[:2]))
         steps = []
         for j in range(gait.steps_per_plan):
             u = network_input_one(feet_xy, com, vel, cmd_xy, ctx.yaw_rad, ground_z)

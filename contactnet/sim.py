@@ -225,7 +225,7 @@ class Simulator:
         if base_height_m is None:
             q = np.concatenate([[0, 0, 0], yaw_to_quat(0.0), q_joint])
             base_height_m = -self.robot.foot_positions_world(q)[:, 2].min() + self.robot.description.foot_radius_m + 1e-3
-        pos = [float(xy[0]), float(xy[1]), self.terrain.surface_z + base_height_m]
+        pos = [float(xy[0]), float(xy[1]), float(self.terrain.ground_z(xy)) + base_height_m]
         c.resetBasePositionAndOrientation(self.robot_id, pos, list(yaw_to_quat(base_yaw_rad)))
         c.resetBaseVelocity(self.robot_id, [0, 0, 0], [0, 0, 0])
         for jid, qj, vj in zip(self.joint_ids, q_joint, v_joint, strict=True):
@@ -316,7 +316,7 @@ class Simulator:
     def fall_reason(self, state: SimState | None = None) -> str | None:
         """Why the robot counts as fallen now, or None: base too low, too tilted, or a shin/body contact."""
         s = state or self.state()
-        height = s.base_pos_world[2] - self.terrain.surface_z
+        height = s.base_pos_world[2] - float(self.terrain.ground_z(s.base_pos_world[:2]))
         if height < self.fall_base_height_m:
             return f"base height {height:.3f} m below {self.fall_base_height_m} m"
         roll, pitch, _ = s.rpy

@@ -15,6 +15,8 @@ from app.settings import ServeSettings
 from contactnet import registry
 from contactnet.terrain import Terrain, terrains_dir
 
+pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
+
 
 def save_random_model(path, gait: str) -> None:
     """A model file with random weights (the API tests do not depend on the shipped models)."""

@@ -13,6 +13,8 @@ from app import editor
 from app.editor import EditError, ShippedTerrainError, TerrainStore
 from contactnet.terrain import Terrain, edits, stepping_stones
 
+pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
+
 
 @pytest.fixture
 def stones() -> dict:

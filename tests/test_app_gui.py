@@ -16,7 +16,7 @@ import msgspec
 import numpy as np
 import pytest
 import viser
-from test_app_live import wait_for
+from helpers import wait_for
 from viser import _messages as messages
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
@@ -25,6 +25,8 @@ from app.recordings import free_port
 from app.server import ContactnetApp
 from app.settings import ServeSettings
 from contactnet.terrain import Terrain, terrains_dir
+
+pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
 
 
 class ViserProtocolClient:

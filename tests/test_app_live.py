@@ -27,16 +27,7 @@ from app.view import ViewTracker, gait_chart
 from contactnet import registry
 from contactnet.terrain import flat, stepping_stones
 
-
-def wait_for(predicate, timeout: float = 20.0, what: str = "condition", poll_s: float = 0.02):
-    """Poll ``predicate`` until it returns something truthy (returned), else fail naming ``what``."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(poll_s)
-    raise AssertionError(f"timed out waiting for {what}")
+pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
 
 
 def save_random_models(folder) -> None:

@@ -17,6 +17,8 @@ from app.settings import (
 )
 from contactnet import registry
 
+pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
+
 
 def test_defaults_and_limits():
     settings = ServeSettings()

@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
-from test_app_live import wait_for
+from helpers import wait_for
 
 from app.commands import SetPaused, SetPlanner, SetVelocity
 from app.headless import CHROMIUM, LAUNCH_ARGS
@@ -18,6 +18,7 @@ ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
 
 pytestmark = [
     pytest.mark.slow,
+    pytest.mark.app,
     pytest.mark.skipif(
         shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
         reason="needs Debian chromium (apt-get install -y chromium)",

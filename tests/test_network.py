@@ -84,18 +84,22 @@ def test_network_input_vectorised_matches_the_reference():
 def test_network_input_of_context_and_state_match_the_general_function():
     from types import SimpleNamespace
 
+    from contactnet.terrain import Terrain
+
     rng = np.random.default_rng(6)
     for _ in range(50):
         feet, com, vel, cmd, yaw, ground = _random_states(rng)
         feet3 = np.column_stack([feet, rng.normal(size=4)])
+        terrain = Terrain.from_dict({"name": "level", "start": [0, 0], "goal_x": 1.0, "surface_z": float(ground),
+                                     "regions": [{"shape": "rect", "center": [0, 0], "size": [50, 50]}]})
         ctx = SimpleNamespace(foot_pos_world=feet3, com_pos_world=com, com_vel_world=vel, vel_cmd_xy=cmd,
-                              yaw_rad=float(yaw), terrain=SimpleNamespace(surface_z=float(ground)))
+                              yaw_rad=float(yaw), terrain=terrain)
         expected = network_input(feet, com, vel, cmd, yaw, ground)
         np.testing.assert_allclose(network_input_of_context(ctx), expected, rtol=0, atol=1e-12)
         c, s = math.cos(yaw), math.sin(yaw)
         state = SimpleNamespace(foot_pos_world=feet3, com_pos_world=com, com_vel_world=vel, yaw_rad=float(yaw),
                                 vel_cmd_world=np.array([c * cmd[0] - s * cmd[1], s * cmd[0] + c * cmd[1]]),
-                                surface_z=float(ground))
+                                ground_z=float(ground))
         np.testing.assert_allclose(network_input_of_state(state), expected, rtol=0, atol=1e-12)
 
 

@@ -27,10 +27,15 @@ from contactnet.planner import (
     PlannedStep,
     cell_grid,
     first_safe_step,
-    landing_points,
 )
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, flat, random_field
+
+
+def landing_points(gait, cell_xy_world):
+    """(N_a, legs_per_step, 2) landing points of every action from the (4, cells_per_leg, 2) grid cells."""
+    legs, cells = gait.action_cells
+    return cell_xy_world[legs, cells]
 
 
 def random_model(path, gait, seed: int = 0):

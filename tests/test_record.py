@@ -13,6 +13,8 @@ import pytest
 from app.recordings import RecordingStore, read_recording
 from contactnet.cli import EXIT_USER_ERROR, main
 
+pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
+
 SIMULATE = ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "0.1"]
 
 

@@ -13,6 +13,10 @@ robot (``contactnet bench sim --robot go2``).
 | cost       | ``contactnet.bench.cost``        | the ranking cost V of all candidates                      |
 | terrain    | ``contactnet.bench.terrain``     | ``Terrain.is_safe`` against plain shapely                 |
 | locomotion | ``contactnet.bench.locomotion``  | walking quality matrix (velocities, pushes, noise)        |
+| live       | ``app.bench_live`` (the web tool) | real time with browsers connected; recording size         |
+
+``live`` runs the web tool, so it lives in ``app/`` (the library never imports the app); the command
+line reaches it as ``contactnet bench live``.
 """
 
 from __future__ import annotations

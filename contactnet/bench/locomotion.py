@@ -68,7 +68,7 @@ def cases(duration: float) -> list[dict]:
     return out
 
 
-def bench_locomotion(duration_s: float = 20.0, workers: int = 2, robot_name: str = DEFAULT_ROBOT,
+def bench_locomotion(duration_s: float = 60.0, workers: int = 2, robot_name: str = DEFAULT_ROBOT,
                      only: str = "") -> list[dict]:
     """Every case of ``cases`` whose name contains ``only``, for one robot."""
     todo = [dict(c, robot=robot_name) for c in cases(duration_s) if only in c["name"]]

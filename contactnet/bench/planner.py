@@ -22,11 +22,11 @@ def planning_contexts(gait, terrain, robot: RobotDescription, n: int, seed: int 
         yaw = float(rng.uniform(-0.1, 0.1))
         feet = np.zeros((4, 3))
         feet[:, :2] = base + rotate_xy(hip_ref_xy_base, yaw) + rng.uniform(-0.04, 0.04, (4, 2))
-        feet[:, 2] = terrain.surface_z + robot.foot_radius_m
+        feet[:, 2] = terrain.ground_z(feet[:, :2]) + robot.foot_radius_m
         cmd = rng.uniform(-0.1, 0.1, 2)
         vel = np.array([*rotate_xy(cmd, yaw), 0.0]) + rng.normal(0.0, 0.02, 3)
         contexts.append(PlanningContext(
-            com_pos_world=np.array([base[0], base[1], terrain.surface_z + robot.com_height_nominal_m]), com_vel_world=vel,
+            com_pos_world=np.array([base[0], base[1], terrain.ground_z(base) + robot.com_height_nominal_m]), com_vel_world=vel,
             yaw_rad=yaw, foot_pos_world=feet, hip_ref_xy_base=np.asarray(hip_ref_xy_base, dtype=float),
             base_xy_world=base, vel_cmd_xy=cmd, terrain=terrain, gait=gait,
             rpy=np.array([0.0, 0.0, yaw]), com_height_ref_m=robot.com_height_nominal_m,

@@ -32,7 +32,7 @@ def standing_real_time_factor(
             state = sim.state(with_contacts)
         wall = time.perf_counter() - start
         fell = sim.fallen()
-        height = float(state.base_pos_world[2] - terrain.surface_z)
+        height = float(state.base_pos_world[2] - terrain.ground_z(state.base_pos_world[:2]))
     return {"rtf": sim_seconds / wall, "wall_s": wall, "fell": fell, "base_height_m": height}
 
 

@@ -15,15 +15,15 @@ import json
 import math
 import numbers
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
+
+from contactnet.atomic import atomic_write_text
 
 # ---------------------------------------------------------------------------------------------
 # Limits and constants (immutable)
@@ -354,21 +354,9 @@ def read_terrain_json(path: str | os.PathLike[str]) -> Any:
 
 
 def write_terrain_json(data: Mapping[str, Any], path: str | os.PathLike[str]) -> None:
-    """Write pretty JSON (2-space indent) atomically: a temp file in the same directory, then replace."""
-    target = Path(path)
-    text = pretty_json(data) + "\n"
-    mode = target.stat().st_mode & 0o777 if target.exists() else 0o644
-    fd, tmp_name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    try:
-        os.chmod(tmp_name, mode)  # mkstemp creates 0600; keep the usual permissions
-        with os.fdopen(fd, "w", encoding="utf-8") as file:
-            file.write(text)
-            file.flush()
-            os.fsync(file.fileno())
-        os.replace(tmp_name, target)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    """Write pretty JSON (2-space indent) atomically (``contactnet.atomic``): readers see the old file or the
+    new one, never half of one."""
+    atomic_write_text(path, pretty_json(data) + "\n")
 
 
 def pretty_json(value: Any, indent: int = 2, level: int = 0, width: int = 100) -> str:

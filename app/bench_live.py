@@ -1,7 +1,7 @@
 """Does the live session keep real time with browsers connected? And how big is a recording?
 
-    python benchmarks/bench_live.py [--seconds 60] [--cases 0,1:normal,1:idle,5:idle]
-                                    [--viewport 960x600] [--json]
+    contactnet bench live                  (the defaults below)
+    python -m app.bench_live [--seconds 60] [--cases 0,1:normal,1:idle,5:idle] [--viewport 960x600] [--json]
 
 Each case starts the whole tool (FastAPI + viser + live session; flat terrain, walk, vx 0.05 m/s,
 scene updates at 30 Hz), opens N headless chromium pages of the front page (playwright, Debian
@@ -29,10 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from app.headless import CHROMIUM, LAUNCH_ARGS  # noqa: E402
-from contactnet.bench import format_table  # noqa: E402
+from app.headless import CHROMIUM, LAUNCH_ARGS
+from contactnet.bench import format_table
 
 FRAME_COUNT_JS = "() => window.__viserTestpoints ? window.__viserTestpoints.rendererInfo.render.frame : 0"
 
@@ -170,6 +168,21 @@ def run_case(
         app.close()
 
 
+def bench_live(seconds: float = 60.0, cases: str = "0,1:normal,1:idle,5:idle", viewport: str = "960x600") -> list[dict]:
+    """One row per case of ``cases`` (comma-separated ``N[:normal|idle]`` browser counts and priorities)."""
+    size = tuple(int(v) for v in viewport.split("x"))
+    rows, recorded = [], False
+    with tempfile.TemporaryDirectory() as tmp:
+        for spec in cases.split(","):
+            count, _, priority = spec.partition(":")
+            n = int(count)
+            record = n > 0 and not recorded
+            recorded |= record
+            rows.append(run_case(n, priority or "normal", seconds, size, record, Path(tmp)))
+            print(f"done: {rows[-1]}", file=sys.stderr, flush=True)
+    return rows
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -183,16 +196,7 @@ def main() -> int:
     parser.add_argument("--viewport", default="960x600")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
-    viewport = tuple(int(v) for v in args.viewport.split("x"))
-    rows, recorded = [], False
-    with tempfile.TemporaryDirectory() as tmp:
-        for spec in args.cases.split(","):
-            count, _, priority = spec.partition(":")
-            n = int(count)
-            record = n > 0 and not recorded
-            recorded |= record
-            rows.append(run_case(n, priority or "normal", args.seconds, viewport, record, Path(tmp)))
-            print(f"done: {rows[-1]}", file=sys.stderr, flush=True)
+    rows = bench_live(args.seconds, args.cases, args.viewport)
     if args.json:
         print(json.dumps({"benchmark": "live", "rows": rows}, indent=2))
     else:
