@@ -21,6 +21,7 @@ import trimesh
 import viser
 from viser.extras import ViserUrdf
 
+from contactnet.frames import quat_mul_wxyz
 from contactnet.robots import Robot
 
 log = logging.getLogger("contactnet.app.robot_display")
@@ -32,21 +33,6 @@ ROBOT_MESH_CELL_M = 0.004
 CELL_GROWTH = 1.25
 MAX_CELL_M = 0.05
 ROBOT_TRIANGLE_BUDGET = 12_000
-
-
-def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of wxyz quaternions, broadcast over leading axes."""
-    aw, ax, ay, az = np.moveaxis(a, -1, 0)
-    bw, bx, by, bz = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw,
-        ],
-        axis=-1,
-    )
 
 
 def cluster_decimate(mesh: trimesh.Trimesh, cell_m: float) -> trimesh.Trimesh:
@@ -184,6 +170,6 @@ class RobotDisplay:
         handles, pin_index, origin_q, axes = self._fast
         half = 0.5 * joints[pin_index]
         motion = np.concatenate([np.cos(half)[:, None], np.sin(half)[:, None] * axes], axis=1)
-        wxyz = quat_mul(origin_q, motion)
+        wxyz = quat_mul_wxyz(origin_q, motion)
         for handle, value in zip(handles, wxyz, strict=True):
             handle.wxyz = value

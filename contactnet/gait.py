@@ -22,6 +22,7 @@ from functools import cached_property
 import numpy as np
 
 from contactnet.cost_weights import TROT_WEIGHTS, WALK_WEIGHTS, CostWeights
+from contactnet.frames import rotation_2d
 from contactnet.robots.description import LEG_NAMES
 
 FL, FR, HL, HR = range(4)
@@ -207,9 +208,7 @@ class GaitSpec:
 
         `hip_ref_xy_world` (4, 2) are the legs' hip references (nominal foot XY) in the world.
         """
-        c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-        rot = np.array([[c, -s], [s, c]])
-        return np.asarray(hip_ref_xy_world)[:, None, :] + (self.cell_offsets_xy @ rot.T)[None, :, :]
+        return np.asarray(hip_ref_xy_world)[:, None, :] + (self.cell_offsets_xy @ rotation_2d(yaw_rad).T)[None, :, :]
 
 
 WALK = GaitSpec(
