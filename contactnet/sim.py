@@ -11,6 +11,7 @@ The terrain is one static body, a concave triangle mesh of the steppable regions
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import sys
 from dataclasses import dataclass, field
@@ -117,6 +118,20 @@ def _stdout_silenced():
         os.close(saved)
 
 
+class _BoundClient:
+    """pybullet's functions bound to one physics client (``physicsClientId`` filled in), like
+    ``pybullet_utils.BulletClient`` but without its ``__del__``, which prints a traceback when a Ctrl-C
+    lands while one is being made; the `Simulator` disconnects explicitly (``close``)."""
+
+    def __init__(self, pybullet, client_id: int) -> None:  # noqa: ANN001 - the pybullet module
+        self._pb = pybullet
+        self.client_id = client_id
+
+    def __getattr__(self, name: str):  # noqa: ANN204
+        attribute = getattr(self._pb, name)
+        return functools.partial(attribute, physicsClientId=self.client_id) if callable(attribute) else attribute
+
+
 class Simulator:
     """A robot on a terrain in PyBullet (DIRECT mode, torque control, fixed time step).
 
@@ -127,9 +142,8 @@ class Simulator:
     def __init__(self, robot: Robot, terrain: Terrain, config: SimConfig = SimConfig()):
         with _stdout_silenced():  # PyBullet prints a banner on the C stdout (it would spoil --json)
             import pybullet
-            from pybullet_utils.bullet_client import BulletClient
 
-            client = BulletClient(connection_mode=pybullet.DIRECT)
+            client = _BoundClient(pybullet, pybullet.connect(pybullet.DIRECT))
         self.robot = robot
         self.terrain = terrain
         self.config = config
@@ -139,7 +153,7 @@ class Simulator:
                                    else float(config.fall_base_height_m))
         self._pb = pybullet
         self.client = client
-        self._cid = client._client  # hot-path calls go to pybullet directly (BulletClient wraps each call)
+        self._cid = client.client_id  # hot-path calls go to pybullet directly (the bound client wraps each call)
         self.client.setTimeStep(config.dt_s)
         self.client.setGravity(0.0, 0.0, -config.gravity)
         self.client.setPhysicsEngineParameter(numSolverIterations=config.solver_iterations)
