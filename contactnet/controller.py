@@ -14,6 +14,7 @@ Kinematics and Jacobians come from pinocchio on the measured state.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -57,36 +58,34 @@ class SwingTrajectory:
     height_m: float = 0.05
 
     def sample(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Position, velocity and acceleration (world frame) at time t_s (clamped to the swing)."""
+        """Position, velocity and acceleration (world frame) at time t_s (clamped to the swing).
+
+        Computed on Python floats (it runs at 1 kHz for every swinging foot)."""
         duration = self.t1_s - self.t0_s
         s = min(max((t_s - self.t0_s) / duration, 0.0), 1.0)
-        delta = self.end_world - self.start_world
+        x0, y0, z0 = self.start_world.tolist()
+        x1, y1, z1 = self.end_world.tolist()
+        dx, dy = x1 - x0, y1 - y0
         # Horizontal: the projection of a semi-ellipse swept at a constant angular rate.
-        theta = np.pi * s
-        h = 0.5 * (1.0 - np.cos(theta))
-        dh = 0.5 * np.pi * np.sin(theta) / duration
-        ddh = 0.5 * np.pi**2 * np.cos(theta) / duration**2
-        pos = self.start_world + h * delta
-        vel = dh * delta
-        acc = ddh * delta
+        theta = math.pi * s
+        cos_theta = math.cos(theta)
+        h = 0.5 * (1.0 - cos_theta)
+        dh = 0.5 * math.pi * math.sin(theta) / duration
+        ddh = 0.5 * math.pi**2 * cos_theta / duration**2
         # Vertical: a quintic up to the apex, then a quintic down (zero velocity and acceleration at
         # lift-off, apex and touchdown), on top of a linear blend of the two end heights.
-        z0, z1 = self.start_world[2], self.end_world[2]
         apex = max(z0, z1) + self.height_m
+        t_half = 0.5 * duration
         if s < 0.5:
-            tau, rise, t_half = 2.0 * s, apex - z0, 0.5 * duration
-            base = z0
-            sign = 1.0
+            tau, rise, base, sign = 2.0 * s, apex - z0, z0, 1.0
         else:
-            tau, rise, t_half = 2.0 * (1.0 - s), apex - z1, 0.5 * duration
-            base = z1
-            sign = -1.0
+            tau, rise, base, sign = 2.0 * (1.0 - s), apex - z1, z1, -1.0
         p5 = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
         dp5 = (30 * tau**2 - 60 * tau**3 + 30 * tau**4) / t_half
         ddp5 = (60 * tau - 180 * tau**2 + 120 * tau**3) / t_half**2
-        pos[2] = base + rise * p5
-        vel[2] = sign * rise * dp5
-        acc[2] = rise * ddp5
+        pos = np.array([x0 + h * dx, y0 + h * dy, base + rise * p5])
+        vel = np.array([dh * dx, dh * dy, sign * rise * dp5])
+        acc = np.array([ddh * dx, ddh * dy, rise * ddp5])
         return pos, vel, acc
 
 

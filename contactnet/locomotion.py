@@ -14,6 +14,7 @@ less harm.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -232,12 +233,19 @@ class Locomotion:
             self.reached_goal = True
 
     def _advance_reference(self, com_xy: np.ndarray) -> None:
-        """Move the CoM reference path by one tick of commanded velocity, on a leash to the CoM."""
-        self.com_xy_ref += self._vel_cmd_world * self.sim.config.dt_s
-        lead = self.com_xy_ref - com_xy
-        distance = float(np.hypot(lead[0], lead[1]))
-        if distance > self.config.ref_leash_m:
-            self.com_xy_ref = com_xy + lead * (self.config.ref_leash_m / distance)
+        """Move the CoM reference path by one tick of commanded velocity, on a leash to the CoM (on Python
+        floats: this runs at 1 kHz)."""
+        dt = self.sim.config.dt_s
+        ref_x, ref_y = self.com_xy_ref.tolist()
+        vel_x, vel_y = self._vel_cmd_world.tolist()
+        com_x, com_y = com_xy.tolist()
+        ref_x, ref_y = ref_x + vel_x * dt, ref_y + vel_y * dt
+        lead_x, lead_y = ref_x - com_x, ref_y - com_y
+        distance = math.hypot(lead_x, lead_y)
+        leash = self.config.ref_leash_m
+        if distance > leash:
+            ref_x, ref_y = com_x + lead_x * (leash / distance), com_y + lead_y * (leash / distance)
+        self.com_xy_ref[0], self.com_xy_ref[1] = ref_x, ref_y
 
     # ---- planning --------------------------------------------------------------------------
     def _context(self, state: SimState) -> PlanningContext:

@@ -89,6 +89,7 @@ class SimState:
     joint_vel_true: np.ndarray  # (12,) rad/s without noise
     foot_contact: np.ndarray  # (4,) bool, FL FR HL HR touching the terrain
     foot_force_world: np.ndarray = field(repr=False)  # (4, 3) contact force on each foot
+    base_rot_world: np.ndarray | None = field(default=None, repr=False)  # (3, 3); None: from the quaternion
 
     @property
     def rpy(self) -> np.ndarray:
@@ -100,8 +101,9 @@ class SimState:
 
     def v_pinocchio(self) -> np.ndarray:
         """(18,) pinocchio velocity: base velocities in the base frame, then measured joint velocities."""
-        rot_t = quat_to_matrix(self.base_quat_world).T
-        return np.concatenate([rot_t @ self.base_lin_vel_world, rot_t @ self.base_ang_vel_world, self.joint_vel])
+        rot = quat_to_matrix(self.base_quat_world) if self.base_rot_world is None else self.base_rot_world
+        base_vel_world = np.concatenate([self.base_lin_vel_world, self.base_ang_vel_world]).reshape(2, 3)
+        return np.concatenate([(base_vel_world @ rot).ravel(), self.joint_vel])
 
 
 @contextlib.contextmanager
@@ -284,7 +286,7 @@ class Simulator:
         if self.config.joint_vel_noise_var > 0:
             v = v_true + self._rng.normal(0.0, np.sqrt(self.config.joint_vel_noise_var), size=12)
         if with_contacts:
-            contact, force, _ = self._contacts()
+            contact, force = self._foot_contacts()
         else:
             contact, force = np.zeros(4, dtype=bool), np.zeros((4, 3))
         return SimState(
@@ -298,24 +300,25 @@ class Simulator:
             joint_vel_true=v_true,
             foot_contact=contact,
             foot_force_world=force,
+            base_rot_world=np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3),
         )
 
-    def _contacts(self) -> tuple[np.ndarray, np.ndarray, set[int]]:
-        """Feet in contact (4,), contact force on each foot (4, 3), and other robot links touching."""
+    def _contact_points(self) -> tuple:
+        return self._pb.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id, physicsClientId=self._cid)
+
+    def _foot_contacts(self) -> tuple[np.ndarray, np.ndarray]:
+        """Feet in contact (4,) and the contact force on each foot (4, 3)."""
         contact = np.zeros(4, dtype=bool)
         force = np.zeros((4, 3))
-        others: set[int] = set()
-        points = self._pb.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id, physicsClientId=self._cid)
-        for point in points:
+        for point in self._contact_points():
             slot = self._foot_slot.get(point[3])
             if slot is None:
-                others.add(point[3])
                 continue
             contact[slot] = True
             # Force on the foot: normal (from the terrain to the foot) plus the two friction parts.
             force[slot] += np.multiply(point[9], point[7])
             force[slot] += np.multiply(point[10], point[11]) + np.multiply(point[12], point[13])
-        return contact, force, others
+        return contact, force
 
     def foot_positions_world(self) -> np.ndarray:
         """(4, 3) true foot-ball centres from PyBullet."""
@@ -324,7 +327,8 @@ class Simulator:
 
     def non_foot_contacts(self) -> list[str]:
         """Names of robot links other than the feet that touch the terrain now."""
-        return sorted(self.link_names.get(link, str(link)) for link in self._contacts()[2])
+        links = {point[3] for point in self._contact_points()} - self._foot_slot.keys()
+        return sorted(self.link_names.get(link, str(link)) for link in links)
 
     # ---- referee ---------------------------------------------------------------------------
     def fall_reason(self, state: SimState | None = None) -> str | None:
