@@ -12,11 +12,20 @@ holding `episodes_per_shard` consecutive episodes, and `manifest.json`. Every ep
 from (seed, episode index), so the dataset does not depend on how many workers made it. Shards and
 the manifest are written atomically (``contactnet.atomic``): an interrupted run (Ctrl-C, kill) loses at most
 the shards in progress, and running the same command again resumes where it stopped (``contactnet.jobs``).
+
+The manifest records what determines the data: the settings, the gait's full spec (its candidate grid,
+timing and cost weights: ``gait_spec``, a digest of its repr) and the code (``code``:
+`contactnet.jobs.code_identity`); a resume with anything else is refused (a dataset is one artifact that
+train reads whole: shards of two codes must not mix), and so is a directory whose manifest predates these
+records. Every shard's size and sha256 are recorded when it is written; a resume verifies each listed shard
+(size first, the hash when the size matches) and regenerates a damaged one with a warning on stderr, and
+``contactnet train`` refuses it.
 """
 
 from __future__ import annotations
 
 import json
+import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,7 +35,7 @@ import numpy as np
 import contactnet
 from contactnet.atomic import atomic_write_text, atomic_write_with
 from contactnet.gait import GaitSpec
-from contactnet.jobs import Job, run_jobs
+from contactnet.jobs import Job, check_file, code_identity, differences, digest, file_sha256, run_jobs
 from contactnet.network_input import INPUT_NAMES, network_input_of_context
 from contactnet.planner import PlanningContext
 from contactnet.registry import DEFAULT_ROBOT, gait_by_name, robot_names
@@ -86,6 +95,10 @@ class DatagenConfig:
         if not isinstance(settings, dict):
             return False
         return {"robot": DEFAULT_ROBOT, **settings} == self.settings()
+
+    def inputs(self) -> dict:
+        """Besides the settings, what determines the data: the gait's spec and the code."""
+        return {"gait_spec": digest(repr(gait_by_name(self.gait))), "code": code_identity()}
 
 
 def shard_name(shard: int) -> str:
@@ -151,7 +164,17 @@ def run_episode(loco, recorder: RecordingPlanner, config: DatagenConfig, episode
 
 
 def make_shard(out_dir: str, config: DatagenConfig, shard: int) -> dict:
-    """Generate one shard's episodes and write the shard file. Returns its counts."""
+    """Generate one shard's episodes and write the shard file. Returns its counts, size and sha256."""
+    t0 = time.perf_counter()
+    u, V, episode_ids, falls = shard_arrays(config, shard)
+    path = Path(out_dir) / shard_name(shard)
+    atomic_write_with(path, lambda file: np.savez_compressed(file, u=u, V=V, episode=episode_ids))
+    return {"shard": shard, "instances": len(u), "falls": falls, "seconds": time.perf_counter() - t0,
+            "bytes": path.stat().st_size, "sha256": file_sha256(path)}
+
+
+def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Run one shard's episodes: its ``u``, ``V``, ``episode`` arrays and how many episodes fell."""
     from contactnet.locomotion import Locomotion
     from contactnet.robots import load_robot
     from contactnet.sim import SimConfig
@@ -161,7 +184,6 @@ def make_shard(out_dir: str, config: DatagenConfig, shard: int) -> dict:
     gait = gait_by_name(config.gait)
     recorder = RecordingPlanner(make_oracle(gait, robot, config.oracle_evaluated_steps))
     us, vs, eps, falls = [], [], [], 0
-    t0 = time.perf_counter()
     with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard)) as loco:
         for episode in config.shard_episodes(shard):
             result = run_episode(loco, recorder, config, episode)
@@ -169,10 +191,7 @@ def make_shard(out_dir: str, config: DatagenConfig, shard: int) -> dict:
             vs.append(result["V"])
             eps.append(np.full(len(result["u"]), episode, dtype=np.int32))
             falls += result["fell"]
-    u, V, episode_ids = np.concatenate(us), np.concatenate(vs), np.concatenate(eps)
-    path = Path(out_dir) / shard_name(shard)
-    atomic_write_with(path, lambda file: np.savez_compressed(file, u=u, V=V, episode=episode_ids))
-    return {"shard": shard, "instances": len(u), "falls": falls, "seconds": time.perf_counter() - t0}
+    return np.concatenate(us), np.concatenate(vs), np.concatenate(eps), falls
 
 
 def read_manifest(out_dir: Path) -> dict | None:
@@ -208,6 +227,7 @@ def write_manifest(out_dir: Path, config: DatagenConfig, shards: dict[int, dict]
         "shard_stats": {shard_name(s): shards[s] for s in done},
         "wall_time_s": wall_s,
         "code_version": contactnet.__version__,
+        **config.inputs(),
     }
     atomic_write_text(out_dir / "manifest.json", json.dumps(manifest, indent=1))
     return manifest
@@ -234,9 +254,8 @@ def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = N
                 f"{out} holds a dataset made with other settings ({manifest.get('settings')}); "
                 "use another --out, or the same settings to resume"
             )
-        for name, stats in manifest.get("shard_stats", {}).items():
-            if (out / name).is_file():
-                shards[int(stats["shard"])] = stats
+        _check_inputs(out, manifest, config)
+        shards = _verified_shards(out, manifest)
         wall_before = float(manifest.get("wall_time_s", 0.0))
     elif any(p for p in out.iterdir() if not p.name.startswith(".")):
         raise DatasetDirError(f"{out} is not empty and has no dataset manifest; choose an empty --out")
@@ -261,6 +280,41 @@ def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = N
         write_manifest(out, config, shards, wall_before + time.perf_counter() - t0)
         raise
     return write_manifest(out, config, shards, wall_before + time.perf_counter() - t0)
+
+
+def _check_inputs(out: Path, manifest: dict, config: DatagenConfig) -> None:
+    """Refuse to resume a dataset made by other code or another gait spec, or one that does not say."""
+    if "code" not in manifest or "gait_spec" not in manifest:
+        raise DatasetDirError(f"{out} holds a dataset made before datasets recorded the code that made them; "
+                              "use another --out (train still reads it)")
+    parts = []
+    if manifest["gait_spec"] != config.inputs()["gait_spec"]:
+        parts.append(f"another {config.gait!r} gait spec (grid, timing or cost weights)")
+    if manifest["code"] != code_identity():
+        parts.append(f"other code ({', '.join(differences(manifest['code'], code_identity()))} differ)")
+    if parts:
+        raise DatasetDirError(f"{out} holds a dataset made with {' and '.join(parts)}; use another --out, "
+                              "or the same code to resume")
+
+
+def _verified_shards(out: Path, manifest: dict) -> dict[int, dict]:
+    """The manifest's shards whose file has the size and sha256 recorded when it was written. The others
+    are generated again, with one warning line on stderr."""
+    shards: dict[int, dict] = {}
+    bad: list[str] = []
+    stats_of = manifest.get("shard_stats")
+    for name, stats in (stats_of.items() if isinstance(stats_of, dict) else ()):
+        recorded = isinstance(stats, dict) and "bytes" in stats and "sha256" in stats
+        problem = check_file(out / name, stats["bytes"], stats["sha256"]) if recorded else "no size and sha256 recorded"
+        if problem is None and isinstance(stats.get("shard"), int) and shard_name(stats["shard"]) == name:
+            shards[stats["shard"]] = stats
+        else:
+            bad.append(f"{name}: {problem or 'not a shard of this dataset'}")
+    if bad:
+        more = f" (and {len(bad) - 3} more)" if len(bad) > 3 else ""
+        print(f"contactnet: warning: {len(bad)} shard(s) listed in {out / 'manifest.json'} are damaged, "
+              f"generating them again: {'; '.join(bad[:3])}{more}", file=sys.stderr)
+    return shards
 
 
 def _make_shard_job(job: tuple[str, DatagenConfig, int]) -> dict:

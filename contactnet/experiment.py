@@ -14,11 +14,23 @@ time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Tri
 processes (``contactnet.jobs``); each finished trial is appended to ``DIR/trials.jsonl`` at once, so an
 interrupted experiment resumes with the trials still missing. At the end: ``summary.json``, a table on stdout, and
 ``success.png`` (the success rates, looked at before they are quoted).
+
+Resume is keyed on everything that determines a trial's result (`trial_inputs`): the trial's settings
+(terrain, removed squares, seed, gait, planner, robot, vx, noise, bar width and gap), the terrain's
+content, the gait's spec, the model's content hash (`contactnet.network.LoadedModel.identity`: its
+recorded hash, else the file's sha256; not its path) and the code (`contactnet.jobs.code_identity`). Each
+logged record carries its inputs and their digest (``fingerprint``); a record is reused only when its
+fingerprint is the trial's now. Any other record of the trial (other models, other code, or a log written
+before records had fingerprints) is kept in the log but not reused: the trial runs again, with one line
+on stderr saying why. ``DIR/experiment.json`` (the folder's header) names the experiment and the
+fingerprints of its last run; a folder of another experiment is refused.
 """
 
 from __future__ import annotations
 
+import functools
 import json
+import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,9 +38,10 @@ from pathlib import Path
 import numpy as np
 
 from contactnet.atomic import atomic_write_text
-from contactnet.jobs import Job, run_jobs
+from contactnet.jobs import Job, code_identity, differences, digest, run_jobs
 from contactnet.robots import DEFAULT_ROBOT
 
+HEADER_FORMAT = "contactnet-experiment-v1"
 EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random")
 DEFAULT_PLANNERS = {
     "stepping_stones": ("contactnet", "fixed", "heuristic"),
@@ -110,12 +123,8 @@ def run_trial(trial: Trial) -> dict:
     from contactnet.locomotion import Locomotion
     from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
     from contactnet.sim import SimConfig
-    from contactnet.terrain import narrow_stones, resolve
 
-    if trial.bar_width_m is not None or trial.last_gap_m is not None:
-        terrain = narrow_stones(trial.bar_width_m, trial.last_gap_m)
-    else:
-        terrain = resolve(trial.terrain, removed=trial.removed, seed=trial.seed)
+    terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m)
     gait = gait_by_name(trial.gait)
     robot = load_robot(trial.robot)
     model = None if trial.model_dir is None else model_path(trial.robot, trial.gait, Path(trial.model_dir))
@@ -129,6 +138,48 @@ def run_trial(trial: Trial) -> dict:
     return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary}
 
 
+def _terrain(name: str, removed: int | None, seed: int, bar_width_m: float | None, last_gap_m: float | None):
+    from contactnet.terrain import narrow_stones, resolve
+
+    if bar_width_m is not None or last_gap_m is not None:
+        return narrow_stones(bar_width_m, last_gap_m)
+    return resolve(name, removed=removed, seed=seed)
+
+
+@functools.lru_cache(maxsize=64)
+def _terrain_inputs(*args: object) -> dict:
+    terrain = _terrain(*args)  # type: ignore[arg-type]
+    return {"name": terrain.name, "sha256": digest(terrain.to_dict())}
+
+
+@functools.lru_cache(maxsize=64)
+def _model_identity(path: str, stamp: tuple[int, int]) -> str:
+    from contactnet.network import load_model
+
+    return load_model(path).identity
+
+
+def trial_inputs(trial: Trial) -> dict:
+    """Everything that determines ``trial``'s result, as plain values (see the module docstring). Raises
+    ModelFileError when the trial's planner needs a model file that is missing or bad."""
+    from contactnet.registry import gait_by_name, model_path, planner_entry
+
+    model = None
+    if planner_entry(trial.planner).needs_model:
+        path = model_path(trial.robot, trial.gait, None if trial.model_dir is None else Path(trial.model_dir))
+        try:
+            stat = path.stat()
+            stamp = (stat.st_mtime_ns, stat.st_size)
+        except OSError:
+            stamp = (0, 0)  # load_model names the problem
+        model = _model_identity(str(path), stamp)
+    settings = asdict(trial)
+    del settings["model_dir"]  # where the model lies does not matter, its content does
+    terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m)
+    return {"trial": settings, "terrain": terrain, "gait": digest(repr(gait_by_name(trial.gait))),
+            "model": model, "code": code_identity()}
+
+
 def _one_torch_thread() -> None:
     """Worker processes: one torch thread each (the workers already use every core)."""
     import torch
@@ -136,24 +187,64 @@ def _one_torch_thread() -> None:
     torch.set_num_threads(1)
 
 
-def _read_done(path: Path) -> dict[str, dict]:
-    """The finished trials in the log. A last line cut by a kill is dropped (that trial runs again) and
-    the log rewritten without it; a bad line elsewhere is an error (the file is not ours)."""
-    done: dict[str, dict] = {}
+def _read_log(path: Path) -> list[dict]:
+    """The trial records in the log, in order. A last line cut by a kill is dropped (that trial runs again)
+    and the log rewritten without it; a bad line elsewhere is an error (the file is not ours)."""
+    records: list[dict] = []
     if not path.exists():
-        return done
+        return records
     lines = path.read_text().splitlines()
     for number, line in enumerate(lines, 1):
         if not line.strip():
             continue
         try:
             record = json.loads(line)
-            done[record["key"]] = record
+            if not isinstance(record["key"], str):
+                raise TypeError
+            records.append(record)
         except (json.JSONDecodeError, KeyError, TypeError):
             if number < len(lines):
                 raise ExperimentError(f"{path}: line {number} is not a trial record") from None
             atomic_write_text(path, "".join(f"{kept}\n" for kept in lines[:-1]))
+    return records
+
+
+def _reusable(log: Path, records: list[dict], inputs: dict[str, dict], fingerprints: dict[str, str]) -> dict:
+    """The logged records whose fingerprint is their trial's now (the last one of each trial). One line on
+    stderr when other records of these trials are not reused, naming what changed."""
+    done: dict[str, dict] = {}
+    stale: dict[str, dict] = {}
+    for record in records:
+        key = record["key"]
+        if key in fingerprints:
+            (done if record.get("fingerprint") == fingerprints[key] else stale)[key] = record
+    rerun = [key for key in stale if key not in done]
+    changed: set[str] = set()
+    for key in rerun:
+        old = stale[key].get("inputs")
+        changed.update(differences(old, inputs[key]) if isinstance(old, dict) else ["?"])
+    if rerun:
+        words = {"trial": "settings", "terrain": "terrain", "gait": "gait spec", "model": "model", "code": "code"}
+        why = [f"with other {', '.join(words.get(c, c) for c in sorted(changed - {'?'}))}"] if changed - {"?"} else []
+        why += ["logged before trials recorded their inputs"] if "?" in changed else []
+        print(f"contactnet: {len(rerun)} trial(s) in {log} were run {' or '.join(why)}: not reused, running them "
+              "again", file=sys.stderr)
     return done
+
+
+def _check_header(out: Path, name: str) -> None:
+    path = out / "experiment.json"
+    if not path.exists():
+        return
+    try:
+        header = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        raise ExperimentError(f"{path}: unreadable experiment header") from None
+    if not isinstance(header, dict) or header.get("format") != HEADER_FORMAT:
+        raise ExperimentError(f"{path}: not a {HEADER_FORMAT} header")
+    if header.get("experiment") != name:
+        raise ExperimentError(f"{out} holds the experiment {str(header.get('experiment'))[:40]!r}, not {name!r}; "
+                              "use another --out")
 
 
 def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
@@ -163,12 +254,20 @@ def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers:
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ExperimentError(f"{out} exists and is not a directory")
+    if len({t.key for t in trials}) != len(trials):
+        raise ExperimentError("two trials have the same key")
+    inputs = {t.key: trial_inputs(t) for t in trials}
+    fingerprints = {key: digest(value) for key, value in inputs.items()}
     out.mkdir(parents=True, exist_ok=True)
+    _check_header(out, name)
     log = out / "trials.jsonl"
-    done = _read_done(log)
+    done = _reusable(log, _read_log(log), inputs, fingerprints)
+    atomic_write_text(out / "experiment.json", json.dumps(
+        {"format": HEADER_FORMAT, "experiment": name, "code": code_identity(), "trials": fingerprints}, indent=1))
     t0 = time.perf_counter()
 
     def append(job: Job, record: dict) -> dict:
+        record = {**record, "fingerprint": fingerprints[job.key], "inputs": inputs[job.key]}
         with open(log, "a") as file:
             file.write(json.dumps(record) + "\n")
         done[record["key"]] = record

@@ -13,17 +13,27 @@ machine: workers ignore SIGINT, so Ctrl-C reaches the parent only, which stops t
 the callback stored and re-raises KeyboardInterrupt (the command then prints how to resume). With one
 worker the jobs run in this process, one after the other. A new engine (e.g. Ray) is a function with the
 signature of `_local_engine` registered in ``_ENGINES``.
+
+Resume keys: a stored result is reused only when everything that determines it is unchanged. The callers
+describe those inputs as plain values and compare `digest`s; `code_identity` is the code's part (the
+contactnet version, a hash of its sources' syntax trees, Python and the numerical packages); files a resume
+or a reader trusts are checked against the size and sha256 recorded when they were written (`check_file`).
 """
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import functools
+import hashlib
+import json
 import os
+import platform
 import signal
 import threading
 from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 #: ``engine(call, items, workers, worker_init)``: apply ``call`` to every item (in any order) and yield its
@@ -138,8 +148,110 @@ def _local_engine(call: Callable[[Any], Any], items: Sequence[Any], workers: int
         pool.join()
 
 
+# ---- resume keys -------------------------------------------------------------------------------
+#: Packages whose version can change a simulated or generated result.
+RESULT_PACKAGES = ("numpy", "torch", "pybullet", "pin", "example-robot-data", "casadi")
+#: Package sources that cannot change a result: the command line and the benchmarks.
+_NOT_RESULT_SOURCES = ("cli.py", "__main__.py", "bench/")
+
+
+def digest(value: Any) -> str:
+    """sha256 (hex) of a JSON-able value written canonically (sorted keys, no spaces)."""
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _without_docstrings(tree: ast.AST) -> ast.AST:
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if (isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef) and body
+                and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)):
+            node.body = body[1:] or [ast.Pass()]
+    return tree
+
+
+@functools.cache
+def sources_digest() -> str:
+    """sha256 of the contactnet package's code, comments, docstrings and layout left out (so that editing
+    them does not invalidate results), the command line and benchmarks too (they cannot change a result)."""
+    import contactnet
+
+    root = Path(contactnet.__file__).resolve().parent
+    total = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        name = path.relative_to(root).as_posix()
+        if name.startswith(_NOT_RESULT_SOURCES):
+            continue
+        try:
+            source = path.read_bytes()
+        except OSError:  # removed while we list: not part of the code
+            continue
+        try:
+            code = ast.dump(_without_docstrings(ast.parse(source)))
+        except (SyntaxError, ValueError):  # half-written by an editor: its bytes then
+            code = hashlib.sha256(source).hexdigest()
+        total.update(f"{name}\0{code}\0".encode())
+    return total.hexdigest()
+
+
+@functools.cache
+def code_identity() -> dict[str, Any]:
+    """The code part of a resume key: ``{"contactnet": version, "sources": sources_digest(), "python": ...,
+    "packages": {name: version}}``. ``__version__`` alone is not enough: it is not bumped for every change."""
+    from importlib import metadata
+
+    import contactnet
+
+    packages = {}
+    for name in RESULT_PACKAGES:
+        try:
+            packages[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            packages[name] = None
+    return {"contactnet": contactnet.__version__, "sources": sources_digest(),
+            "python": platform.python_version(), "packages": packages}
+
+
+def differences(old: Any, new: Mapping[str, Any]) -> list[str]:
+    """The top-level names whose values differ between two inputs dicts (for one-line messages)."""
+    if not isinstance(old, Mapping):
+        return sorted(new)
+    return sorted(name for name in {*old, *new} if old.get(name) != new.get(name))
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    total = hashlib.sha256()
+    with open(path, "rb") as handle:
+        while chunk := handle.read(1 << 20):
+            total.update(chunk)
+    return total.hexdigest()
+
+
+def check_file(path: str | os.PathLike, size: Any, sha256: Any) -> str | None:
+    """None when the file has the recorded ``size`` (checked first) and ``sha256``, else the problem in a
+    few words. A value not recorded (None) is not checked."""
+    try:
+        actual = os.stat(path).st_size
+    except FileNotFoundError:
+        return "missing"
+    except OSError as exc:
+        return f"unreadable ({type(exc).__name__})"
+    if size is not None and actual != size:
+        return f"{actual} bytes where {size} were written ({'truncated' if actual < size else 'changed'})"
+    if sha256 is not None:
+        try:
+            found = file_sha256(path)
+        except OSError as exc:
+            return f"unreadable ({type(exc).__name__})"
+        if found != sha256:
+            return f"sha256 {found[:12]}... where {str(sha256)[:12]}... was written (changed)"
+    return None
+
+
 _ENGINES: dict[str, Engine] = {"local": _local_engine}
 
 ENGINES = tuple(_ENGINES)  #: the engines ``run_jobs`` knows
 
-__all__ = ["ENGINES", "Job", "run_jobs"]
+__all__ = ["ENGINES", "RESULT_PACKAGES", "Job", "check_file", "code_identity", "differences", "digest",
+           "file_sha256", "run_jobs", "sources_digest"]

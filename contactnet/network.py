@@ -17,16 +17,23 @@ Solo12): one `torch.save`d dict of plain tensors, strings, numbers and lists, lo
 `torch.load(path, weights_only=True)`:
     {"format": "contactnet-model-v1", "gait": "walk", "n_actions": 100, "n_inputs": 14,
      "hidden": [128, 128, 128], "state_dict": {name: tensor}, "normalizer": {...},
-     "metadata": {"robot": "solo12", ...}}
+     "metadata": {"robot": "solo12", ...}, "content_hash": "sha256:..."}
 ``metadata["robot"]`` names the robot the training data was made with; a file without it (the shipped
-walk.pt and trot.pt predate the field) is a Solo12 model.
+walk.pt and trot.pt predate the field) is a Solo12 model. ``content_hash`` (`content_hash`) is verified at
+load; a file without one (the shipped ones again) has nothing to verify, `rehash` re-saves it with one.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
+import json
+import math
 import os
 import pickle
+import re
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -253,19 +260,16 @@ class NumpyContactNet:
         h = np.asarray(u, dtype=self.dtype)
         if h.shape != (self.n_inputs,):
             raise ValueError(f"scores: u must have shape ({self.n_inputs},), got {h.shape}")
-        last = len(self._wt) - 1
-        for i, (wt, b) in enumerate(zip(self._wt, self._b, strict=True)):
-            h = h @ wt
-            h += b
-            if i < last:
-                np.maximum(h, 0.0, out=h)
-        return h
+        return self._forward(h)
 
     def scores_batch(self, U: np.ndarray) -> np.ndarray:
         """(B, N_a) scores for raw inputs U (B, 14)."""
         h = np.asarray(U, dtype=self.dtype)
         if h.ndim != 2 or h.shape[1] != self.n_inputs:
             raise ValueError(f"scores_batch: U must have shape (B, {self.n_inputs}), got {h.shape}")
+        return self._forward(h)
+
+    def _forward(self, h: np.ndarray) -> np.ndarray:
         last = len(self._wt) - 1
         for i, (wt, b) in enumerate(zip(self._wt, self._b, strict=True)):
             h = h @ wt
@@ -280,6 +284,17 @@ class NumpyContactNet:
 
 
 # ---- model file --------------------------------------------------------------------------------
+#: The largest network a model file may declare. Checked, with every stored tensor's size, before any tensor
+#: is read or any network built: a small file cannot make the loader allocate gigabytes.
+MAX_HIDDEN_UNITS = 1024
+MAX_HIDDEN_LAYERS = 8
+MAX_ACTIONS = 4096
+MAX_METADATA_BYTES = 1 << 20  #: the pickled dict without its tensors (a shipped file's: 10 KB)
+MAX_FILE_BYTES = 8 * ((N_INPUTS + 1) * MAX_HIDDEN_UNITS + (MAX_HIDDEN_LAYERS - 1) * (MAX_HIDDEN_UNITS + 1)
+                      * MAX_HIDDEN_UNITS + (MAX_HIDDEN_UNITS + 1) * MAX_ACTIONS) + 2 * MAX_METADATA_BYTES
+_HASH = re.compile(r"sha256:[0-9a-f]{64}")
+
+
 @dataclass
 class LoadedModel:
     """A model file, loaded and checked."""
@@ -292,6 +307,13 @@ class LoadedModel:
     net: NumpyContactNet
     metadata: dict[str, Any] = field(default_factory=dict)
     robot: str = DEFAULT_ROBOT  #: the robot the model was trained for (``metadata["robot"]``)
+    content_hash: str | None = None  #: recorded at save and verified; None in files saved before hashes
+    file_sha256: str = ""  #: of the file's bytes
+
+    @property
+    def identity(self) -> str:
+        """What a result made with this model depends on: its content hash, else the file's sha256."""
+        return self.content_hash or f"file-sha256:{self.file_sha256}"
 
     def scores(self, u: np.ndarray) -> np.ndarray:
         return self.net.scores(u)
@@ -319,11 +341,27 @@ def _plain(value: Any, where: str) -> Any:
     raise TypeError(f"metadata {where}: {type(value).__name__} is not a plain value")
 
 
+def content_hash(gait: str, robot: str, hidden: Any, state: dict[str, torch.Tensor], normalizer: Normalizer) -> str:
+    """``sha256:<hex>`` over what decides a model's scores and where it may be used: a JSON header (format,
+    gait, robot, hidden sizes, the normalizer's ``to_dict()``, sorted keys), then for each state_dict entry in
+    name order its name and shape and its values as little-endian float32. Metadata (training facts) is
+    not covered."""
+    digest = hashlib.sha256()
+    head = {"format": MODEL_FORMAT, "gait": gait, "robot": robot, "hidden": [int(h) for h in hidden],
+            "normalizer": normalizer.to_dict()}
+    digest.update(json.dumps(head, sort_keys=True).encode())
+    for name in sorted(state):
+        values = state[name].detach().cpu().to(torch.float32).contiguous().numpy()
+        digest.update(f"\n{name} {tuple(values.shape)}\n".encode())
+        digest.update(values.astype("<f4", copy=False).tobytes())
+    return f"sha256:{digest.hexdigest()}"
+
+
 def save_model(path: str | os.PathLike, model: ContactNet, normalizer: Normalizer, metadata: dict[str, Any]) -> Path:
     """Write the model file atomically (``contactnet.atomic``: a reader sees the old file or the new one).
 
     `metadata` must name the `gait`, and may name the `robot` (default Solo12); it is stored as plain
-    values (see the module docstring)."""
+    values (see the module docstring). The file records its `content_hash`, verified at load."""
     path = Path(path)
     gait = metadata.get("gait")
     if gait is None:
@@ -339,17 +377,19 @@ def save_model(path: str | os.PathLike, model: ContactNet, normalizer: Normalize
     meta["n_actions"] = model.n_actions
     meta["robot"] = robot
     meta.setdefault("normalization", normalizer.to_dict())
-    payload = {
-        "format": MODEL_FORMAT,
-        "gait": str(gait),
-        "n_actions": model.n_actions,
-        "n_inputs": model.n_inputs,
-        "hidden": list(model.hidden),
-        "state_dict": {k: v.detach().cpu().float().clone() for k, v in model.state_dict().items()},
-        "normalizer": normalizer.to_dict(),
-        "metadata": meta,
-    }
+    state = {k: v.detach().cpu().float().clone() for k, v in model.state_dict().items()}
+    payload = {"format": MODEL_FORMAT, "gait": str(gait), "n_actions": model.n_actions, "n_inputs": model.n_inputs,
+               "hidden": list(model.hidden), "state_dict": state, "normalizer": normalizer.to_dict(), "metadata": meta,
+               "content_hash": content_hash(str(gait), robot, model.hidden, state, normalizer)}
     return atomic_write_with(path, lambda handle: torch.save(payload, handle))
+
+
+def rehash(path: str | os.PathLike, out: str | os.PathLike | None = None) -> Path:
+    """Load and check a model file (e.g. one saved before files recorded a content hash) and save it again,
+    with its hash, to ``out`` (default: over ``path``, atomically): the same weights, normalizer and metadata."""
+    loaded = load_model(path)
+    return save_model(path if out is None else out, loaded.torch_model, loaded.normalizer,
+                      {**loaded.metadata, "gait": loaded.gait, "robot": loaded.robot})
 
 
 def _first_line(exc: BaseException, limit: int = 120) -> str:
@@ -358,42 +398,128 @@ def _first_line(exc: BaseException, limit: int = 120) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n_actions: int | None = None,
-               expect_robot: str | None = None, dtype: Any = np.float64) -> LoadedModel:
-    """Load and check a model file; any problem raises ModelFileError naming the file.
+def _excerpt(value: Any, limit: int = 60) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
-    ``expect_gait``, ``expect_n_actions``, ``expect_robot``: refuse a model of another gait, size or robot
-    (a file that names no robot is a Solo12 model)."""
-    path = Path(path)
 
-    def fail(problem: str) -> ModelFileError:
-        return ModelFileError(f"model file {path}: {problem}")
-
+def _read_archive(path: Path, fail: Callable[[str], ModelFileError]) -> io.BytesIO:
+    """The file's bytes, once they are known to be a zip archive of bounded declared sizes."""
     if not path.exists():
         raise fail("no such file")
     if not path.is_file():
         raise fail("not a regular file")
     try:
+        if path.stat().st_size > MAX_FILE_BYTES:
+            raise fail(f"is larger than the largest allowed network needs ({MAX_FILE_BYTES} bytes)")
         with open(path, "rb") as handle:
-            empty = handle.read(1) == b""
+            data = handle.read(MAX_FILE_BYTES + 1)  # bounded even if the file grows meanwhile
     except OSError as exc:
         raise fail(f"cannot be read ({type(exc).__name__})") from None
-    if empty:
+    if not data:
         raise fail("is empty")
-    if not zipfile.is_zipfile(path):  # torch.save writes a zip archive; a truncated one has no directory
+    if len(data) > MAX_FILE_BYTES:
+        raise fail(f"is larger than the largest allowed network needs ({MAX_FILE_BYTES} bytes)")
+    archive = io.BytesIO(data)
+    if not zipfile.is_zipfile(archive):  # torch.save writes a zip archive; a truncated one has no directory
         raise fail("is not a complete torch file (truncated, or some other format)")
     try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
+        with zipfile.ZipFile(archive) as listing:
+            entries = listing.infolist()
+    except (zipfile.BadZipFile, ValueError, OSError) as exc:
+        raise fail(f"cannot be read as a torch file, corrupt? ({type(exc).__name__})") from None
+    pickled = max((e.file_size for e in entries if e.filename.endswith("data.pkl")), default=0)
+    if pickled > MAX_METADATA_BYTES:
+        raise fail(f"declares {pickled} bytes of metadata, more than {MAX_METADATA_BYTES}")
+    if sum(e.file_size for e in entries) > MAX_FILE_BYTES:
+        raise fail(f"declares more content than the largest allowed network needs ({MAX_FILE_BYTES} bytes)")
+    return archive
+
+
+def _torch_load(archive: io.BytesIO, location: str, fail: Callable[[str], ModelFileError]) -> Any:
+    """``torch.load`` with weights_only; on ``"meta"`` no tensor data is read or allocated, only shapes."""
+    archive.seek(0)
+    try:
+        return torch.load(archive, map_location=location, weights_only=True)
     except pickle.UnpicklingError:
         raise fail("holds objects other than tensors and plain values (refused by weights_only loading)") from None
     except Exception as exc:  # torch raises many types for corrupt archives
         raise fail(f"cannot be read as a torch file, corrupt? ({type(exc).__name__})") from None
+
+
+def _layer_shapes(n_inputs: int, hidden: list[int], n_actions: int) -> dict[str, tuple[int, ...]]:
+    """The state_dict shapes of ``ContactNet(n_actions, n_inputs, hidden)``, computed without building it."""
+    sizes = [n_inputs, *hidden, n_actions]
+    shapes: dict[str, tuple[int, ...]] = {}
+    for i, (fan_in, fan_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
+        shapes[f"layers.{2 * i}.weight"] = (fan_out, fan_in)
+        shapes[f"layers.{2 * i}.bias"] = (fan_out,)
+    return shapes
+
+
+def _check_state(state: Any, shapes: dict[str, tuple[int, ...]], fail: Callable[[str], ModelFileError],
+                 values: bool) -> None:
+    """Names, shapes, dtypes and stored sizes (on meta tensors too); finite values when ``values``."""
+    if not isinstance(state, dict):
+        raise fail("state_dict is not a dict")
+    missing_w = sorted(set(shapes) - set(state))
+    extra_w = sorted(map(str, set(state) - set(shapes)))
+    if missing_w or extra_w:
+        parts = ([f"missing {', '.join(missing_w)}"] if missing_w else []) + (
+            [f"unexpected {', '.join(extra_w[:4])}"] if extra_w else [])
+        raise fail(f"state_dict does not match the network ({'; '.join(parts)})")
+    for name, shape in shapes.items():
+        tensor = state[name]
+        if not isinstance(tensor, torch.Tensor):
+            raise fail(f"state_dict[{name!r}] is not a tensor")
+        if tuple(tensor.shape) != shape:
+            raise fail(f"state_dict[{name!r}] has shape {_excerpt(tuple(tensor.shape))}, expected {shape}")
+        if not tensor.is_floating_point() or (values and not bool(torch.isfinite(tensor).all())):
+            raise fail(f"state_dict[{name!r}] is not finite floating point")
+        stored = tensor.untyped_storage().nbytes()
+        if stored > 8 * max(1, math.prod(shape)):
+            raise fail(f"state_dict[{name!r}] is stored in {stored} bytes, more than its shape {shape} needs")
+
+
+def _tensors_outside(payload: dict) -> bool:
+    """Whether any tensor lies outside ``state_dict`` (its storage would be read unchecked)."""
+    stack, seen = [value for key, value in payload.items() if key != "state_dict"], set()
+    while stack:
+        value = stack.pop()
+        if isinstance(value, torch.Tensor):
+            return True
+        if id(value) in seen:  # a pickle can make a list that holds itself
+            continue
+        seen.add(id(value))
+        if isinstance(value, dict):
+            stack.extend(value.values())
+        elif isinstance(value, list | tuple):
+            stack.extend(value)
+    return False
+
+
+def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n_actions: int | None = None,
+               expect_robot: str | None = None, dtype: Any = np.float64) -> LoadedModel:
+    """Load and check a model file; any problem raises ModelFileError naming the file.
+
+    ``expect_gait``, ``expect_n_actions``, ``expect_robot``: refuse a model of another gait, size or robot
+    (a file that names no robot is a Solo12 model). Order: the archive's declared sizes; the pickled dict
+    read with its tensors on the ``meta`` device (no data): metadata, architecture limits, every tensor's
+    shape and stored size; only then the tensors' data, their finiteness and the recorded content hash."""
+    path = Path(path)
+
+    def fail(problem: str) -> ModelFileError:
+        return ModelFileError(f"model file {path}: {problem}")
+
+    archive = _read_archive(path, fail)
+    payload = _torch_load(archive, "meta", fail)
     if not isinstance(payload, dict):
         raise fail(f"not a contactnet model (a {type(payload).__name__}, not a dict)")
     if "format" not in payload:
-        raise fail(f"not a contactnet model file (no 'format' key; keys: {', '.join(map(str, list(payload)[:4]))}...)")
+        keys = ", ".join(_excerpt(k, 20) for k in list(payload)[:4])
+        raise fail(f"not a contactnet model file (no 'format' key; keys: {keys}...)")
     if payload.get("format") != MODEL_FORMAT:
-        raise fail(f"format is {payload.get('format')!r}, expected {MODEL_FORMAT!r}")
+        raise fail(f"format is {_excerpt(payload.get('format'))}, expected {MODEL_FORMAT!r}")
     missing = [k for k in ("gait", "n_actions", "n_inputs", "hidden", "state_dict", "normalizer", "metadata")
                if k not in payload]
     if missing:
@@ -402,24 +528,27 @@ def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n
     try:
         gait_n_actions = _n_actions_of(gait)
     except (ValueError, TypeError):
-        raise fail(f"unknown gait {gait!r}") from None
+        raise fail(f"unknown gait {_excerpt(gait)}") from None
     if expect_gait is not None and gait != expect_gait:
         raise fail(f"is a {gait!r} model, but a {expect_gait!r} model was expected")
     n_actions, n_inputs, hidden = payload["n_actions"], payload["n_inputs"], payload["hidden"]
-    if not isinstance(n_actions, int) or n_actions != gait_n_actions:
-        raise fail(f"n_actions is {n_actions!r}, but gait {gait!r} has {gait_n_actions}")
+    if type(n_actions) is not int or n_actions != gait_n_actions or n_actions > MAX_ACTIONS:
+        raise fail(f"n_actions is {_excerpt(n_actions)}, but gait {gait!r} has {gait_n_actions}")
     if expect_n_actions is not None and n_actions != expect_n_actions:
         raise fail(f"n_actions is {n_actions}, expected {expect_n_actions}")
-    if not isinstance(n_inputs, int) or n_inputs != N_INPUTS:
-        raise fail(f"n_inputs is {n_inputs!r}, expected {N_INPUTS}")
-    if not (isinstance(hidden, list | tuple) and hidden and all(isinstance(h, int) and h > 0 for h in hidden)):
-        raise fail(f"hidden sizes {hidden!r} are not a list of positive integers")
+    if type(n_inputs) is not int or n_inputs != N_INPUTS:
+        raise fail(f"n_inputs is {_excerpt(n_inputs)}, expected {N_INPUTS}")
+    if not (isinstance(hidden, list | tuple) and hidden and all(type(h) is int and h > 0 for h in hidden)):
+        raise fail(f"hidden sizes {_excerpt(hidden)} are not a list of positive integers")
+    if len(hidden) > MAX_HIDDEN_LAYERS or max(hidden) > MAX_HIDDEN_UNITS:
+        raise fail(f"hidden sizes {_excerpt(list(hidden))} exceed the limit "
+                   f"({MAX_HIDDEN_LAYERS} layers of at most {MAX_HIDDEN_UNITS} units)")
     metadata = payload["metadata"]
     if not isinstance(metadata, dict):
         raise fail("metadata is not a dict")
     robot = metadata.get("robot", DEFAULT_ROBOT)
     if not isinstance(robot, str) or not robot:
-        raise fail(f"metadata names the robot {robot!r}, not a robot name")
+        raise fail(f"metadata names the robot {_excerpt(robot)}, not a robot name")
     if expect_robot is not None and robot != expect_robot:
         raise fail(f"is a {robot!r} model, but a {expect_robot!r} model was expected")
     try:
@@ -428,31 +557,25 @@ def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n
         raise fail(f"bad normalizer ({_first_line(exc)})") from None
     if normalizer.low.size != n_inputs:
         raise fail(f"normalizer has {normalizer.low.size} inputs, expected {n_inputs}")
+    recorded = payload.get("content_hash")
+    if recorded is not None and not (isinstance(recorded, str) and _HASH.fullmatch(recorded)):
+        raise fail(f"content_hash {_excerpt(recorded)} is not 'sha256:' and 64 hex digits")
+    shapes = _layer_shapes(n_inputs, list(hidden), n_actions)
+    _check_state(payload["state_dict"], shapes, fail, values=False)
+    if _tensors_outside(payload):
+        raise fail("holds tensors outside state_dict")
 
+    state = _torch_load(archive, "cpu", fail)["state_dict"]  # the same bytes: now with the tensors' data
+    _check_state(state, shapes, fail, values=True)
+    if recorded is not None and content_hash(gait, robot, hidden, state, normalizer) != recorded:
+        raise fail("content hash mismatch: the file was changed after it was saved")
     model = ContactNet(n_actions, n_inputs=n_inputs, hidden=tuple(hidden))
-    expected = model.state_dict()
-    state = payload["state_dict"]
-    if not isinstance(state, dict):
-        raise fail("state_dict is not a dict")
-    missing_w = sorted(set(expected) - set(state))
-    extra_w = sorted(set(state) - set(expected))
-    if missing_w or extra_w:
-        parts = ([f"missing {', '.join(missing_w)}"] if missing_w else []) + (
-            [f"unexpected {', '.join(extra_w)}"] if extra_w else [])
-        raise fail(f"state_dict does not match the network ({'; '.join(parts)})")
-    for name, ref in expected.items():
-        tensor = state[name]
-        if not isinstance(tensor, torch.Tensor):
-            raise fail(f"state_dict[{name!r}] is not a tensor")
-        if tuple(tensor.shape) != tuple(ref.shape):
-            raise fail(f"state_dict[{name!r}] has shape {tuple(tensor.shape)}, expected {tuple(ref.shape)}")
-        if not tensor.is_floating_point() or not bool(torch.isfinite(tensor).all()):
-            raise fail(f"state_dict[{name!r}] is not finite floating point")
-    model.load_state_dict({k: state[k].float() for k in expected})
+    model.load_state_dict({k: state[k].float() for k in shapes})
     model.eval()
     net = NumpyContactNet.from_torch(model, normalizer, dtype=dtype)
     return LoadedModel(path=path, gait=gait, n_actions=n_actions, torch_model=model, normalizer=normalizer,
-                       net=net, metadata=dict(metadata), robot=robot)
+                       net=net, metadata=dict(metadata), robot=robot, content_hash=recorded,
+                       file_sha256=hashlib.sha256(archive.getbuffer()).hexdigest())
 
 
 def torch_scores(model: ContactNet, normalizer: Normalizer, u: np.ndarray) -> np.ndarray:
@@ -463,7 +586,8 @@ def torch_scores(model: ContactNet, normalizer: Normalizer, u: np.ndarray) -> np
 
 
 __all__ = [
-    "INPUT_NAMES", "MODEL_FORMAT", "N_INPUTS", "ContactNet", "LoadedModel", "ModelFileError", "Normalizer",
-    "NumpyContactNet", "cheapest_first", "load_model", "network_input", "network_input_of_context",
-    "network_input_of_state", "network_input_one", "rank_targets", "save_model", "topk_accuracy", "torch_scores",
+    "INPUT_NAMES", "MAX_FILE_BYTES", "MAX_HIDDEN_LAYERS", "MAX_HIDDEN_UNITS", "MODEL_FORMAT", "N_INPUTS",
+    "ContactNet", "LoadedModel", "ModelFileError", "Normalizer", "NumpyContactNet", "cheapest_first",
+    "content_hash", "load_model", "network_input", "network_input_of_context", "network_input_of_state",
+    "network_input_one", "rank_targets", "rehash", "save_model", "topk_accuracy", "torch_scores",
 ]

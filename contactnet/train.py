@@ -5,7 +5,9 @@ Dataset directory (written by `contactnet datagen`):
     DIR/manifest.json   {"format": "contactnet-dataset-v1", "gait": "walk"|"trot", "robot": "solo12"|...,
                          "n_actions": int,
                          "input_names": [14 names], "shards": ["shard-00000.npz", ...],
-                         "episodes": int, "instances": int, "seed": int, "code_version": str, ...}
+                         "episodes": int, "instances": int, "seed": int, "code_version": str,
+                         "shard_stats": {name: {"bytes": int, "sha256": str, ...}}, ...}
+                        (a shard whose size or sha256 is not the recorded one is refused)
     DIR/shard-XXXXX.npz u (n, 14) float32 inputs, V (n, N_a) float32 costs (+inf = infeasible),
                         episode (n,) int32 episode ids, unique across the whole dataset.
 
@@ -37,6 +39,7 @@ import numpy as np
 import torch
 
 from contactnet import registry
+from contactnet.jobs import check_file
 from contactnet.network import (
     INPUT_NAMES,
     N_INPUTS,
@@ -175,10 +178,16 @@ def load_dataset(directory: str | os.PathLike) -> Dataset:
         raise DatasetError(f"{manifest_path}: lists no shards (empty dataset)")
 
     us, Vs, eps = [], [], []
+    stats_of = manifest.get("shard_stats") if isinstance(manifest.get("shard_stats"), dict) else {}
     for name in shards:
         shard_path = directory / name
         if not shard_path.is_file():
             raise DatasetError(f"{shard_path}: shard listed in the manifest is missing")
+        stats = stats_of.get(name) if isinstance(stats_of.get(name), dict) else {}
+        problem = check_file(shard_path, stats.get("bytes"), stats.get("sha256"))  # datasets before: nothing
+        if problem is not None:
+            raise DatasetError(f"{shard_path}: not the shard datagen wrote: {problem}; run the same datagen "
+                               "command again to regenerate it")
         try:
             with np.load(shard_path, allow_pickle=False) as data:
                 missing = [k for k in ("u", "V", "episode") if k not in data.files]

@@ -73,3 +73,29 @@ def test_ctrl_c_stops_the_pool_at_once_without_worker_tracebacks():
     out, err = process.communicate(timeout=30)
     assert process.returncode == 130 and out.strip() == "interrupted", (out, err)
     assert time.monotonic() - start < 20 and "Traceback" not in err, err
+
+
+def test_resume_key_helpers(tmp_path):
+    import ast
+
+    from contactnet import jobs
+
+    a = "def f(x):\n    '''doc'''\n    return x + 1  # note\n"
+    b = "def f(x):\n    '''other words'''\n\n    return x + 1\n"
+    c = "def f(x):\n    return x + 2\n"
+    dump = [ast.dump(jobs._without_docstrings(ast.parse(s))) for s in (a, b, c)]
+    assert dump[0] == dump[1] != dump[2]  # comments, docstrings and layout do not change the code's digest
+    identity = jobs.code_identity()
+    assert identity["sources"] == jobs.sources_digest() and len(identity["sources"]) == 64
+    assert set(identity["packages"]) == set(jobs.RESULT_PACKAGES) and identity["packages"]["torch"]
+    assert jobs.digest({"b": 1, "a": [1.5]}) == jobs.digest({"a": [1.5], "b": 1}) != jobs.digest({"a": [1.5]})
+    assert jobs.differences({"a": 1, "b": 2}, {"a": 1, "b": 3, "c": 0}) == ["b", "c"]
+    path = tmp_path / "f.bin"
+    path.write_bytes(b"hello")
+    size, sha = 5, jobs.file_sha256(path)
+    assert jobs.check_file(path, size, sha) is None and jobs.check_file(path, None, None) is None
+    assert jobs.check_file(tmp_path / "none", size, sha) == "missing"
+    path.write_bytes(b"hell")
+    assert jobs.check_file(path, size, sha) == "4 bytes where 5 were written (truncated)"
+    path.write_bytes(b"jello")
+    assert jobs.check_file(path, size, sha).endswith("was written (changed)")

@@ -410,3 +410,17 @@ def test_mismatched_model_file(tmp_path):
     with pytest.raises(ModelFileError, match="n_actions is 100, expected 162"):
         load_model(path, expect_n_actions=162)
     assert isinstance(ModelFileError("x"), ValueError)
+
+
+def test_other_hidden_sizes_round_trip_and_the_shape_check_matches_the_network(tmp_path):
+    # load_model checks the stored shapes against the architecture before building the network.
+    torch.manual_seed(0)
+    model = ContactNet(100, hidden=(64, 32, 16, 8))
+    norm = Normalizer.fit(np.random.default_rng(0).normal(size=(30, 14)))
+    path = save_model(tmp_path / "walk.pt", model, norm, {"gait": "walk"})
+    loaded = load_model(path)
+    assert loaded.torch_model.hidden == (64, 32, 16, 8)
+    assert network_module._layer_shapes(14, [64, 32, 16, 8], 100) == {
+        name: tuple(value.shape) for name, value in model.state_dict().items()}
+    U = np.random.default_rng(1).normal(size=(5, 14))
+    np.testing.assert_allclose(loaded.net.scores_batch(U), torch_scores(model, norm, U), atol=1e-5)
