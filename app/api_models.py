@@ -4,9 +4,17 @@ planner names from `contactnet.registry`, and `state_of`, the State of a LiveVie
 from __future__ import annotations
 
 import math
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, create_model, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    WithJsonSchema,
+    create_model,
+    model_validator,
+)
 
 from app.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
 from app.view import LiveView
@@ -15,6 +23,17 @@ from contactnet import registry
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
+
+
+def _integral(value: Any) -> Any:
+    """18.0 is the integer 18 in JSON (and JSON Schema's "integer"); 18.5, "18" and true are not."""
+    return int(value) if isinstance(value, float) and value.is_integer() and abs(value) < 2**53 else value
+
+
+def json_int(ge: int, le: int) -> Any:
+    """An integer in [ge, le] of a request body: strict, but a float with an integral value counts (JSON
+    Schema's rule for "integer")."""
+    return Annotated[int, Field(ge=ge, le=le), BeforeValidator(_integral)]
 
 
 class VelocityCommand(_Strict):
@@ -29,7 +48,18 @@ class VelocityCommand(_Strict):
 
 
 class PushCommand(_Strict):
-    """A horizontal push on the base (world frame), starting now."""
+    """A horizontal push on the base (world frame), starting now: 0 < |(fx, fy)| <= the force limit. It acts
+    only while the robot walks (409 when paused, fallen, at the goal)."""
+
+    # The part of "0 < |(fx, fy)|" JSON Schema can say: fx or fy given and not 0.
+    model_config = ConfigDict(
+        json_schema_extra={
+            "anyOf": [
+                {"required": ["fx"], "properties": {"fx": {"not": {"const": 0}}}},
+                {"required": ["fy"], "properties": {"fy": {"not": {"const": 0}}}},
+            ]
+        }
+    )
 
     fx: float = Field(0.0, ge=-PUSH_FORCE_LIMIT_N, le=PUSH_FORCE_LIMIT_N, allow_inf_nan=False, description="N")
     fy: float = Field(0.0, ge=-PUSH_FORCE_LIMIT_N, le=PUSH_FORCE_LIMIT_N, allow_inf_nan=False, description="N")
@@ -38,6 +68,8 @@ class PushCommand(_Strict):
     @model_validator(mode="after")
     def _magnitude(self) -> PushCommand:
         magnitude = math.hypot(self.fx, self.fy)
+        if magnitude == 0.0:
+            raise ValueError("fx, fy: a push needs a force: |(fx, fy)| must be more than 0 N")
         if magnitude > PUSH_FORCE_LIMIT_N:
             raise ValueError(
                 f"fx, fy: push force |(fx, fy)| = {magnitude:.3g} N exceeds {PUSH_FORCE_LIMIT_N:g} N"
@@ -76,15 +108,44 @@ def settings_command_model() -> type[BaseModel]:
 
 
 class TerrainSelect(_Strict):
-    """A terrain for the session: a file in terrains/ (or a shipped generator), or 'random'."""
+    """A terrain for the session: a terrain file (the user's or a shipped one), a shipped generator, or
+    'random' (which needs 'removed')."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "anyOf": [
+                {
+                    "required": ["name", "removed"],
+                    "properties": {"name": {"const": "random"}, "removed": {"type": "integer"}},
+                },
+                {"properties": {"name": {"not": {"const": "random"}}}},
+            ]
+        }
+    )
 
     name: str = Field(..., pattern=r"^(random|[A-Za-z0-9][A-Za-z0-9_-]{0,63})$")
-    removed: int | None = Field(None, ge=0, le=300, description="random: squares removed (0..300)")
-    seed: int = Field(0, ge=0, le=2**31 - 1, description="random: seed")
+    removed: json_int(0, 300) | None = Field(None, description="random: squares removed (0..300)")
+    seed: json_int(0, 2**31 - 1) = Field(0, description="random: seed")
+
+    @model_validator(mode="after")
+    def _random_needs_removed(self) -> TerrainSelect:
+        if self.name == "random" and self.removed is None:
+            raise ValueError("removed: the random terrain needs 'removed' (0..300)")
+        return self
 
 
 class RecordingStart(_Strict):
     label: str = Field("", max_length=40, pattern=r"^[A-Za-z0-9_ -]*$")
+
+
+def _vector(kind: type, json_type: str, n: int) -> Any:
+    """A tuple of ``n`` values, described in JSON Schema as an array with ``items`` and min/maxItems (a tuple's
+    default schema, ``prefixItems``, is not read by every OpenAPI tool)."""
+    schema = {"type": "array", "items": {"type": json_type}, "minItems": n, "maxItems": n}
+    return Annotated[tuple[(kind,) * n], WithJsonSchema(schema)]
+
+
+Float2, Float3, Bool4 = _vector(float, "number", 2), _vector(float, "number", 3), _vector(bool, "boolean", 4)
 
 
 class State(BaseModel):
@@ -105,18 +166,18 @@ class State(BaseModel):
     planner_active: str
     planner_note: str | None
     noise: bool
-    vel_cmd: tuple[float, float]
-    base_position: tuple[float, float, float]
-    com_position: tuple[float, float, float]
-    com_velocity: tuple[float, float, float]
-    stance: tuple[bool, bool, bool, bool]
-    foot_contact: tuple[bool, bool, bool, bool]
+    vel_cmd: Float2
+    base_position: Float3
+    com_position: Float3
+    com_velocity: Float3
+    stance: Bool4
+    foot_contact: Bool4
     steps: int
     rank_chosen: int | None
     last_planner_ms: float
     last_trajopt_ms: float
     pushes: int
-    push_force: tuple[float, float, float]
+    push_force: Float3
     error: str | None
     recording: bool
     viser_port: int

@@ -17,6 +17,10 @@ from contactnet import registry
 from contactnet.terrain import Terrain
 
 
+class CommandConflict(RuntimeError):
+    """A valid command that cannot act in the session's state now (a push while paused, ...): one line."""
+
+
 @dataclass(frozen=True)
 class SetVelocity:
     vx: float  #: m/s, forward
@@ -145,11 +149,11 @@ def check_command(command: Command) -> None:
     elif isinstance(command, ApplyPush):
         if not (
             finite(command.fx, command.fy, command.duration_s)
-            and math.hypot(command.fx, command.fy) <= PUSH_FORCE_LIMIT_N + 1e-9
+            and 0.0 < math.hypot(command.fx, command.fy) <= PUSH_FORCE_LIMIT_N + 1e-9
             and 0.0 < command.duration_s <= PUSH_DURATION_LIMIT_S
         ):
             raise ValueError(
-                f"push needs |f| <= {PUSH_FORCE_LIMIT_N} N and 0 < duration <= {PUSH_DURATION_LIMIT_S} s"
+                f"push needs 0 < |f| <= {PUSH_FORCE_LIMIT_N} N and 0 < duration <= {PUSH_DURATION_LIMIT_S} s"
             )
     elif isinstance(command, SetSpeed):
         low, high = SIM_SPEED_RANGE

@@ -17,12 +17,14 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from app import editor
 from app.commands import EditTerrain, RenameTerrain, SetTerrain, UndoTerrainEdit
-from app.editor import EditError, TerrainStore
+from app.editor import EditError
 from app.live import LiveSession
+from app.terrain_files import TerrainLibrary, validate_upload
 from app.view import LiveView
 from contactnet.terrain import Terrain, TerrainError, by_name, random_field
 
@@ -32,7 +34,7 @@ log = logging.getLogger("contactnet.app.editing")
 class TerrainService:
     """Loading, editing and saving the live session's terrain (the session keeps it; see the module doc)."""
 
-    def __init__(self, session: LiveSession, store: TerrainStore):
+    def __init__(self, session: LiveSession, store: TerrainLibrary):
         self.session = session
         self.store = store
         self._lock = threading.RLock()  # one service operation at a time (save reads, then renames)
@@ -96,8 +98,11 @@ class TerrainService:
 
     def load_dict(self, data: dict[str, Any], label: str, timeout: float = 60.0) -> Terrain:
         """Switch the session to an uploaded terrain dict (validated; nothing changes if invalid)."""
+        return self.load_terrain(editor.to_terrain(data, source=label), label, timeout)
+
+    def load_terrain(self, terrain: Terrain, label: str, timeout: float = 60.0) -> Terrain:
+        """Switch the session to a terrain already validated (`app.terrain_files.validate_upload`)."""
         with self._lock:
-            terrain = editor.to_terrain(data, source=label)
             self.session.call(SetTerrain(terrain, label), timeout=timeout)
             self._changed()
             return terrain
@@ -115,6 +120,14 @@ class TerrainService:
         with self._lock:
             self.session.call(UndoTerrainEdit(), timeout=timeout)
             self._changed()
+
+    def save_upload(self, content: bytes, name: str, overwrite: bool = False) -> Path:
+        """Validate uploaded JSON bytes once and write them as `<name>.json` (the session is not touched).
+        Refusals: ShippedTerrainError (before validating), EditError (the terrain's one-line message)."""
+        self.store.check_writable(name, overwrite)
+        terrain = validate_upload(content, name)  # outside the lock: other terrain operations go on meanwhile
+        with self._lock:
+            return self.store.write(terrain, name, overwrite)
 
     def save(self, name: str, overwrite: bool = False, timeout: float = 60.0) -> str:
         """Write the current terrain as `<name>.json` in the store; the session calls it `name` from then on."""

@@ -6,7 +6,6 @@ are re-exported here so the app's modules can keep using ``editor.punch_hole`` a
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -98,33 +97,34 @@ class TerrainStore:
         except TerrainError as exc:
             raise EditError(str(exc)) from None
 
-    def save(self, data: Mapping[str, Any], name: str, overwrite: bool = False) -> Path:
-        """Validate and write `data` as `<name>.json` (its "name" field becomes `name`)."""
+    def save(self, data: Mapping[str, Any] | Terrain, name: str, overwrite: bool = False) -> Path:
+        """Validate and write `data` as `<name>.json` (its "name" field becomes `name`).
+
+        A `Terrain` already named `name` is written as it is, without validating it again.
+        """
         path = self.path(name)
         if is_shipped(name) and path.exists() and not overwrite:
             raise ShippedTerrainError(
                 f"{name!r} is a terrain shipped with contactnet: confirm (overwrite) to replace it"
             )
-        terrain = to_terrain(renamed(data, name), source=path.name)
+        if isinstance(data, Terrain) and data.name == name:
+            terrain = data
+        else:
+            plain = data.to_dict() if isinstance(data, Terrain) else data
+            terrain = to_terrain(renamed(plain, name), source=path.name)
         self.directory.mkdir(parents=True, exist_ok=True)
         terrain.save(path)
         return path
 
 
 def parse_upload(content: bytes, source: str = "upload", max_bytes: int = MAX_UPLOAD_BYTES) -> TerrainDict:
-    """A terrain dict from uploaded bytes (JSON), or EditError saying what is wrong with it."""
-    if len(content) > max_bytes:
-        raise EditError(f"{source}: file is {len(content)} bytes; the limit is {max_bytes} bytes")
+    """A terrain dict (normalized) from uploaded bytes (JSON), or EditError saying what is wrong with it.
+
+    Read with the terrain JSON limits (at most ``max_bytes``; depth, values, number length, duplicate
+    keys: ``contactnet.terrain.schema.loads_terrain_json``) and validated once within the terrain
+    complexity budget (``Terrain.from_json``). Thread-safe: run it off an event loop.
+    """
     try:
-        text = content.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise EditError(f"{source}: not UTF-8 text (byte {exc.start})") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise EditError(
-            f"{source}: not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})"
-        ) from None
-    except RecursionError:
-        raise EditError(f"{source}: not valid JSON: nested too deeply") from None
-    return validated(data, source)
+        return Terrain.from_json(content, source=source, max_bytes=max_bytes).to_dict()
+    except TerrainError as exc:
+        raise EditError(str(exc)) from None

@@ -48,7 +48,11 @@ class ControlPanel:
         self.camera = CameraFollow(server)
         gui = server.gui
         gui.configure_theme(
-            control_width="large", dark_mode=False, show_logo=False, brand_color=(40, 90, 200)
+            control_width="large",
+            dark_mode=False,
+            show_logo=False,
+            show_share_button=False,  # no public relay link (app/security.py)
+            brand_color=(40, 90, 200),
         )
         self.status = StatusPanel(gui, order=0)
         self.drive = DrivePanel(server, session, self.camera, order=10)

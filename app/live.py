@@ -39,6 +39,7 @@ import numpy as np
 from app.commands import (
     ApplyPush,
     Command,
+    CommandConflict,
     EditTerrain,
     NudgeVelocity,
     RenameTerrain,
@@ -311,6 +312,8 @@ class LiveSession:
             )
             loco.set_command(*self._vel)
         elif isinstance(command, ApplyPush):
+            if not self._running:  # the clock stands still: the push would act later, or never
+                raise CommandConflict(f"cannot push now: the robot is {self._not_running_reason()}")
             push = Push(
                 t0_s=loco.t_s,
                 duration_s=float(command.duration_s),
@@ -362,6 +365,13 @@ class LiveSession:
         if self._running and not was_running:
             self._anchor()
         return result
+
+    def _not_running_reason(self) -> str:
+        if self._error is not None:
+            return "stopped by an error (reset it)"
+        if self._done is not None:
+            return f"done ({self._done}): reset it first"
+        return "paused: run it first"
 
     def _edited_label(self) -> str:
         return f"{self._terrain_base_label} (edited)"

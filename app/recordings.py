@@ -472,6 +472,18 @@ class LiveRecorder:
         self.last_saved = name
         return RecordingInfo(name, path.stat().st_size, path.stat().st_mtime)
 
+    def save_in_progress(self) -> str | None:
+        """At shut-down: save the recording in progress, if any. One line saying what happened (saved, with
+        its folder; or dropped, naming it and why), None when nothing was recording."""
+        name = self._name
+        if self._recorder is None or name is None:
+            return None
+        try:
+            info = self.stop()
+        except Exception as exc:  # noqa: BLE001 - reported, never raised at shut-down
+            return f"dropped the recording in progress {name}: {exc}"
+        return f"saved the recording in progress: {info.name} in {self.store.directory} ({info.size_bytes} bytes)"
+
     def close(self) -> None:
         with self._lock:
             if self._recorder is not None:

@@ -9,22 +9,26 @@ a `ContactnetApp` directly. The request and response models are in `app/api_mode
 
 # No `from __future__ import annotations` here: the settings endpoint's body model is built at run time
 # (from the registry) and FastAPI must see the class itself, not its name.
+import asyncio
 import functools
+import gc
 import logging
 import os
+import signal
 import sys
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Annotated, Any
 
 import uvicorn
 from fastapi import FastAPI, HTTPException, Query, Request
 from fastapi import Path as PathParam
-from fastapi.encoders import jsonable_encoder
-from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, Response
+from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
+from starlette.convertors import Convertor, register_url_convertor
 
+from app.api_errors import StrictJsonRoute, install_error_handlers, responses
 from app.api_models import (
     Info,
     PauseCommand,
@@ -38,27 +42,37 @@ from app.api_models import (
     TerrainList,
     TerrainSelect,
     VelocityCommand,
-    json_safe,
     settings_command_model,
     state_of,
 )
-from app.commands import ApplyPush, Reset, SetGait, SetNoise, SetPaused, SetPlanner, SetSpeed, SetVelocity
-from app.editing import TerrainService
-from app.editor import (
-    MAX_UPLOAD_BYTES,
-    EditError,
-    ShippedTerrainError,
-    TerrainStore,
-    is_shipped,
-    parse_upload,
+from app.commands import (
+    ApplyPush,
+    CommandConflict,
+    Reset,
+    SetGait,
+    SetNoise,
+    SetPaused,
+    SetPlanner,
+    SetSpeed,
+    SetVelocity,
 )
+from app.editing import TerrainService
+from app.editor import MAX_UPLOAD_BYTES, EditError, ShippedTerrainError
 from app.live import LiveSession
 from app.planners import default_planner_factory
-from app.recordings import LiveRecorder, RecordingStore, viser_html
-from app.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, VELOCITY_LIMIT_M_S, ServeSettings
+from app.recordings import RECORDING_NAME, LiveRecorder, RecordingStore, viser_html
+from app.security import AccessPolicy, RequestGuard
+from app.settings import (
+    COMMAND_BODY_LIMIT_BYTES,
+    PUSH_DURATION_LIMIT_S,
+    PUSH_FORCE_LIMIT_N,
+    VELOCITY_LIMIT_M_S,
+    ServeSettings,
+)
+from app.terrain_files import StoredTerrainError, TerrainLibrary
 from app.viewer import Viewer
 from contactnet.robots import load_robot
-from contactnet.terrain import Terrain, resolve, terrains_dir
+from contactnet.terrain import Terrain, resolve
 
 log = logging.getLogger("contactnet.app.server")
 
@@ -66,8 +80,24 @@ STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
 VISER_CLIENT = Path(__import__("viser").__file__).parent / "client" / "build" / "index.html"
 TERRAIN_NAME = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 COMMAND_TIMEOUT_S = 60.0
-TerrainName = Annotated[str, PathParam(pattern=TERRAIN_NAME, description="file stem in terrains/")]
-RecordingName = Annotated[str, PathParam(pattern=r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")]
+TerrainName = Annotated[str, PathParam(pattern=TERRAIN_NAME, description="a terrain file's stem")]
+RecordingName = Annotated[str, PathParam(pattern=RECORDING_NAME.pattern)]
+
+
+class RecordingFileConvertor(Convertor[str]):
+    """``{name:recording_file}``: only names of .viser files match, so ``GET /api/recordings/start`` finds
+    no GET route and answers 405 (the route exists for POST), instead of a 422 about a bad file name."""
+
+    regex = RECORDING_NAME.pattern.strip("^$")
+
+    def convert(self, value: str) -> str:
+        return value
+
+    def to_string(self, value: str) -> str:
+        return value
+
+
+register_url_convertor("recording_file", RecordingFileConvertor())
 
 
 # ---- the application ----------------------------------------------------------------------------
@@ -76,6 +106,7 @@ class ContactnetApp:
 
     def __init__(self, settings: ServeSettings):
         self.settings = settings
+        self.policy = AccessPolicy(settings)
         terrain, label = self._initial_terrain(settings.terrain)
         self.session = LiveSession(
             settings,
@@ -85,8 +116,8 @@ class ContactnetApp:
         ).start()
         try:
             self.robot = load_robot(settings.robot)  # for drawing (the session thread has its own)
-            self.terrains = TerrainService(self.session, TerrainStore(settings.terrains_dir or terrains_dir()))
-            self.recordings = RecordingStore(settings.recordings_dir)
+            self.terrains = TerrainService(self.session, TerrainLibrary(settings.user_terrains_dir()))
+            self.recordings = RecordingStore(settings.recordings_folder())
             self.recorder = LiveRecorder(self.recordings, self.robot, rate_hz=settings.record_hz)
             self.viewer = Viewer(
                 self.session,
@@ -96,11 +127,18 @@ class ContactnetApp:
                 host=settings.host,
                 port=settings.viser_port,
                 scene_hz=settings.scene_hz,
+                policy=self.policy,
             )
         except BaseException:
             self.session.stop()
             raise
+        # Terrain uploads are validated here, never on the event loop (two at a time; more wait their turn).
+        self.validation_pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="terrain-upload")
         self.api = create_api(self)
+        # What start-up built (robot, models, viser, the simulated world) lives as long as the tool: keep the
+        # cyclic garbage collector from walking it again. A full collection over it held the GIL for ~0.2 s in
+        # the middle of a terrain upload (every thread, /api/state included, waited); now ~0.05 s.
+        gc.freeze()
 
     @staticmethod
     def _initial_terrain(spec: str) -> tuple[Terrain, str]:
@@ -118,29 +156,48 @@ class ContactnetApp:
             raise HTTPException(503, "the live session is starting")
         return state_of(view, self.viser_port, self.recorder.recording)
 
-    def close(self) -> None:
-        self.recorder.close()
-        self.viewer.close()
-        self.session.stop()
+    def close(self) -> str | None:
+        """Stop everything; a recording in progress is saved. Returns one line about that recording (saved
+        where, or dropped and why), None when nothing was recording."""
+        self.viewer.close()  # no more frames fed to the recorder
+        try:
+            note = self.recorder.save_in_progress()
+        finally:
+            self.recorder.close()
+            self.validation_pool.shutdown(wait=False, cancel_futures=True)
+            self.session.stop()
+        return note
+
+
+def body_limit(method: str, path: str) -> int:
+    """Largest request body: a terrain upload's limit for PUT /api/terrains/..., 64 KiB for everything else."""
+    return MAX_UPLOAD_BYTES if method == "PUT" and path.startswith("/api/terrains/") else COMMAND_BODY_LIMIT_BYTES
 
 
 def create_api(app: ContactnetApp) -> FastAPI:
     api = FastAPI(
         title="contactnet",
         description=f"Drive, push and inspect the live {app.settings.robot} session; manage terrains and "
-        "recordings. The 3D view is at / (viser, port given by GET /api/info).",
+        "recordings. The 3D view is at / (viser, port given by GET /api/info). Requests must name the tool "
+        "in their Host header; state-changing ones must come from its page (or no page) and carry JSON.",
         version="0.1.0",
     )
+    api.router.route_class = StrictJsonRoute  # every JSON body read by contactnet.strict_json.loads_strict
+    api.state.access_policy = app.policy
+    install_error_handlers(api)
+    api.add_middleware(RequestGuard, policy=app.policy, body_limit=body_limit)
     SettingsCommand = settings_command_model()  # noqa: N806 - a model class
 
-    @api.exception_handler(RequestValidationError)
-    async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
-        """FastAPI's 422, but JSON-safe when the bad input was NaN or infinite (JSON allows neither)."""
-        return JSONResponse(status_code=422, content={"detail": json_safe(jsonable_encoder(exc.errors()))})
+    # The error codes every route can answer (Host, token) and those of every state-changing one.
+    everywhere = (421, 401) if app.policy.needs_token else (421,)
+    changing = (*everywhere, 400, 403, 413, 415)
+    session_command = (*changing, 422, 503, 504)
 
     def run(command, timeout: float = COMMAND_TIMEOUT_S) -> State:
         try:
             app.session.call(command, timeout=timeout)
+        except CommandConflict as exc:
+            raise HTTPException(409, str(exc)) from None
         except (ValueError, EditError) as exc:
             raise HTTPException(422, str(exc)) from None
         except TimeoutError:
@@ -164,11 +221,11 @@ def create_api(app: ContactnetApp) -> FastAPI:
         api.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 
     # ---- session ------------------------------------------------------------------------------------
-    @api.get("/api/info", response_model=Info, tags=["session"])
+    @api.get("/api/info", response_model=Info, tags=["session"], responses=responses(*everywhere))
     def info() -> Info:
         return Info(viser_port=app.viser_port, viewer_url="/viewer/", version="0.1.0", robot=app.settings.robot)
 
-    @api.get("/api/state", response_model=State, tags=["session"])
+    @api.get("/api/state", response_model=State, tags=["session"], responses=responses(*everywhere, 503))
     def get_state() -> State:
         return app.state()
 
@@ -177,6 +234,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
         response_model=State,
         tags=["session"],
         description=f"Set the commanded velocity (|vx|, |vy| <= {VELOCITY_LIMIT_M_S:g} m/s).",
+        responses=responses(*session_command),
     )
     def command(body: VelocityCommand) -> State:
         return run(SetVelocity(body.vx, body.vy))
@@ -185,22 +243,24 @@ def create_api(app: ContactnetApp) -> FastAPI:
         "/api/push",
         response_model=State,
         tags=["session"],
-        description=f"Push the base now (|f| <= {PUSH_FORCE_LIMIT_N:g} N, "
-        f"0 < duration <= {PUSH_DURATION_LIMIT_S:g} s).",
+        description=f"Push the base now (0 < |f| <= {PUSH_FORCE_LIMIT_N:g} N, "
+        f"0 < duration <= {PUSH_DURATION_LIMIT_S:g} s). Only while the robot walks: 409 when it is paused, "
+        "has fallen or reached the goal.",
+        responses=responses(*session_command, 409),
     )
     def push(body: PushCommand) -> State:
         return run(ApplyPush(body.fx, body.fy, body.duration))
 
-    @api.post("/api/reset", response_model=State, tags=["session"])
+    @api.post("/api/reset", response_model=State, tags=["session"], responses=responses(*session_command))
     def reset() -> State:
         """Back to the start of the terrain, running."""
         return run(Reset())
 
-    @api.post("/api/pause", response_model=State, tags=["session"])
+    @api.post("/api/pause", response_model=State, tags=["session"], responses=responses(*session_command))
     def pause(body: PauseCommand) -> State:
         return run(SetPaused(body.paused))
 
-    @api.post("/api/settings", response_model=State, tags=["session"])
+    @api.post("/api/settings", response_model=State, tags=["session"], responses=responses(*session_command))
     def settings(body: SettingsCommand) -> State:
         """Change gait, planner, noise (each restarts the robot) and simulation speed."""
         if body.speed is not None:
@@ -213,40 +273,56 @@ def create_api(app: ContactnetApp) -> FastAPI:
             run(SetNoise(body.noise))
         return app.state()
 
-    @api.post("/api/session/terrain", response_model=State, tags=["session"])
+    @api.post(
+        "/api/session/terrain",
+        response_model=State,
+        tags=["session"],
+        responses=responses(*session_command, 404, 409),
+    )
     def session_terrain(body: TerrainSelect) -> State:
-        """Put the robot on another terrain (a file, a shipped generator, or the random field)."""
+        """Put the robot on another terrain (a file, a shipped generator, or the random field); 409 when that
+        file is not a valid terrain."""
         try:
             app.terrains.load(body.name, removed=body.removed, seed=body.seed, timeout=COMMAND_TIMEOUT_S)
         except FileNotFoundError as exc:
             raise HTTPException(404, str(exc)) from None
+        except StoredTerrainError as exc:
+            raise HTTPException(409, str(exc)) from None
         except (EditError, ValueError) as exc:
             raise HTTPException(422, str(exc)) from None
+        except TimeoutError:
+            raise HTTPException(504, "the live session did not answer in time") from None
+        except RuntimeError as exc:
+            raise HTTPException(503, str(exc)) from None
         return app.state()
 
     # ---- terrains ---------------------------------------------------------------------------------
-    @api.get("/api/terrains", response_model=TerrainList, tags=["terrains"])
+    @api.get("/api/terrains", response_model=TerrainList, tags=["terrains"], responses=responses(*everywhere))
     def list_terrains() -> TerrainList:
-        names = app.terrains.store.names()
+        store = app.terrains.store
         return TerrainList(
-            terrains=[TerrainEntry(name=n, shipped=is_shipped(n), url=f"/api/terrains/{n}") for n in names],
+            terrains=[
+                TerrainEntry(name=n, shipped=store.is_shipped(n), url=f"/api/terrains/{n}") for n in store.names()
+            ],
             current=app.terrains.label,
         )
 
-    @api.get("/api/terrains/{name}", tags=["terrains"])
+    @api.get("/api/terrains/{name}", tags=["terrains"], responses=responses(*everywhere, 404, 409, 422))
     def get_terrain(name: TerrainName) -> dict[str, Any]:
-        """The terrain file (the "Terrain file" format of docs/architecture.md)."""
+        """The terrain file (the "Terrain file" format of docs/architecture.md): the user's own file of that
+        name, else the shipped one. 409 when that file is not a valid terrain (fix or replace it)."""
         try:
             return app.terrains.store.load(name).to_dict()
         except FileNotFoundError as exc:
             raise HTTPException(404, str(exc)) from None
-        except EditError as exc:
-            raise HTTPException(422, str(exc)) from None
+        except StoredTerrainError as exc:
+            raise HTTPException(409, str(exc)) from None
 
     @api.put(
         "/api/terrains/{name}",
         response_model=Saved,
         tags=["terrains"],
+        responses=responses(*changing, 409, 422),
         openapi_extra={
             "requestBody": {
                 "required": True,
@@ -254,7 +330,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
                     "application/json": {
                         "schema": {
                             "type": "object",
-                            "description": "a terrain (docs/architecture.md 'Terrain file'); at most 1 MB",
+                            "description": "a terrain (docs/architecture.md 'Terrain file'); at most "
+                            f"{MAX_UPLOAD_BYTES} bytes",
                             "required": ["name", "start", "goal_x", "regions"],
                         }
                     }
@@ -265,22 +342,17 @@ def create_api(app: ContactnetApp) -> FastAPI:
     async def put_terrain(
         name: TerrainName,
         request: Request,
-        overwrite: Annotated[bool, Query(description="confirm replacing a shipped terrain")] = False,
+        overwrite: Annotated[
+            bool, Query(description="confirm saving your own copy under the name of a shipped terrain")
+        ] = False,
     ) -> Saved:
-        """Save a terrain under `name` in terrains/ (validated; nothing is written if it is invalid)."""
-        declared = request.headers.get("content-length")
-        if declared is not None and declared.isdigit() and int(declared) > MAX_UPLOAD_BYTES:
-            raise HTTPException(
-                413, f"terrain file is {declared} bytes; the limit is {MAX_UPLOAD_BYTES} bytes"
-            )
-        body = bytearray()
-        async for chunk in request.stream():
-            body += chunk
-            if len(body) > MAX_UPLOAD_BYTES:
-                raise HTTPException(413, f"terrain file exceeds the limit of {MAX_UPLOAD_BYTES} bytes")
+        """Save a terrain as the user's file `name` (validated once, off the event loop; nothing is written if
+        it is invalid). The shipped terrains are never changed: under a shipped name (confirmed with
+        ``overwrite``) the user's own copy is saved, and shadows the shipped file."""
+        body = await request.body()  # at most MAX_UPLOAD_BYTES: RequestGuard refuses more while streaming
+        job = app.validation_pool.submit(app.terrains.save_upload, body, name, overwrite)
         try:
-            data = parse_upload(bytes(body), source=f"{name}.json")
-            path = app.terrains.store.save(data, name, overwrite=overwrite)
+            path = await asyncio.wrap_future(job)
         except ShippedTerrainError as exc:
             raise HTTPException(409, str(exc)) from None
         except EditError as exc:
@@ -299,15 +371,30 @@ def create_api(app: ContactnetApp) -> FastAPI:
             play_url=f"/viewer/?playbackPath={url}",
         )
 
-    @api.get("/api/recordings", response_model=list[RecordingEntry], tags=["recordings"])
+    @api.get(
+        "/api/recordings",
+        response_model=list[RecordingEntry],
+        tags=["recordings"],
+        responses=responses(*everywhere),
+    )
     def list_recordings() -> list[RecordingEntry]:
         return [entry(r.name, r.size_bytes, r.modified) for r in app.recordings.list()]
 
-    @api.get("/api/recordings/status", response_model=RecordingStatus, tags=["recordings"])
+    @api.get(
+        "/api/recordings/status",
+        response_model=RecordingStatus,
+        tags=["recordings"],
+        responses=responses(*everywhere),
+    )
     def recording_status() -> RecordingStatus:
         return RecordingStatus(**app.recorder.status())
 
-    @api.post("/api/recordings/start", response_model=RecordingStatus, tags=["recordings"])
+    @api.post(
+        "/api/recordings/start",
+        response_model=RecordingStatus,
+        tags=["recordings"],
+        responses=responses(*changing, 409, 422),
+    )
     def start_recording(body: RecordingStart | None = None) -> RecordingStatus:
         """Record the scene (12 Hz) until stopped (at most 10 simulated minutes)."""
         try:
@@ -316,7 +403,12 @@ def create_api(app: ContactnetApp) -> FastAPI:
             raise HTTPException(409, str(exc)) from None
         return RecordingStatus(**app.recorder.status())
 
-    @api.post("/api/recordings/stop", response_model=RecordingEntry, tags=["recordings"])
+    @api.post(
+        "/api/recordings/stop",
+        response_model=RecordingEntry,
+        tags=["recordings"],
+        responses=responses(*changing, 409),
+    )
     def stop_recording() -> RecordingEntry:
         try:
             info = app.recorder.stop()
@@ -330,12 +422,25 @@ def create_api(app: ContactnetApp) -> FastAPI:
             raise HTTPException(404, f"no recording named {name!r}")
         return path
 
-    @api.get("/api/recordings/{name}", tags=["recordings"], response_class=FileResponse)
+    @api.get(
+        "/api/recordings/{name:recording_file}",
+        tags=["recordings"],
+        response_class=FileResponse,
+        responses={
+            **responses(*everywhere, 404, 422, json_route=False),
+            200: {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}},
+        },
+    )
     def download_recording(name: RecordingName) -> FileResponse:
         """The .viser file (play it with /viewer/?playbackPath=<this URL>)."""
         return FileResponse(recording_path(name), media_type="application/octet-stream", filename=name)
 
-    @api.get("/api/recordings/{name}/html", tags=["recordings"], response_class=HTMLResponse)
+    @api.get(
+        "/api/recordings/{name:recording_file}/html",
+        tags=["recordings"],
+        response_class=HTMLResponse,
+        responses=responses(*everywhere, 404, 422, json_route=False),
+    )
     def recording_html(name: RecordingName, download: bool = True) -> Response:
         """One self-contained HTML file that plays the recording in any browser."""
         html = viser_html(recording_path(name).read_bytes())
@@ -350,6 +455,9 @@ class BackgroundServer:
     """uvicorn in a thread (tests and benchmarks)."""
 
     def __init__(self, api: FastAPI, host: str, port: int):
+        policy = getattr(api.state, "access_policy", None)
+        if policy is not None:
+            policy.ports.add(port)  # the page served from this port may call the API and open the 3D view
         self.server = uvicorn.Server(
             uvicorn.Config(api, host=host, port=port, log_level="warning", lifespan="off")
         )
@@ -365,8 +473,16 @@ class BackgroundServer:
         self.thread.join(10)
 
 
+def url_host(host: str) -> str:
+    """``host`` as it goes in a URL (IPv6 in brackets; the wildcard addresses as 127.0.0.1)."""
+    if host in ("0.0.0.0", "::", ""):
+        return "127.0.0.1"
+    return f"[{host}]" if ":" in host else host
+
+
 def serve(settings: ServeSettings) -> int:
-    """Run the tool until interrupted (Ctrl-C)."""
+    """Run the tool until interrupted (Ctrl-C or SIGTERM); a recording in progress is then saved (or stderr
+    says that it was dropped, naming it)."""
     logging.basicConfig(
         level=os.environ.get("CONTACTNET_LOG", "INFO"),
         stream=sys.stderr,
@@ -374,14 +490,36 @@ def serve(settings: ServeSettings) -> int:
     )
     logging.getLogger("websockets").setLevel(logging.WARNING)
     app = ContactnetApp(settings)
+    server = uvicorn.Server(uvicorn.Config(app.api, host=settings.host, port=settings.port, log_level="warning"))
+
+    def stop(signum: int, frame: Any) -> None:
+        # uvicorn handles the signals while it runs and calls this afterwards; before, this stops it.
+        server.should_exit = True
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
+        base = f"http://{url_host(settings.host)}:{settings.port}/"
+        if app.policy.needs_token:
+            opening = (
+                f"contactnet: open {base}?token={app.policy.token}  (listening on {settings.host}: this "
+                "address, with its token, lets anyone who has it drive the robot)"
+            )
+        else:
+            opening = f"contactnet: open {base}"
         print(
-            f"contactnet: open http://{settings.host}:{settings.port}/  "
-            f"(3D view: viser on port {app.viser_port}; API docs: http://{settings.host}:{settings.port}/docs)",
+            f"{opening}\n  3D view: viser on port {app.viser_port}; API docs: {base}docs; your terrains: "
+            f"{app.terrains.store.directory}; recordings: {app.recordings.directory}",
             file=sys.stderr,
             flush=True,
         )
-        uvicorn.Server(uvicorn.Config(app.api, host=settings.host, port=settings.port, log_level="warning")).run()
+        server.run()
     finally:
-        app.close()
+        try:
+            note = app.close()
+        except Exception as exc:  # noqa: BLE001 - say it, do not hide the shut-down's cause
+            note = f"shut-down failed: {exc}"
+        if note:
+            print(f"contactnet: {note}", file=sys.stderr, flush=True)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return 0

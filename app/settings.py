@@ -26,6 +26,10 @@ PUSH_DURATION_LIMIT_S = 5.0
 SIM_SPEED_RANGE = (0.1, 2.0)
 #: Rate of the scene recordings, (lowest, highest), in Hz of simulated time.
 RECORD_RATE_RANGE_HZ = (0.5, 60.0)
+#: Largest request body of the JSON commands (everything but a terrain upload), in bytes.
+COMMAND_BODY_LIMIT_BYTES = 64 * 1024
+#: Host names that always reach the tool (DNS rebinding protection: any other Host header is refused).
+LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
 
 
 def _finite(value: Any) -> bool:
@@ -50,11 +54,18 @@ class ServeSettings:
     paused: bool = False  #: start paused (press Run)
     noise: bool = False  #: the paper's joint-velocity noise at the start
     sim_speed: float = 1.0  #: simulated seconds per wall-clock second at the start
-    terrains_dir: Path | None = None  #: terrain files; None: the shipped terrains/ folder
-    recordings_dir: Path = Path("recordings")
+    #: the user's terrain files (saved from the page or PUT /api/terrains); None: <data dir>/terrains, the data
+    #: dir being $CONTACTNET_DATA or ~/.local/share/contactnet. The shipped terrains are read from the package.
+    terrains_dir: Path | None = None
+    recordings_dir: Path | None = None  #: scene recordings; None: <data dir>/recordings
     models_dir: Path | None = None  #: trained models (registry.model_path names); None: the shipped ones
     scene_hz: float = 30.0  #: scene updates sent to browsers
     record_hz: float = 12.0  #: frames of a recording per simulated second
+    #: more Host names the tool answers to (besides 127.0.0.1, localhost, ::1 and `host`), e.g. a machine name
+    allowed_hosts: tuple[str, ...] = ()
+    #: access token required by the API and the 3D view when `host` is not a loopback address (None: a new
+    #: random one, printed at start-up); on loopback no token is asked for
+    token: str | None = None
 
     def __post_init__(self) -> None:
         from contactnet import registry
@@ -91,6 +102,67 @@ class ServeSettings:
             value = getattr(self, field)
             if value is not None and not isinstance(value, Path):
                 object.__setattr__(self, field, Path(value))
+        if not isinstance(self.host, str) or not self.host or any(c in self.host for c in "/ #?@"):
+            fail("host", "a host name or an IP address")
+        if isinstance(self.allowed_hosts, str) or not all(_host_name_ok(h) for h in self.allowed_hosts):
+            fail("allowed_hosts", "a tuple of host names or IP addresses")
+        object.__setattr__(self, "allowed_hosts", tuple(self.allowed_hosts))
+        if self.token is not None and not (isinstance(self.token, str) and 16 <= len(self.token) <= 256
+                                           and self.token.isascii() and self.token.isprintable()):
+            fail("token", "None or 16..256 printable ASCII characters")
+        if self.terrains_dir is not None:
+            from contactnet.terrain import terrains_dir
+
+            if _inside(self.terrains_dir, terrains_dir()):
+                fail("terrains_dir", "a folder of your own, not the shipped terrains (they are read-only)")
+
+    @property
+    def loopback(self) -> bool:
+        """Is the tool bound to a loopback address only (then no access token is needed)?"""
+        return is_loopback(self.host)
+
+    def user_terrains_dir(self) -> Path:
+        """Where the user's terrain files go (`terrains_dir`, else <data dir>/terrains)."""
+        from contactnet.paths import default_data_dir
+
+        return self.terrains_dir if self.terrains_dir is not None else default_data_dir() / "terrains"
+
+    def recordings_folder(self) -> Path:
+        """Where scene recordings go (`recordings_dir`, else <data dir>/recordings)."""
+        from contactnet.paths import default_data_dir
+
+        return self.recordings_dir if self.recordings_dir is not None else default_data_dir() / "recordings"
+
+
+def _host_name_ok(host: object) -> bool:
+    return isinstance(host, str) and bool(host) and (_is_ip(host.strip("[]")) or not any(c in host for c in "/ #?@:[]"))
+
+
+def _is_ip(text: str) -> bool:
+    import ipaddress
+
+    try:
+        ipaddress.ip_address(text)
+    except ValueError:
+        return False
+    return True
+
+
+def is_loopback(host: str) -> bool:
+    """127.0.0.0/8, ::1 and localhost; not the wildcard addresses (0.0.0.0, ::), which listen everywhere."""
+    import ipaddress
+
+    if host.strip("[]").lower() in ("localhost", "localhost."):
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    path, folder = Path(path).resolve(), Path(folder).resolve()
+    return path == folder or folder in path.parents
 
 
 #: argparse destination of the ``serve`` subcommand -> ServeSettings field (missing ones keep their defaults).
@@ -105,6 +177,7 @@ CLI_FIELDS = {
     "vx": "vx_m_s",
     "vy": "vy_m_s",
     "recordings": "recordings_dir",
+    "allow_host": "allowed_hosts",
 }
 
 
@@ -115,4 +188,6 @@ def settings_from_args(args: Any) -> ServeSettings:
     given = {field: values[dest] for dest, field in CLI_FIELDS.items() if values.get(dest) is not None}
     if "recordings_dir" in given:
         given["recordings_dir"] = Path(given["recordings_dir"])
+    if "allowed_hosts" in given:
+        given["allowed_hosts"] = tuple(given["allowed_hosts"])
     return ServeSettings(**given)

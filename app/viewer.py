@@ -20,6 +20,7 @@ from app.gui import ControlPanel
 from app.live import LiveSession
 from app.recordings import LiveRecorder, stop_quietly
 from app.scene import LiveScene, default_camera
+from app.security import AccessPolicy, guard_viser, prepare_viser_guard
 from contactnet.robots import Robot
 
 log = logging.getLogger("contactnet.app.viewer")
@@ -50,11 +51,17 @@ class Viewer:
         host: str = "127.0.0.1",
         port: int = 8080,
         scene_hz: float = 30.0,
+        policy: AccessPolicy | None = None,
     ):
+        """``policy``: who may connect (Host, Origin, token: `app.security`); None accepts everyone."""
         self.session = session
         self.recorder = recorder
+        if policy is not None:
+            prepare_viser_guard(policy)
         with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner even when not verbose
             self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        if policy is not None:
+            guard_viser(self.server, policy)
         view = session.view
         if view is not None:
             position, look_at = default_camera(view)

@@ -125,10 +125,14 @@ def cmd_terrain(args: argparse.Namespace) -> int:
 def cmd_bench(args: argparse.Namespace) -> int:
     from contactnet.bench import format_table, run
 
-    if args.what == "live":  # the web tool's benchmark lives with the web tool
+    if args.what == "live":  # the web tool's benchmarks live with the web tool
         from app.bench_live import bench_live
 
         rows = bench_live()
+    elif args.what == "upload":
+        from app.bench_upload import bench_upload
+
+        rows = bench_upload()
     else:
         rows = run(args.what, robot_name=args.robot)
     if args.json:
@@ -305,7 +309,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="falls back to heuristic when the planner's model is missing")
     serve.add_argument("--vx", type=_bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
                        help="m/s")
-    serve.add_argument("--recordings", default="recordings", metavar="DIR", help="folder of scene recordings")
+    serve.add_argument("--recordings", metavar="DIR",
+                       help="folder of scene recordings (default: $CONTACTNET_DATA/recordings, else "
+                            "~/.local/share/contactnet/recordings)")
+    serve.add_argument("--allow-host", action="append", metavar="NAME",
+                       help="another name the tool answers to (besides 127.0.0.1, localhost, ::1, --host); repeatable")
     serve.set_defaults(func=cmd_serve)
 
     sim = sub.add_parser("simulate", help="run one simulation headless")
@@ -383,7 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.set_defaults(func=cmd_experiment)
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
-    bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion", "live"])
+    bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion", "live", "upload"])
     bench.add_argument("--robot", choices=registry.robot_names(), default=None,
                        help="the robot of the benchmarks that run one (default solo12)")
     bench.add_argument("--json", action="store_true")

@@ -179,22 +179,41 @@ class Simulator:
 
         (PyBullet's compound shapes keep at most 16 children and a multibody at most 127 links, so
         a field of 300 squares does not fit either; one triangle mesh does, simulates as fast, and is
-        the very mesh the browser shows.)
+        the very mesh the browser shows.) PyBullet takes at most 131,072 vertices and 524,288 indices
+        (174,762 triangles) per mesh shape; a bigger mesh (up to the terrain budget's
+        ``MAX_MESH_FACES``) is cut into spatially compact chunks of at most 100,000 triangles, the
+        first the body's base and the others fixed links of the same body, so the terrain stays one
+        body (``terrain_id``) and each chunk keeps its own bounding-volume tree. Every shipped terrain
+        fits in one chunk.
         """
+        from contactnet.terrain.mesh import split_mesh
+
         c = self.client
         mesh = self.terrain.mesh(thickness=self.config.terrain_thickness_m)
         if len(mesh.faces) == 0:
             raise ValueError(f"terrain {self.terrain.name!r} has no steppable surface")
-        shape = c.createCollisionShape(
-            self._pb.GEOM_MESH,
-            vertices=np.asarray(mesh.vertices, dtype=float).tolist(),
-            indices=np.asarray(mesh.faces, dtype=int).ravel().tolist(),
-            flags=self._pb.GEOM_FORCE_CONCAVE_TRIMESH,
+        shapes = []
+        for vertices, faces in split_mesh(mesh.vertices, mesh.faces, max_faces=100_000, max_vertices=100_000):
+            shape = c.createCollisionShape(
+                self._pb.GEOM_MESH,
+                vertices=vertices.tolist(),
+                indices=faces.ravel().tolist(),
+                flags=self._pb.GEOM_FORCE_CONCAVE_TRIMESH,
+            )
+            if shape < 0:
+                raise RuntimeError(f"PyBullet could not build the collision mesh of terrain {self.terrain.name!r}")
+            shapes.append(shape)
+        links = len(shapes) - 1
+        body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shapes[0]) if not links else c.createMultiBody(
+            baseMass=0.0, baseCollisionShapeIndex=shapes[0],
+            linkMasses=[0.0] * links, linkCollisionShapeIndices=shapes[1:], linkVisualShapeIndices=[-1] * links,
+            linkPositions=[[0.0, 0.0, 0.0]] * links, linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * links,
+            linkInertialFramePositions=[[0.0, 0.0, 0.0]] * links,
+            linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * links, linkParentIndices=[0] * links,
+            linkJointTypes=[self._pb.JOINT_FIXED] * links, linkJointAxis=[[0.0, 0.0, 1.0]] * links,
         )
-        if shape < 0:
-            raise RuntimeError(f"PyBullet could not build the collision mesh of terrain {self.terrain.name!r}")
-        body = c.createMultiBody(baseMass=0.0, baseCollisionShapeIndex=shape)
-        c.changeDynamics(body, -1, lateralFriction=self.config.foot_friction, restitution=0.0)
+        for link in range(-1, links):
+            c.changeDynamics(body, link, lateralFriction=self.config.foot_friction, restitution=0.0)
         return body
 
     def _index_robot(self) -> None:

@@ -9,13 +9,14 @@
 - invalid JSON (with line and column).
 
 ``NaN`` and ``Infinity`` are read (as floats) so that the validation downstream can name the field that
-holds them ("goal_x: expected a finite number"). The cost is linear in the input: one pass of the C
-parser, one iterative walk over the values.
+holds them ("goal_x: expected a finite number"). The cost is linear in the input: a regular expression
+scan for long numbers, one pass of the C parser, one walk over the values level by level.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -79,9 +80,12 @@ def loads_strict(data: bytes | str, source: str = "input", limits: JsonLimits = 
 
         return parse
 
+    # Number literals are maximal runs of [-+.0-9eE] outside strings: when no such run anywhere is longer
+    # than the limit, none can be, and the C parser converts numbers without a Python call per number.
+    long_run = re.compile(f"[-+.0-9eE]{{{limits.max_number_chars + 1},}}")
+    hooks = {} if long_run.search(text) is None else {"parse_int": number(int), "parse_float": number(float)}
     try:
-        value = json.loads(text, object_pairs_hook=_reject_duplicates, parse_int=number(int),
-                           parse_float=number(float))
+        value = json.loads(text, object_pairs_hook=_reject_duplicates, **hooks)
     except json.JSONDecodeError as exc:
         raise JsonInputError(f"{source}: not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})") from None
     except RecursionError:
@@ -96,16 +100,17 @@ def loads_strict(data: bytes | str, source: str = "input", limits: JsonLimits = 
 
 
 def _check_shape(value: Any, source: str, limits: JsonLimits) -> None:
-    """Depth and value count, walked iteratively (no recursion on hostile input)."""
-    stack = [(value, 1)]
-    count = 0
-    while stack:
-        item, depth = stack.pop()
-        count += 1
+    """Depth and value count, walked level by level (no recursion on hostile input; linear in the values)."""
+    level = [value]
+    depth = count = 0
+    while level:
+        depth += 1
+        count += len(level)
         if count > limits.max_values:
             raise JsonInputError(f"{source}: more than {limits.max_values} JSON values")
-        if isinstance(item, dict | list):
-            if depth > limits.max_depth:
-                raise JsonInputError(f"{source}: JSON nested deeper than {limits.max_depth} levels")
-            children = item.values() if isinstance(item, dict) else item
-            stack.extend((child, depth + 1) for child in children)
+        containers = [item for item in level if type(item) is list or type(item) is dict]
+        if containers and depth > limits.max_depth:
+            raise JsonInputError(f"{source}: JSON nested deeper than {limits.max_depth} levels")
+        level = []
+        for item in containers:
+            level.extend(item.values() if type(item) is dict else item)

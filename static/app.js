@@ -11,7 +11,12 @@ function wsHost() {
 }
 
 async function api(path, options) {
-  const response = await fetch(path, options);
+  // State-changing requests carry JSON (the server refuses other bodies: app/security.py).
+  const init = Object.assign({}, options);
+  if (init.method && init.method !== "GET") {
+    init.headers = Object.assign({ "Content-Type": "application/json" }, init.headers);
+  }
+  const response = await fetch(path, init);
   if (!response.ok) {
     let detail = response.statusText;
     try { detail = JSON.stringify((await response.json()).detail); } catch (e) { /* not JSON */ }

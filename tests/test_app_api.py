@@ -54,7 +54,7 @@ def app(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def client(app):
-    return TestClient(app.api)
+    return TestClient(app.api, base_url="http://127.0.0.1:8000")  # a Host the tool answers to
 
 
 def detail_locations(response) -> list:

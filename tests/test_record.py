@@ -89,7 +89,7 @@ def test_the_web_tool_lists_and_plays_a_cli_recording(tmp_path):
                   recordings_dir=folder)
     )
     try:
-        client = TestClient(app.api)
+        client = TestClient(app.api, base_url="http://127.0.0.1:8000")  # a Host the tool answers to
         (entry,) = client.get("/api/recordings").json()
         assert entry["name"] == "cli-demo.viser"
         assert entry["play_url"] == "/viewer/?playbackPath=/api/recordings/cli-demo.viser"

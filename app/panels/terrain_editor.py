@@ -19,6 +19,7 @@ import viser
 from app import editor
 from app.editing import TerrainService
 from app.editor import EditError
+from app.terrain_files import validate_upload
 from app.view import LiveView
 from contactnet.terrain import TerrainError
 
@@ -173,10 +174,10 @@ class EditorPanel:
         uploaded = self.upload.value
         name = uploaded.name
 
-        def load() -> None:
-            data = editor.parse_upload(uploaded.content, source=name)
-            self.terrains.load_dict(data, label=f"{data['name']} (uploaded)")
-            self._notify(event.client, "Terrain loaded", f"{name}: {len(data['regions'])} regions")
+        def load() -> None:  # strict JSON, validated once (app/terrain_files.py)
+            terrain = validate_upload(uploaded.content, source=name)
+            self.terrains.load_terrain(terrain, label=f"{terrain.name} (uploaded)")
+            self._notify(event.client, "Terrain loaded", f"{name}: {len(terrain.regions)} regions")
 
         self._run(event.client, "Upload terrain", load)
 

@@ -14,9 +14,10 @@ robot (``contactnet bench sim --robot go2``).
 | terrain    | ``contactnet.bench.terrain``     | ``Terrain.is_safe`` against plain shapely                 |
 | locomotion | ``contactnet.bench.locomotion``  | walking quality matrix (velocities, pushes, noise)        |
 | live       | ``app.bench_live`` (the web tool) | real time with browsers connected; recording size         |
+| upload     | ``app.bench_upload`` (the web tool) | ``GET /api/state`` latency while a large terrain uploads  |
 
-``live`` runs the web tool, so it lives in ``app/`` (the library never imports the app); the command
-line reaches it as ``contactnet bench live``.
+``live`` and ``upload`` run the web tool, so they live in ``app/`` (the library never imports the app); the command
+line reaches them as ``contactnet bench live`` / ``upload``.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""Benchmark of the terrain's hot path: ``Terrain.is_safe`` against plain prepared-shapely ``contains_xy``.
+"""Benchmark of the terrain's hot path: ``Terrain.is_safe`` against plain prepared-shapely ``contains_xy``;
+and of validating a large terrain (issue 11: a 500 x 500 grid with 20,000 cells removed took 43 s).
 
 Printed by ``contactnet bench terrain``.
 """
@@ -18,12 +19,13 @@ from contactnet.terrain import random_field, stepping_stones
 
 def benchmark_is_safe(repeats: int = 2000, margins: Sequence[float] | None = None,
                       sizes: Sequence[int] = (1, 100, 1000),
-                      robot_name: str = "solo12") -> list[dict[str, Any]]:
+                      robot_name: str = "solo12", validation_repeats: int = 3) -> list[dict[str, Any]]:
     """Time ``is_safe`` against plain prepared-shapely ``contains_xy`` on the same geometry.
 
     Points are uniform in the terrain's bounds padded by 5 cm (seeded). One row per terrain, margin
     and batch size with median and p90 microseconds of each and ``speedup`` = shapely / is_safe
-    (median). ``margins`` default to 0 and the foot radius of the robot ``robot_name``.
+    (median). ``margins`` default to 0 and the foot radius of the robot ``robot_name``. Then, unless
+    ``validation_repeats`` is 0, the rows of :func:`benchmark_validation`.
     """
     if margins is None:
         from contactnet.robots import load_robot
@@ -48,6 +50,45 @@ def benchmark_is_safe(repeats: int = 2000, margins: Sequence[float] | None = Non
                     "shapely_p90_us": float(np.percentile(theirs, 90)),
                     "speedup": float(np.median(theirs) / np.median(ours)),
                 })
+    return rows + (benchmark_validation(validation_repeats) if validation_repeats else [])
+
+
+def large_grid_dict(cols: int = 500, rows: int = 500, removed: int = 20_000, cell: float = 0.025, seed: int = 0,
+                    clear_m: float = 0.35) -> dict[str, Any]:
+    """A terrain dict: one grid of ``cols`` x ``rows`` cells with ``removed`` random cells gone (seeded), its
+    start at the centre with no hole within ``clear_m`` of it (so a robot can stand there)."""
+    rng = np.random.default_rng(seed)
+    centre = (0.5 * cols * cell, 0.5 * rows * cell)
+    row, col = np.divmod(rng.permutation(cols * rows), cols)
+    far = (np.abs((col + 0.5) * cell - centre[0]) > clear_m) | (np.abs((row + 0.5) * cell - centre[1]) > clear_m)
+    chosen = np.flatnonzero(far)[:removed]
+    return {"name": f"grid_{cols}x{rows}_{removed}_removed", "start": [centre[0], centre[1]],
+            "goal_x": cols * cell - cell, "regions": [{
+                "shape": "grid", "origin": [0.0, 0.0], "cell": cell, "cols": cols, "rows": rows,
+                "removed": np.column_stack([col[chosen], row[chosen]]).tolist()}]}
+
+
+def benchmark_validation(repeats: int = 3) -> list[dict[str, Any]]:
+    """Rows: validating (JSON bytes to ``Terrain``) and meshing the 500 x 500 grid with 20,000 cells removed.
+
+    Median and max seconds over ``repeats``; the issue's target is <= 1 s for any terrain that validates.
+    """
+    import json
+
+    from contactnet.terrain import Terrain
+
+    content = json.dumps(large_grid_dict()).encode()
+    terrain = Terrain.from_json(content)
+    rows = []
+    for name, call in (("validate 500x500 grid, 20k removed", partial(Terrain.from_json, content)),
+                       ("mesh 500x500 grid, 20k removed", terrain.mesh)):
+        times_s = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            call()
+            times_s.append(time.perf_counter() - start)
+        rows.append({"terrain": name, "json_bytes": len(content), "median_s": float(np.median(times_s)),
+                     "max_s": float(np.max(times_s)), "runs": repeats})
     return rows
 
 

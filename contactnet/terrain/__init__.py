@@ -2,9 +2,12 @@
 
 A terrain is the union of 2D regions whose tops are steppable; everything else is a hole. The package:
 
-- ``schema``: the JSON file format (limits, :class:`TerrainError`, strict validation, reading/writing);
-- ``geometry``: :class:`Terrain`, region shapes and the fast exact point queries
-  (``is_safe``, ``height_at``, ``ground_z``);
+- ``schema``: the JSON file format (limits and the complexity budget, :class:`TerrainError`, strict
+  validation, reading/writing);
+- ``regions``: region shapes as shapely geometry (grids traced from their cells in linear time);
+- ``union``: the steppable union of the regions, within the complexity budget;
+- ``geometry``: :class:`Terrain` (``from_dict``, ``from_json``, ``load``), ``validate_terrain_bytes``
+  and the fast exact point queries (``is_safe``, ``height_at``, ``ground_z``);
 - ``scenes``: the paper's scenes as generators, the shipped files, name resolution
   (``python -m contactnet.terrain`` rewrites the shipped files);
 - ``mesh``: the extruded triangle mesh; ``render``: the matplotlib top view;
@@ -13,7 +16,7 @@ A terrain is the union of 2D regions whose tops are steppable; everything else i
 
 from __future__ import annotations
 
-from contactnet.terrain.geometry import Terrain, region_geometry
+from contactnet.terrain.geometry import Terrain, region_geometry, validate_terrain_bytes
 from contactnet.terrain.scenes import (
     SHIPPED,
     available,
@@ -44,4 +47,5 @@ __all__ = [
     "resolve",
     "stepping_stones",
     "terrains_dir",
+    "validate_terrain_bytes",
 ]

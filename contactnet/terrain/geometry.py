@@ -1,7 +1,9 @@
-"""Terrain geometry: region shapes, the steppable union and fast exact point queries on it.
+"""Terrain geometry: the validated :class:`Terrain`, its steppable union and fast exact point queries on it.
 
 A terrain is the union of 2D *regions* (rectangles, circles, stars, polygons and grids of square
-cells) whose tops are steppable; everything else is a hole with nothing to stand on. Every region's
+cells; their shapes are in ``contactnet.terrain.regions``, their union, built within the complexity
+budget, in ``contactnet.terrain.union``) whose tops are steppable; everything else is a hole with
+nothing to stand on. Every region's
 top is at the terrain's ``surface_z`` today; ``surface_z`` is also the nominal ground level, the
 height to measure from where there is no top (:meth:`Terrain.ground_z`).
 
@@ -23,113 +25,37 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import shapely
-from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from contactnet.terrain import render as _render
 from contactnet.terrain.mesh import extruded_mesh
+from contactnet.terrain.regions import region_geometry
 from contactnet.terrain.schema import (
+    CIRCLE_MAX_ERROR_M,
+    CIRCLE_MIN_SEGMENTS,
+    MAX_FILE_BYTES,
     check_top_level,
     field_error,
     finite_float,
-    freeze,
+    freeze_region,
+    loads_terrain_json,
     parse_fields,
     read_terrain_json,
-    rect_corners_xy,
     show,
     thaw,
     write_terrain_json,
 )
+from contactnet.terrain.union import UNION_GRID_SIZE_M, steppable_union
+
+__all__ = ["CIRCLE_MAX_ERROR_M", "CIRCLE_MIN_SEGMENTS", "UNION_GRID_SIZE_M", "Terrain", "region_geometry",
+           "validate_terrain_bytes"]
 
 if TYPE_CHECKING:
     import trimesh
     from matplotlib.axes import Axes
 
-CIRCLE_MAX_ERROR_M = 5e-4
-"""Largest distance between a circle and its inscribed polygon (metres)."""
-CIRCLE_MIN_SEGMENTS = 64
-UNION_GRID_SIZE_M = 1e-9
-"""Coordinates are snapped to this grid when regions are united (closes sub-nm cracks)."""
 _RASTER_TARGET_CELLS = 1 << 20  # capped by max_side=1000 per axis: 1.5 mm cells on the paper's field
 _SAFE_CACHE_MAX = 16
-
-
-# ---------------------------------------------------------------------------------------------
-# Regions: normalized dict -> shapely
-# ---------------------------------------------------------------------------------------------
-def _circle_segments(radius_m: float) -> int:
-    """Segments of an inscribed polygon within CIRCLE_MAX_ERROR_M of the circle."""
-    if radius_m <= CIRCLE_MAX_ERROR_M:
-        return CIRCLE_MIN_SEGMENTS
-    return max(CIRCLE_MIN_SEGMENTS, math.ceil(math.pi / math.acos(1.0 - CIRCLE_MAX_ERROR_M / radius_m)))
-
-
-def _circle_xy(center: Sequence[float], radius: float) -> np.ndarray:
-    n = _circle_segments(radius)
-    angles = np.arange(n) * (2.0 * math.pi / n)
-    return np.asarray(center) + radius * np.column_stack([np.cos(angles), np.sin(angles)])
-
-
-def _star_xy(region: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """(outer tips (n, 2), inner vertices (n, 2)); inner vertex k lies between tips k and k + 1."""
-    n, yaw = region["points"], region["yaw"]
-    angles = yaw + np.arange(n) * (2.0 * math.pi / n)
-    half = math.pi / n
-    center = np.asarray(region["center"])
-    tips = center + region["outer_radius"] * np.column_stack([np.cos(angles), np.sin(angles)])
-    inner = center + region["inner_radius"] * np.column_stack([np.cos(angles + half), np.sin(angles + half)])
-    return tips, inner
-
-
-def _grid_rectangles(region: Mapping[str, Any]) -> list[tuple[int, int, int, int]]:
-    """Present cells of a grid merged greedily into rectangles (col0, row0, col1, row1), ends exclusive.
-
-    Each row is split into runs of present cells; a run identical to one in the previous row extends
-    that rectangle upwards.
-    """
-    cols, rows = region["cols"], region["rows"]
-    present = np.ones((rows, cols), dtype=bool)
-    for col, row in region["removed"]:
-        present[row, col] = False
-    rectangles: list[tuple[int, int, int, int]] = []
-    open_runs: dict[tuple[int, int], int] = {}  # (col0, col1) -> first row
-    for row in range(rows + 1):
-        runs: set[tuple[int, int]] = set()
-        if row < rows:
-            padded = np.concatenate([[False], present[row], [False]]).astype(np.int8)
-            edges = np.flatnonzero(np.diff(padded))
-            runs = {(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)}
-        for run in [r for r in open_runs if r not in runs]:
-            rectangles.append((run[0], open_runs.pop(run), run[1], row))
-        for run in runs:
-            open_runs.setdefault(run, row)
-    return sorted(rectangles, key=lambda r: (r[1], r[0]))
-
-
-def _grid_cell_edges(region: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray]:
-    """Cell edge coordinates along x (cols + 1,) and y (rows + 1,), computed one way everywhere."""
-    (ox, oy), cell = region["origin"], region["cell"]
-    return ox + cell * np.arange(region["cols"] + 1), oy + cell * np.arange(region["rows"] + 1)
-
-
-def region_geometry(region: Mapping[str, Any]) -> BaseGeometry:
-    """Shapely geometry of one normalized region (a polygon; a grid gives the union of its present cells)."""
-    shape = region["shape"]
-    if shape == "rect":
-        return Polygon(rect_corners_xy(region["center"], region["size"], region["yaw"]))
-    if shape == "circle":
-        return Polygon(_circle_xy(region["center"], region["radius"]))
-    if shape == "star":
-        tips, inner = _star_xy(region)
-        return Polygon(np.stack([tips, inner], axis=1).reshape(-1, 2))
-    if shape == "polygon":
-        return Polygon(region["vertices"])
-    edges_x, edges_y = _grid_cell_edges(region)
-    rectangles = _grid_rectangles(region)
-    if not rectangles:
-        return Polygon()
-    c0, r0, c1, r1 = (np.array(v) for v in zip(*rectangles, strict=True))
-    return shapely.union_all(shapely.box(edges_x[c0], edges_y[r0], edges_x[c1], edges_y[r1]))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -255,11 +181,8 @@ class Terrain:
         setattr_(self, "start_xy", start_xy)
         setattr_(self, "goal_x", goal_x)
         setattr_(self, "surface_z", surface_z)
-        setattr_(self, "regions", tuple(freeze(r) for r in parsed))
-        union = shapely.union_all([region_geometry(r) for r in parsed], grid_size=UNION_GRID_SIZE_M)
-        steppable = shapely.simplify(union, 0.0)  # drops exactly collinear vertices only
-        if not steppable.is_valid:  # pragma: no cover - defensive; GEOS overlay output is valid
-            steppable = shapely.make_valid(steppable)
+        setattr_(self, "regions", tuple(map(freeze_region, parsed)))
+        steppable = steppable_union(parsed, src)  # within the complexity budget, or TerrainError
         shapely.prepare(steppable)
         setattr_(self, "steppable", steppable)
         setattr_(self, "bounds", tuple(float(v) for v in steppable.bounds))
@@ -278,6 +201,16 @@ class Terrain:
         return cls(name=data["name"], start_xy=data["start"], goal_x=data["goal_x"], regions=data["regions"],
                    surface_z=data.get("surface_z", 0.0), description=data.get("description", ""),
                    source=source)
+
+    @classmethod
+    def from_json(cls, content: bytes | str, source: str = "<json>", max_bytes: int = MAX_FILE_BYTES) -> Terrain:
+        """Read a terrain JSON document (e.g. an upload's bytes) with the terrain JSON limits and validate it.
+
+        Every problem, from bytes that are not JSON to a terrain over the complexity budget, raises a
+        one-line TerrainError naming ``source``. Pure (no files, no globals) and safe to run in a worker
+        thread; any terrain it accepts takes well under a second.
+        """
+        return cls.from_dict(loads_terrain_json(content, source, max_bytes), source=source)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Terrain:
@@ -406,6 +339,15 @@ class Terrain:
                    feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> Path:
         """Render the top view to a PNG with the Agg backend (no display, no pyplot state)."""
         return _render.render_png(self, path, dpi=dpi, feet_xy_start=feet_xy_start)
+
+
+def validate_terrain_bytes(content: bytes | str, source: str = "upload", max_bytes: int = MAX_FILE_BYTES) -> Terrain:
+    """The validated Terrain of a JSON document's bytes, or a one-line TerrainError naming ``source``.
+
+    The same as :meth:`Terrain.from_json`: read with the terrain JSON limits (size, depth, values,
+    number length, duplicate keys), validated within the complexity budget. Thread-safe.
+    """
+    return Terrain.from_json(content, source=source, max_bytes=max_bytes)
 
 
 def _as_points(points_xy: Any) -> tuple[np.ndarray, bool]:

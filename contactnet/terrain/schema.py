@@ -5,8 +5,14 @@ A terrain file (``terrains/*.json``) is one JSON object with ``name``, ``start``
 region's top is at it today). Every problem raises :class:`TerrainError` with a one-line message
 that names the file and the field, e.g. ``terrains/bad.json: regions[3].size: expected ...``. This
 module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells) and
-back, and reads and writes the files (duplicate keys rejected; pretty, atomic writes). Of geometry
-it knows only a region's bounds, for the extent check.
+back, and reads and writes the files (``contactnet.strict_json``: size, depth, number length and
+duplicate keys limited; pretty, atomic writes). Of geometry it knows only a region's bounds, for the
+extent check, and how many outline vertices a region has, for the complexity budget.
+
+The complexity budget (the ``MAX_*`` limits below) holds for every terrain that validates, so that
+whatever validates also validates fast (well under a second), simulates and renders: the input-side
+limits are checked here while parsing, the ones on the steppable union (outline vertices of grids,
+edge contacts between regions, mesh faces) by ``contactnet.terrain.union``.
 """
 
 from __future__ import annotations
@@ -16,6 +22,8 @@ import math
 import numbers
 import os
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
+from itertools import chain
 from types import MappingProxyType
 from typing import Any
 
@@ -24,6 +32,7 @@ import shapely
 from shapely.geometry import Polygon
 
 from contactnet.atomic import atomic_write_text
+from contactnet.strict_json import JsonInputError, JsonLimits, loads_strict
 
 # ---------------------------------------------------------------------------------------------
 # Limits and constants (immutable)
@@ -34,10 +43,44 @@ MIN_SIZE_M = 1e-3
 """Smallest accepted size, radius or grid cell (metres)."""
 MAX_SIZE_M = 1000.0
 """Largest accepted size or radius (metres)."""
-MAX_GRID_CELLS = 250_000
+# The complexity budget: every terrain that validates respects all of these.
 MAX_REGIONS = 10_000
+"""Regions in one terrain."""
+MAX_GRID_REGIONS = 100
+"""Grid regions in one terrain (each is traced on its own; the paper's fields are one grid each)."""
+MAX_GRID_CELLS = 250_000
+"""Cells (cols x rows, removed ones included) of one grid region, and of all grid regions of a terrain
+together (a 500 x 500 grid of 2.5 cm cells is 12.5 x 12.5 m)."""
 MAX_POLYGON_VERTICES = 10_000
-MAX_FILE_BYTES = 64 * 1024 * 1024
+"""Vertices of one polygon region."""
+MAX_OUTLINE_VERTICES = 100_000
+"""Outline vertices of all regions together, before they are united: 4 per rect, a circle's segments
+(``circle_segments``), 2 per star point, a polygon's vertices and the corners of a grid's present cells
+(a 500 x 500 grid with 20,000 random cells removed has about 68,000)."""
+MAX_EDGE_CONTACTS = 50_000
+"""Pairs of outline edges of different regions that cross or touch. Each adds up to two vertices to
+the union, and their number grows with the product of the regions' vertices when detailed regions
+overlap (two overlapping combs of 1,000 vertices cross a million times)."""
+MAX_MESH_FACES = 400_000
+"""Triangles of the terrain's mesh (``Terrain.mesh``, what the simulator and the browser load),
+counted from the steppable outline: 4 per outline vertex and 4 per hole (the 500 x 500 grid above:
+340,000 by this count, 270,000 in fact). The simulator cuts meshes into chunks PyBullet takes."""
+CONTACT_CHECK_MAX_PIECES = 500_000
+"""Counting edge contacts cuts the edges into pieces no longer than the extent / sqrt(edges); outlines
+that need more pieces (kilometres of edges, e.g. thousands of huge overlapping regions or combs with
+long teeth; the 500 x 500 grid above needs 130,000) are refused."""
+CONTACT_CHECK_MAX_CANDIDATES = 500_000
+"""Pairs of edges of different regions that lie in the same cell of the contact check's grid (each is
+tested exactly); more are refused without testing them."""
+MAX_FILE_BYTES = 16 * 1024 * 1024
+"""Largest terrain file or JSON document (a terrain at every limit above needs about 10 MB)."""
+TERRAIN_JSON_LIMITS = JsonLimits(max_bytes=MAX_FILE_BYTES, max_depth=8, max_values=2_000_000,
+                                 max_number_chars=40)
+"""How terrain JSON is read (``contactnet.strict_json``): a terrain nests 5 levels deep (object, regions,
+region, vertices, vertex) and needs about 1.2 million values at most."""
+CIRCLE_MAX_ERROR_M = 5e-4
+"""Largest distance between a circle and its inscribed polygon (metres)."""
+CIRCLE_MIN_SEGMENTS = 64
 STAR_POINTS_RANGE = (3, 64)
 SHAPES = ("circle", "grid", "polygon", "rect", "star")
 _TOP_LEVEL_KEYS = ("name", "description", "start", "goal_x", "surface_z", "regions")
@@ -66,13 +109,69 @@ class TerrainError(ValueError):
 # Validation helpers
 # ---------------------------------------------------------------------------------------------
 def show(value: Any, limit: int = 60) -> str:
-    """Compact one-line rendering of a user value for an error message."""
-    try:
-        text = json.dumps(value.tolist() if isinstance(value, np.ndarray) else value)
-    except (TypeError, ValueError):
-        text = repr(value)
-    text = " ".join(text.split())
+    """Compact one-line rendering of a user value for an error message (JSON-like, at most ``limit`` chars).
+
+    Safe and cheap for any value: only the first ``limit`` characters' worth of a value is rendered (a
+    list of a million items or nested ten thousand deep costs nothing), an integer too long to print
+    is described by its number of digits, and objects that cannot be rendered show their type.
+    """
+    parts: list[str] = []
+    _render_value(value, parts, limit + 1)
+    text = " ".join("".join(parts).split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _render_value(value: Any, out: list[str], budget: int) -> int:
+    """Append the rendering of ``value`` to ``out`` until about ``budget`` characters; returns what is left."""
+    if budget <= 0:
+        return 0
+    if value is None or isinstance(value, (bool, np.bool_)):
+        text = "null" if value is None else ("true" if value else "false")
+    elif isinstance(value, numbers.Integral):
+        number = int(value)
+        if number.bit_length() > 200:  # str() of a huge int is slow and refused beyond 4,300 digits
+            text = f"<an integer of about {int(number.bit_length() * math.log10(2)) + 1} digits>"
+        else:
+            text = str(number)
+    elif isinstance(value, numbers.Real):
+        try:
+            text = json.dumps(float(value))
+        except (OverflowError, TypeError, ValueError):
+            text = f"<{type(value).__name__}>"
+    elif isinstance(value, str):
+        text = json.dumps(value[:budget]) + ("..." if len(value) > budget else "")
+    elif isinstance(value, (Mapping, list, tuple, np.ndarray)):
+        return _render_container(value, out, budget)
+    else:
+        text = f"<{type(value).__name__}>"
+    out.append(text[: budget + 3])
+    return budget - len(text)
+
+
+def _render_container(value: Any, out: list[str], budget: int) -> int:
+    is_mapping = isinstance(value, Mapping)
+    if isinstance(value, np.ndarray):
+        value = value.ravel()[:budget].tolist() if value.ndim <= 1 else list(value[:budget])
+    out.append("{" if is_mapping else "[")
+    budget -= 1
+    try:
+        items = iter(value.items() if is_mapping else value)
+        for index, item in enumerate(items):
+            if budget <= 0:
+                break
+            if index:
+                out.append(", ")
+                budget -= 2
+            if is_mapping:
+                key, item = item
+                budget = _render_value(key, out, budget)
+                out.append(": ")
+                budget -= 2
+            budget = _render_value(item, out, budget)
+    except Exception:  # noqa: BLE001 - a hostile container; what was rendered so far is enough
+        pass
+    out.append("}" if is_mapping else "]")
+    return budget - 1
 
 
 def field_error(source: str, path: str, message: str) -> TerrainError:
@@ -89,11 +188,13 @@ def is_number(value: Any) -> bool:
 
 def finite_float(value: Any) -> float | None:
     """``float(value)`` when value is a finite real number (not bool), else None."""
+    if type(value) is float:  # the usual case, first: JSON numbers with a fraction
+        return value if math.isfinite(value) else None
     if not is_number(value):
         return None
     try:
         result = float(value)
-    except (OverflowError, ValueError):
+    except (OverflowError, TypeError, ValueError):
         return None
     return result if math.isfinite(result) else None
 
@@ -114,9 +215,9 @@ def _integer(value: Any, source: str, path: str, lo: int, hi: int) -> int:
 def _pair(value: Any, source: str, path: str, lo: float, hi: float, what: str) -> list[float]:
     """Two finite numbers in [lo, hi] given as a JSON array."""
     if isinstance(value, (list, tuple, np.ndarray)) and len(value) == 2:
-        items = [finite_float(v) for v in value]
-        if all(v is not None and lo <= v <= hi for v in items):
-            return [float(v) for v in items]  # type: ignore[arg-type]
+        first, second = finite_float(value[0]), finite_float(value[1])
+        if first is not None and second is not None and lo <= first <= hi and lo <= second <= hi:
+            return [float(first), float(second)]
     raise field_error(source, path, f"expected {what}, got {show(value)}")
 
 
@@ -130,12 +231,34 @@ def _size(value: Any, source: str, path: str, what: str = "a size") -> float:
                    f"{what} in [{MIN_SIZE_M:g}, {MAX_SIZE_M:g}] m")
 
 
+def circle_segments(radius_m: float) -> int:
+    """Segments of a circle's inscribed polygon, within CIRCLE_MAX_ERROR_M of the circle."""
+    if radius_m <= CIRCLE_MAX_ERROR_M:
+        return CIRCLE_MIN_SEGMENTS
+    return max(CIRCLE_MIN_SEGMENTS, math.ceil(math.pi / math.acos(1.0 - CIRCLE_MAX_ERROR_M / radius_m)))
+
+
+def outline_vertex_count(region: Mapping[str, Any]) -> int:
+    """Outline vertices of a normalized region that is not a grid (a grid's depend on its removed cells)."""
+    shape = region["shape"]
+    if shape == "rect":
+        return 4
+    if shape == "circle":
+        return circle_segments(region["radius"])
+    if shape == "star":
+        return 2 * region["points"]
+    if shape == "polygon":
+        return len(region["vertices"])
+    raise ValueError(f"the outline of a {shape} region is counted from its cells")
+
+
 def _check_keys(raw: Mapping[str, Any], allowed: Sequence[str], required: Sequence[str], source: str,
                 prefix: str) -> None:
     """Reject unknown keys (naming them) and missing required keys."""
     for key in raw:
         if key not in allowed:
-            path = f"{prefix}.{key}" if prefix else str(key)
+            name = key if isinstance(key, str) and len(key) <= 40 and key.isprintable() else show(key, 40)
+            path = f"{prefix}.{name}" if prefix else name
             raise field_error(source, path,
                               f"unknown key {show(key)}; allowed keys: {', '.join(sorted(allowed))}")
     for key in required:
@@ -145,11 +268,27 @@ def _check_keys(raw: Mapping[str, Any], allowed: Sequence[str], required: Sequen
 
 def freeze(value: Any) -> Any:
     """Recursively turn dicts into read-only mappings and lists into tuples."""
+    kind = type(value)
+    if kind is float or kind is int or kind is str:  # fast paths for what normalized regions hold
+        return value
+    if kind is list or kind is tuple:
+        return tuple(map(freeze, value))
     if isinstance(value, Mapping):
         return MappingProxyType({k: freeze(v) for k, v in value.items()})
     if isinstance(value, (list, tuple)):
         return tuple(freeze(v) for v in value)
     return value
+
+
+def freeze_region(region: Mapping[str, Any]) -> Mapping[str, Any]:
+    """:func:`freeze` of a normalized region (from :func:`parse_fields`), fast: its lists of numbers and of
+    number pairs (vertices, removed cells) become tuples in C-level passes."""
+    frozen: dict[str, Any] = {}
+    for key, value in region.items():
+        if type(value) is list:
+            value = tuple(map(tuple, value)) if value and type(value[0]) is list else tuple(value)
+        frozen[key] = value
+    return MappingProxyType(frozen)
 
 
 def thaw(value: Any) -> Any:
@@ -195,11 +334,40 @@ def parse_fields(name: Any, description: Any, start_xy: Any, goal_x: Any, surfac
         raise field_error(source, "regions", "expected at least one region, got an empty list")
     if len(regions) > MAX_REGIONS:
         raise field_error(source, "regions", f"expected at most {MAX_REGIONS} regions, got {len(regions)}")
-    parsed = [_parse_region(r, source, f"regions[{i}]") for i, r in enumerate(regions)]
+    parsed: list[dict[str, Any]] = []
+    budget = _Budget(source)
+    for i, raw in enumerate(regions):
+        parsed.append(_parse_region(raw, source, f"regions[{i}]", budget))
     return start, goal, surface, parsed
 
 
-def _parse_region(raw: Any, source: str, path: str) -> dict[str, Any]:
+class _Budget:
+    """Running totals of the input-side limits, checked before each region's bulk (vertices, cells) is read."""
+
+    def __init__(self, source: str):
+        self.source = source
+        self.outline_vertices = 0
+        self.grids = 0
+        self.grid_cells = 0
+
+    def add_outline(self, count: int, path: str) -> None:
+        self.outline_vertices += count
+        if self.outline_vertices > MAX_OUTLINE_VERTICES:
+            raise field_error(self.source, path, f"the regions up to here have {self.outline_vertices} outline "
+                                                 f"vertices; the limit is {MAX_OUTLINE_VERTICES}")
+
+    def add_cells(self, count: int, path: str) -> None:
+        self.grids += 1
+        if self.grids > MAX_GRID_REGIONS:
+            raise field_error(self.source, path.rpartition(".")[0], f"the regions up to here have {self.grids} "
+                                                                    f"grids; the limit is {MAX_GRID_REGIONS}")
+        self.grid_cells += count
+        if self.grid_cells > MAX_GRID_CELLS:
+            raise field_error(self.source, path, f"the grids up to here have {self.grid_cells} cells; "
+                                                 f"the limit is {MAX_GRID_CELLS}")
+
+
+def _parse_region(raw: Any, source: str, path: str, budget: _Budget | None = None) -> dict[str, Any]:
     """Validate one region and return it normalized (floats, defaults filled in, sorted cells)."""
     if not isinstance(raw, Mapping):
         raise field_error(source, path, f"expected an object with a 'shape', got {show(raw)}")
@@ -211,6 +379,7 @@ def _parse_region(raw: Any, source: str, path: str) -> dict[str, Any]:
                           f"unknown shape {show(shape)}; expected one of {', '.join(SHAPES)}")
     required, optional = _REGION_KEYS[shape]
     _check_keys(raw, ("shape", *required, *optional), required, source, path)
+    budget = budget or _Budget(source)
 
     def yaw() -> float:
         return _number(raw.get("yaw", 0.0), source, f"{path}.yaw", -MAX_ABS_COORD_M, MAX_ABS_COORD_M,
@@ -241,6 +410,7 @@ def _parse_region(raw: Any, source: str, path: str) -> dict[str, Any]:
             count = len(vertices) if isinstance(vertices, (list, tuple)) else show(vertices)
             raise field_error(source, f"{path}.vertices",
                               f"expected a list of 3..{MAX_POLYGON_VERTICES} [x, y] vertices, got {count}")
+        budget.add_outline(len(vertices), path)
         region["vertices"] = [_coords(v, source, f"{path}.vertices[{i}]") for i, v in enumerate(vertices)]
         polygon = Polygon(region["vertices"])
         if not polygon.is_valid:
@@ -256,8 +426,11 @@ def _parse_region(raw: Any, source: str, path: str) -> dict[str, Any]:
         if region["cols"] * region["rows"] > MAX_GRID_CELLS:
             raise field_error(source, f"{path}.cols",
                               f"cols * rows = {region['cols'] * region['rows']} exceeds {MAX_GRID_CELLS}")
+        budget.add_cells(region["cols"] * region["rows"], f"{path}.rows")
         region["removed"] = _parse_removed(raw.get("removed", []), region["cols"], region["rows"], source,
                                            f"{path}.removed")
+    if shape != "grid":
+        budget.add_outline(0 if shape == "polygon" else outline_vertex_count(region), path)
     minx, miny, maxx, maxy = _region_bounds(region)
     if min(minx, miny) < -MAX_ABS_COORD_M or max(maxx, maxy) > MAX_ABS_COORD_M:
         raise field_error(source, path, f"region extends beyond +-{MAX_ABS_COORD_M:g} m "
@@ -266,21 +439,58 @@ def _parse_region(raw: Any, source: str, path: str) -> dict[str, Any]:
 
 
 def _parse_removed(value: Any, cols: int, rows: int, source: str, path: str) -> list[list[int]]:
+    """The removed cells as [col, row] lists sorted by (row, col): linear in the cells, vectorized when they
+    are all pairs of integers (the usual case), checked one by one otherwise to name the first bad one."""
     if not isinstance(value, (list, tuple)):
         raise field_error(source, path, f"expected a list of [col, row] pairs, got {show(value)}")
-    cells: set[tuple[int, int]] = set()
+    if len(value) > cols * rows:
+        raise field_error(source, path, f"expected at most cols * rows = {cols * rows} distinct cells, "
+                                        f"got {len(value)}")
+    cells = _int_pairs(value)
+    if cells is not None:
+        col, row = cells[:, 0], cells[:, 1]
+        inside = (col >= 0) & (col < cols) & (row >= 0) & (row < rows)
+        keys = np.where(inside, col + cols * row, -1)
+        unique, first_index = np.unique(keys, return_index=True)
+        repeated = np.ones(len(keys), dtype=bool)
+        repeated[first_index] = False
+        bad = min(np.flatnonzero(~inside).min(initial=len(keys)), np.flatnonzero(repeated).min(initial=len(keys)))
+        if bad == len(keys):
+            return np.column_stack([unique % cols, unique // cols]).tolist()
+        value = value[: bad + 1]  # the loop below names the first bad cell
+    seen: set[tuple[int, int]] = set()
     for i, item in enumerate(value):
-        ok = isinstance(item, (list, tuple)) and len(item) == 2 and all(
-            isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)) for v in item)
+        ok = isinstance(item, (list, tuple)) and len(item) == 2 and all(_is_int(v) for v in item)
         if not ok or not (0 <= item[0] < cols and 0 <= item[1] < rows):
             raise field_error(source, f"{path}[{i}]",
                               f"expected [col, row] integers with col in 0..{cols - 1}, row in 0..{rows - 1}, "
                               f"got {show(item)}")
         cell = (int(item[0]), int(item[1]))
-        if cell in cells:
+        if cell in seen:
             raise field_error(source, f"{path}[{i}]", f"duplicate cell {list(cell)}")
-        cells.add(cell)
-    return [list(c) for c in sorted(cells, key=lambda c: (c[1], c[0]))]
+        seen.add(cell)
+    return [list(c) for c in sorted(seen, key=lambda c: (c[1], c[0]))]
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _int_pairs(value: Sequence[Any]) -> np.ndarray | None:
+    """(n, 2) int64 array when every item is a list or tuple of two integers (not bools) that fit, else None.
+
+    Checked with C-level passes (the sets of item types, lengths and element types), not a Python loop.
+    """
+    if not value:
+        return np.zeros((0, 2), dtype=np.int64)
+    if not set(map(type, value)) <= {list, tuple} or set(map(len, value)) != {2}:
+        return None
+    if not all(kind is int or issubclass(kind, np.integer) for kind in set(map(type, chain.from_iterable(value)))):
+        return None
+    try:
+        return np.array(value, dtype=np.int64)
+    except OverflowError:
+        return None
 
 
 def rect_corners_xy(center: Sequence[float], size: Sequence[float], yaw: float) -> np.ndarray:
@@ -300,10 +510,11 @@ def _region_bounds(region: Mapping[str, Any]) -> tuple[float, float, float, floa
     if shape == "polygon":
         xy = np.asarray(region["vertices"], dtype=float)
         return float(xy[:, 0].min()), float(xy[:, 1].min()), float(xy[:, 0].max()), float(xy[:, 1].max())
-    if shape == "rect":
-        corners_xy = rect_corners_xy(region["center"], region["size"], region["yaw"])
-        return (float(corners_xy[:, 0].min()), float(corners_xy[:, 1].min()), float(corners_xy[:, 0].max()),
-                float(corners_xy[:, 1].max()))
+    if shape == "rect":  # the turned rect's half extents, without building its corners
+        (cx, cy), (sx, sy), yaw = region["center"], region["size"], region["yaw"]
+        c, s = abs(math.cos(yaw)), abs(math.sin(yaw))
+        half_x, half_y = 0.5 * (sx * c + sy * s), 0.5 * (sx * s + sy * c)
+        return cx - half_x, cy - half_y, cx + half_x, cy + half_y
     (cx, cy), radius = region["center"], region.get("radius", region.get("outer_radius"))
     return cx - radius, cy - radius, cx + radius, cy + radius
 
@@ -311,24 +522,10 @@ def _region_bounds(region: Mapping[str, Any]) -> tuple[float, float, float, floa
 # ---------------------------------------------------------------------------------------------
 # Files
 # ---------------------------------------------------------------------------------------------
-class _DuplicateKeyError(Exception):
-    pass
-
-
-def _reject_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    result: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in result:
-            raise _DuplicateKeyError(key)
-        result[key] = value
-    return result
-
-
 def read_terrain_json(path: str | os.PathLike[str]) -> Any:
     """The JSON value of a terrain file (not yet validated); TerrainError naming ``path`` when unreadable.
 
-    Rejects files over MAX_FILE_BYTES, non-UTF-8 text, invalid JSON (NaN and Infinity are read and
-    rejected later as non-finite numbers) and objects with a duplicate key.
+    Rejects files over MAX_FILE_BYTES and what :func:`loads_terrain_json` rejects.
     """
     source = str(path)
     try:
@@ -338,19 +535,23 @@ def read_terrain_json(path: str | os.PathLike[str]) -> Any:
         raise field_error(source, "", f"cannot read file: {exc.strerror or exc}") from exc
     if len(raw) > MAX_FILE_BYTES:
         raise field_error(source, "", f"file is larger than {MAX_FILE_BYTES} bytes")
+    return loads_terrain_json(raw, source)
+
+
+def loads_terrain_json(content: bytes | str, source: str = "<json>", max_bytes: int = MAX_FILE_BYTES) -> Any:
+    """The JSON value of a terrain document (a file's or an upload's bytes), not yet validated.
+
+    Read with ``TERRAIN_JSON_LIMITS`` (at most ``max_bytes``): more bytes, text that is not UTF-8,
+    invalid JSON, nesting deeper than a terrain needs, too many values, a number of more than 40
+    characters (Python refuses integers of more than 4,300 digits) and objects with a duplicate key
+    raise a one-line TerrainError naming ``source``. NaN and Infinity are read, and rejected by the
+    validation as non-finite numbers naming their field.
+    """
+    limits = replace(TERRAIN_JSON_LIMITS, max_bytes=min(max_bytes, TERRAIN_JSON_LIMITS.max_bytes))
     try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise field_error(source, "", f"not UTF-8 text (byte {exc.start})") from exc
-    try:
-        return json.loads(text, object_pairs_hook=_reject_duplicate_keys)
-    except json.JSONDecodeError as exc:
-        raise field_error(source, "",
-                          f"not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})") from exc
-    except RecursionError as exc:
-        raise field_error(source, "", "not valid JSON: nested too deeply") from exc
-    except _DuplicateKeyError as exc:
-        raise field_error(source, "", f"duplicate key {show(exc.args[0])} in a JSON object") from exc
+        return loads_strict(content, source, limits)
+    except JsonInputError as exc:
+        raise TerrainError(str(exc), source=source) from None
 
 
 def write_terrain_json(data: Mapping[str, Any], path: str | os.PathLike[str]) -> None:
