@@ -26,6 +26,7 @@ from fastapi import FastAPI, HTTPException, Query, Request
 from fastapi import Path as PathParam
 from fastapi.responses import FileResponse, HTMLResponse, Response
 from fastapi.staticfiles import StaticFiles
+from fastapi_offline import FastAPIOffline
 from starlette.convertors import Convertor, register_url_convertor
 
 from app.api_errors import StrictJsonRoute, install_error_handlers, responses
@@ -175,7 +176,9 @@ def body_limit(method: str, path: str) -> int:
 
 
 def create_api(app: ContactnetApp) -> FastAPI:
-    api = FastAPI(
+    # /docs and /redoc serve Swagger UI and ReDoc from the installed fastapi-offline package: no CDN, so
+    # the API docs work on a machine without internet.
+    api = FastAPIOffline(
         title="contactnet",
         description=f"Drive, push and inspect the live {app.settings.robot} session; manage terrains and "
         "recordings. The 3D view is at / (viser, port given by GET /api/info). Requests must name the tool "

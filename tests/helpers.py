@@ -14,3 +14,20 @@ def wait_for(predicate, timeout: float = 20.0, what: str = "condition", poll_s: 
             return value
         time.sleep(poll_s)
     raise AssertionError(f"timed out waiting for {what}")
+
+
+def save_random_models(folder) -> None:
+    """walk.pt and trot.pt with random weights, so the web tests do not depend on the shipped models:
+    the ContactNet planner then ranks candidates at random, and still takes the first safe one."""
+    import numpy as np
+    import torch
+
+    from contactnet import registry
+    from contactnet.network import ContactNet, Normalizer, save_model
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
+    for gait in ("walk", "trot"):
+        torch.manual_seed(0)
+        save_model(folder / f"{gait}.pt", ContactNet(registry.gait_by_name(gait).n_actions).eval(), Normalizer.fit(u),
+                   {"gait": gait})

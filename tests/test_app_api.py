@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import time
 
@@ -66,6 +67,19 @@ def test_state_and_info(client, app):
     assert state["terrain"] == "flat" and state["gait"] == "walk" and state["viser_port"] == app.viser_port
     assert client.get("/api/info").json()["viser_port"] == app.viser_port
     assert "/api/command" in client.get("/openapi.json").json()["paths"]
+
+
+def test_api_docs_are_served_from_the_package_not_a_cdn(client):
+    """Swagger UI and ReDoc load their scripts from this server (the machine may have no internet)."""
+    for page_url in ("/docs", "/redoc"):
+        page = client.get(page_url)
+        assert page.status_code == 200, page_url
+        assert "cdn" not in page.text.lower() and "https://" not in page.text
+        assets = re.findall(r'(?:src|href)="(/static-offline-docs/[^"]+)"', page.text)
+        assert assets, page.text[:300]
+        for asset in assets:
+            response = client.get(asset)
+            assert response.status_code == 200 and len(response.content) > 1000, asset
 
 
 def test_openapi_enums_are_the_registry_names(client):

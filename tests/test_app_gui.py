@@ -16,7 +16,7 @@ import msgspec
 import numpy as np
 import pytest
 import viser
-from helpers import wait_for
+from helpers import save_random_models, wait_for
 from viser import _messages as messages
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
@@ -86,8 +86,6 @@ class ViserProtocolClient:
 
 @pytest.fixture(scope="module")
 def app(tmp_path_factory):
-    from test_app_live import save_random_models
-
     terrains = tmp_path_factory.mktemp("terrains")
     for path in terrains_dir().glob("*.json"):
         shutil.copy(path, terrains / path.name)

@@ -8,6 +8,7 @@ from functools import partial
 
 import numpy as np
 import pytest
+from helpers import save_random_models
 
 from app.commands import (
     ApplyPush,
@@ -28,21 +29,6 @@ from contactnet import registry
 from contactnet.terrain import flat, stepping_stones
 
 pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
-
-
-def save_random_models(folder) -> None:
-    """walk.pt and trot.pt with random weights, so the web tests do not depend on the shipped models:
-    the ContactNet planner then ranks candidates at random, and still takes the first safe one."""
-    import torch
-
-    from contactnet.network import ContactNet, Normalizer, save_model
-
-    rng = np.random.default_rng(0)
-    u = rng.normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
-    for gait in ("walk", "trot"):
-        torch.manual_seed(0)
-        save_model(folder / f"{gait}.pt", ContactNet(registry.gait_by_name(gait).n_actions).eval(), Normalizer.fit(u),
-                   {"gait": gait})
 
 
 @pytest.fixture(scope="module")

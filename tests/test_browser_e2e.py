@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import wait_for
+from helpers import save_random_models, wait_for
 
 from app.commands import SetPaused, SetPlanner, SetVelocity
 from app.headless import CHROMIUM, LAUNCH_ARGS
@@ -28,8 +28,6 @@ pytestmark = [
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
-    from test_app_live import save_random_models
-
     from app.recordings import free_port
     from app.server import BackgroundServer, ContactnetApp
     from app.settings import ServeSettings
@@ -141,3 +139,16 @@ def test_recordings_from_the_page_and_the_command_line_play_back(live, page):
     page.screenshot(path=str(ARTIFACTS / "browser_playback.png"))
     page.locator("#back-to-live").click()
     page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=60_000)
+
+
+def test_api_docs_render_without_internet(live, page):
+    """/docs is Swagger UI from the installed package: it renders the API in a browser on a machine
+    without internet (this one has none)."""
+    _, url = live
+    docs = page.context.browser.new_page(viewport={"width": 1200, "height": 800})
+    try:
+        docs.goto(url + "/docs")
+        docs.get_by_text("/api/state").first.wait_for(timeout=30_000)
+        docs.screenshot(path=str(ARTIFACTS / "browser_api_docs.png"))
+    finally:
+        docs.close()
