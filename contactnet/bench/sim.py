@@ -8,6 +8,9 @@ import numpy as np
 
 from contactnet.registry import DEFAULT_ROBOT, gait_by_name, load_robot, make_planner, model_path
 
+#: Simulated seconds of each whole-stack run.
+STACK_SECONDS = 6.4
+
 
 def standing_real_time_factor(
     sim_seconds: float = 4.0, sphere_feet: bool = True, terrain_name: str = "flat", with_contacts: bool = False,
@@ -36,7 +39,7 @@ def standing_real_time_factor(
     return {"rtf": sim_seconds / wall, "wall_s": wall, "fell": fell, "base_height_m": height}
 
 
-def walking_real_time_factor(gait_name: str, sim_seconds: float = 6.4, vx: float = 0.1,
+def walking_real_time_factor(gait_name: str, sim_seconds: float = STACK_SECONDS, vx: float = 0.1,
                              planner_name: str = "heuristic", terrain_name: str = "flat",
                              robot_name: str = DEFAULT_ROBOT) -> dict:
     """The whole stack (planner, optimizer, 1 kHz controller, PyBullet) walking on a terrain."""
@@ -81,30 +84,21 @@ def bench_sim(runs: int = 5, sim_seconds: float = 4.0, stack_runs: int = 3, robo
                                             robot_name=robot_name)
                    for _ in range(stack_runs)]
         values = [r["rtf"] for r in results]
-        stack_rows.append(
-            {
-                "name": f"{robot_name} whole stack: {gait_name} {vx:g} m/s on {terrain_name}, {planner_name} planner",
-                "median_rtf": float(np.median(values)),
-                "min_rtf": float(np.min(values)),
-                "max_rtf": float(np.max(values)),
-                "vs_mesh_feet": float(np.median(values)) / reference,
-                "runs": stack_runs,
-                "sim_s_per_run": 6.4,
-                "fell": any(r["fell"] for r in results),
-                "trajopt_median_ms": float(np.median([r["trajopt_median_ms"] for r in results])),
-                "planner_median_ms": float(np.median([r["planner_median_ms"] for r in results])),
-            }
-        )
+        stack_rows.append({
+            **_rtf_row(f"{robot_name} whole stack: {gait_name} {vx:g} m/s on {terrain_name}, {planner_name} planner",
+                       values, reference, STACK_SECONDS),
+            "fell": any(r["fell"] for r in results),
+            "trajopt_median_ms": float(np.median([r["trajopt_median_ms"] for r in results])),
+            "planner_median_ms": float(np.median([r["planner_median_ms"] for r in results])),
+        })
     return stack_rows + [
-        {
-            "name": f"{robot_name} standing on flat, {name}, 1 kHz",
-            "median_rtf": float(np.median(values)),
-            "min_rtf": float(np.min(values)),
-            "max_rtf": float(np.max(values)),
-            "vs_mesh_feet": float(np.median(values)) / reference,
-            "runs": runs,
-            "sim_s_per_run": sim_seconds,
-            "fell": fell[name],
-        }
+        {**_rtf_row(f"{robot_name} standing on flat, {name}, 1 kHz", values, reference, sim_seconds), "fell": fell[name]}
         for name, values in rtfs.items()
     ]
+
+
+def _rtf_row(name: str, rtfs: list[float], reference: float, sim_seconds: float) -> dict:
+    """A table row of real-time factors: median, range, ratio to the reference, runs and their length."""
+    return {"name": name, "median_rtf": float(np.median(rtfs)), "min_rtf": float(np.min(rtfs)),
+            "max_rtf": float(np.max(rtfs)), "vs_mesh_feet": float(np.median(rtfs)) / reference, "runs": len(rtfs),
+            "sim_s_per_run": sim_seconds}
