@@ -99,8 +99,9 @@ def cmd_terrain(args: argparse.Namespace) -> int:
         for name in available():
             print(name)
         print("random  (generated: --removed N --seed S)")
+        print("random_heights  (generated: --removed N --seed S --height H)")
         return 0
-    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed)
+    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed, height_m=args.height)
     if args.terrain_cmd == "check":
         print(terrain.summary())
         return 0
@@ -163,7 +164,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         pushes = [Push.parse(text) for text in args.push]
     except ValueError as exc:
         raise UserError(str(exc)) from None
-    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed)
+    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed, height_m=args.height)
     gait = registry.gait_by_name(args.gait)
     robot = registry.load_robot(args.robot)
     planner = make_planner(args.planner, gait, robot, model=args.model)
@@ -290,6 +291,9 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
 
 # ---- parser ------------------------------------------------------------------------------------
+HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="contactnet",
@@ -314,11 +318,19 @@ def build_parser() -> argparse.ArgumentParser:
                             "~/.local/share/contactnet/recordings)")
     serve.add_argument("--allow-host", action="append", metavar="NAME",
                        help="another name the tool answers to (besides 127.0.0.1, localhost, ::1, --host); repeatable")
+    serve.add_argument("--no-wait", dest="wait", action="store_false", default=None,
+                       help="start walking at once (default: wait until a browser opens the 3D view or a "
+                            "client sends POST /api/pause {\"paused\": false})")
+    serve.add_argument("--no-loop", dest="loop", action="store_false", default=None,
+                       help="stay at the end of a run (default: the next run starts a few seconds after the "
+                            "goal or a fall)")
     serve.set_defaults(func=cmd_serve)
 
     sim = sub.add_parser("simulate", help="run one simulation headless")
     sim.add_argument("--terrain", required=True, help="terrain name or JSON path ('random' with --removed)")
     sim.add_argument("--removed", type=int, default=None, help="squares removed from the random field")
+    sim.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
+                     help=HEIGHT_HELP)
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--gait", choices=registry.gait_names(), required=True)
     sim.add_argument("--planner", choices=registry.planner_names(), required=True)
@@ -408,6 +420,8 @@ def build_parser() -> argparse.ArgumentParser:
         t = tsub.add_parser(action, help=text)
         t.add_argument("terrain", help="terrain name or JSON path ('random' with --removed)")
         t.add_argument("--removed", type=int, default=None)
+        t.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
+                       help=HEIGHT_HELP)
         t.add_argument("--seed", type=int, default=0)
         if action in ("render", "save"):
             t.add_argument("--out", required=action == "save")

@@ -1,13 +1,16 @@
 """Terrain: the steppable surface the planner checks candidate footholds against.
 
-A terrain is the union of 2D regions whose tops are steppable; everything else is a hole. The package:
+A terrain is the union of 2D regions whose flat tops (each at its own height ``z``) are steppable;
+everything else is a hole. The package:
 
 - ``schema``: the JSON file format (limits and the complexity budget, :class:`TerrainError`, strict
   validation, reading/writing);
 - ``regions``: region shapes as shapely geometry (grids traced from their cells in linear time);
 - ``union``: the steppable union of the regions, within the complexity budget;
+- ``levels``: the tops of a terrain with several heights (which part has its top at which z);
+- ``locate``: fast exact point location (rasters, shapely next to the edges);
 - ``geometry``: :class:`Terrain` (``from_dict``, ``from_json``, ``load``), ``validate_terrain_bytes``
-  and the fast exact point queries (``is_safe``, ``height_at``, ``ground_z``);
+  and the point queries (``is_safe``, ``height_at``, ``ground_z``);
 - ``scenes``: the paper's scenes as generators, the shipped files, name resolution
   (``python -m contactnet.terrain`` rewrites the shipped files);
 - ``mesh``: the extruded triangle mesh; ``render``: the matplotlib top view;
@@ -25,8 +28,11 @@ from contactnet.terrain.scenes import (
     main,
     narrow_stones,
     push_field,
+    raised_stones,
     random_field,
+    random_heights,
     resolve,
+    stairs,
     stepping_stones,
     terrains_dir,
 )
@@ -42,9 +48,12 @@ __all__ = [
     "main",
     "narrow_stones",
     "push_field",
+    "raised_stones",
     "random_field",
+    "random_heights",
     "region_geometry",
     "resolve",
+    "stairs",
     "stepping_stones",
     "terrains_dir",
     "validate_terrain_bytes",

@@ -177,9 +177,11 @@ def _hole_free_parts(geometry: BaseGeometry) -> list[Polygon]:
     return out
 
 
-def _polygon_region(polygon: Polygon) -> dict[str, Any]:
+def _polygon_region(polygon: Polygon, z: float | None = None) -> dict[str, Any]:
+    """A polygon region of a hole-free polygon, its top at ``z`` (None: no ``z``, the terrain's surface)."""
     coords = np.asarray(polygon.exterior.coords)[:-1]
-    return {"shape": "polygon", "vertices": [[float(x), float(y)] for x, y in coords]}
+    region = {"shape": "polygon", "vertices": [[float(x), float(y)] for x, y in coords]}
+    return region if z is None else {**region, "z": z}
 
 
 # ---- edits -------------------------------------------------------------------------------------
@@ -198,7 +200,7 @@ def punch_hole(data: Mapping[str, Any], xy: Sequence[float], size: float = HOLE_
         if region["shape"] == "grid":
             regions.append(_grid_without(region, square))
             continue
-        regions.extend(_polygon_region(p) for p in _hole_free_parts(geometry.difference(square)))
+        regions.extend(_polygon_region(p, region.get("z")) for p in _hole_free_parts(geometry.difference(square)))
     if not changed:
         return validated(data)
     if not regions:
@@ -273,12 +275,17 @@ def add_stone(data: Mapping[str, Any], shape: str, xy: Sequence[float], yaw: flo
 
 
 def region_at(data: Mapping[str, Any], xy: Sequence[float]) -> int | None:
-    """Index of the topmost (last listed) region covering xy, or None."""
+    """Index of the region seen from above at xy: of the regions covering it, the one with the highest top
+    (its ``z``, else the terrain's ``surface_z``), the last listed among equal tops; None when none covers it."""
     _check_xy(xy)
+    surface_z = data.get("surface_z", 0.0)
+    best: tuple[float, int] | None = None
     for index in range(len(data["regions"]) - 1, -1, -1):
-        if shapely.intersects_xy(region_geometry(data["regions"][index]), xy[0], xy[1]):
-            return index
-    return None
+        region = data["regions"][index]
+        top_z = region.get("z", surface_z)
+        if (best is None or top_z > best[0]) and shapely.intersects_xy(region_geometry(region), xy[0], xy[1]):
+            best = (top_z, index)
+    return None if best is None else best[1]
 
 
 def region_pose(region: Mapping[str, Any]) -> tuple[tuple[float, float], float]:
@@ -338,11 +345,13 @@ def renamed(data: Mapping[str, Any], name: str) -> TerrainDict:
 
 # ---- undo --------------------------------------------------------------------------------------
 class EditHistory:
-    """The current terrain dict and the ones before it (undo), bounded to `limit` steps."""
+    """The current terrain dict, the ones before it (undo) and the ones undone (redo), each bounded to
+    `limit` steps. A new edit forgets what was undone, as in every editor."""
 
     def __init__(self, initial: Mapping[str, Any], limit: int = MAX_UNDO):
         self.current: TerrainDict = validated(initial)
         self._undo: list[TerrainDict] = []
+        self._redo: list[TerrainDict] = []
         self.limit = limit
 
     def apply(self, new: Mapping[str, Any]) -> bool:
@@ -352,18 +361,31 @@ class EditHistory:
             return False
         self._undo.append(self.current)
         del self._undo[: max(0, len(self._undo) - self.limit)]
+        self._redo.clear()
         self.current = new
         return True
 
     def undo(self) -> TerrainDict:
-        if not self._undo:
-            raise EditError("nothing to undo")
-        self.current = self._undo.pop()
+        previous = self.previous
+        self._undo.pop()
+        self._redo.append(self.current)
+        self.current = previous
+        return self.current
+
+    def redo(self) -> TerrainDict:
+        following = self.following
+        self._redo.pop()
+        self._undo.append(self.current)
+        self.current = following
         return self.current
 
     @property
     def can_undo(self) -> bool:
         return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
 
     @property
     def previous(self) -> TerrainDict:
@@ -372,7 +394,15 @@ class EditHistory:
             raise EditError("nothing to undo")
         return self._undo[-1]
 
+    @property
+    def following(self) -> TerrainDict:
+        """What `redo()` would make current."""
+        if not self._redo:
+            raise EditError("nothing to redo")
+        return self._redo[-1]
+
     def reset(self, data: Mapping[str, Any]) -> None:
-        """Start over from `data` (a terrain loaded from a file): forget the undo steps."""
+        """Start over from `data` (a terrain loaded from a file): forget the undo and redo steps."""
         self.current = validated(data)
         self._undo.clear()
+        self._redo.clear()

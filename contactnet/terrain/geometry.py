@@ -3,20 +3,23 @@
 A terrain is the union of 2D *regions* (rectangles, circles, stars, polygons and grids of square
 cells; their shapes are in ``contactnet.terrain.regions``, their union, built within the complexity
 budget, in ``contactnet.terrain.union``) whose tops are steppable; everything else is a hole with
-nothing to stand on. Every region's
-top is at the terrain's ``surface_z`` today; ``surface_z`` is also the nominal ground level, the
+nothing to stand on. Each region's top is flat, at its ``z`` (default the terrain's ``surface_z``);
+where regions overlap the highest top wins. ``surface_z`` is also the nominal ground level, the
 height to measure from where there is no top (:meth:`Terrain.ground_z`).
 
-The hot path is :meth:`Terrain.is_safe`, vectorized over many candidate footholds;
-:meth:`Terrain.height_at` uses the same machinery. Both answer from a raster built once per margin
-(cells fully inside / fully outside / on the boundary) and ask shapely only for points in boundary
-cells, so they are exact with respect to shapely. The mesh and the top view live in
-``contactnet.terrain.mesh`` and ``contactnet.terrain.render``; :class:`Terrain` delegates to them.
+The tops at one height form a *level* (:attr:`Terrain.levels`, built in ``contactnet.terrain.levels``);
+a terrain whose regions are all at one height has one level, the steppable union itself, and takes
+the same code paths as before heights existed.
+
+The hot path is :meth:`Terrain.is_safe`, vectorized over many candidate footholds; :meth:`Terrain.height_at`
+uses the same machinery. Both answer from a raster built once (per margin) and ask shapely only for
+points next to an outline, so they are exact with respect to shapely (``contactnet.terrain.locate``).
+The mesh and the top view live in ``contactnet.terrain.mesh`` and ``contactnet.terrain.render``;
+:class:`Terrain` delegates to them.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -28,6 +31,8 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from contactnet.terrain import render as _render
+from contactnet.terrain.levels import Level, eroded_levels, terrain_levels
+from contactnet.terrain.locate import HeightLocator, PointLocator
 from contactnet.terrain.mesh import extruded_mesh
 from contactnet.terrain.regions import region_geometry
 from contactnet.terrain.schema import (
@@ -45,7 +50,7 @@ from contactnet.terrain.schema import (
     thaw,
     write_terrain_json,
 )
-from contactnet.terrain.union import UNION_GRID_SIZE_M, steppable_union
+from contactnet.terrain.union import UNION_GRID_SIZE_M, region_pieces, steppable_union
 
 __all__ = ["CIRCLE_MAX_ERROR_M", "CIRCLE_MIN_SEGMENTS", "UNION_GRID_SIZE_M", "Terrain", "region_geometry",
            "validate_terrain_bytes"]
@@ -54,97 +59,7 @@ if TYPE_CHECKING:
     import trimesh
     from matplotlib.axes import Axes
 
-_RASTER_TARGET_CELLS = 1 << 20  # capped by max_side=1000 per axis: 1.5 mm cells on the paper's field
 _SAFE_CACHE_MAX = 16
-
-
-# ---------------------------------------------------------------------------------------------
-# Fast exact point location
-# ---------------------------------------------------------------------------------------------
-_OUTSIDE, _INSIDE, _BOUNDARY = 0, 1, 2
-_intersects_xy = getattr(shapely.lib, "intersects_xy", shapely.intersects_xy)
-"""shapely's ufunc without its Python wrapper (saves ~2 us per call); same semantics, uses preparation."""
-_SMALL_QUERY = 16
-"""Batches up to this size go straight to shapely (a raster lookup costs a fixed ~10 numpy calls; shapely's
-cost per point grows with the number of holes, so larger batches, e.g. the trot's 36 cells, use the raster)."""
-
-
-@dataclass(frozen=True)
-class _PointLocator:
-    """Exact point-in-region test: a raster of cells classified once, shapely for boundary cells.
-
-    Cell (col, row) covers ``[col0 + col, col0 + col + 1) * cell_m`` along x (likewise y, from
-    ``row0``); a point's cell is ``floor(xy / cell_m - (col0, row0))``. A cell is BOUNDARY when its
-    box padded by ``pad_m`` may touch the region's boundary; every other cell is entirely inside or
-    entirely outside, decided by its centre. The padding keeps the answer exact when a point's
-    computed cell is off by one through floating-point rounding. The raster is stored as an
-    ``n x n`` square (unused rows/cols OUTSIDE) so one scalar clamp to the outermost cells, which
-    are always OUTSIDE, handles points off the raster and non-finite points.
-    """
-
-    geometry: BaseGeometry
-    inv_cell: float
-    first_cell: np.ndarray  # (2,) float: (col0, row0), whole numbers
-    clamp_hi: float  # n - 0.5
-    strides: np.ndarray  # (2,) intp: (1, n)
-    codes: np.ndarray  # (n * n,) uint8, row-major; empty for an empty region
-
-    @classmethod
-    def build(cls, geometry: BaseGeometry, target_cells: int = _RASTER_TARGET_CELLS, max_side: int = 1000,
-              pad_m: float = 1e-9) -> _PointLocator:
-        shapely.prepare(geometry)
-        if geometry.is_empty:
-            return cls(geometry, 1.0, np.zeros(2), 0.0, np.zeros(2, dtype=np.intp), np.zeros(0, dtype=np.uint8))
-        minx, miny, maxx, maxy = geometry.bounds
-        width, height = max(maxx - minx, 1e-6), max(maxy - miny, 1e-6)
-        cell_m = max(math.sqrt(width * height / target_cells), width / max_side, height / max_side)
-        inv_cell = 1.0 / cell_m
-        col0, row0 = math.floor(minx * inv_cell) - 2, math.floor(miny * inv_cell) - 2
-        n_cols = math.floor(maxx * inv_cell) + 3 - col0
-        n_rows = math.floor(maxy * inv_cell) + 3 - row0
-        first = np.array([col0, row0])
-        boundary = np.zeros((n_rows, n_cols), dtype=bool)
-        # Boundary segments no longer than a cell: each one's padded bounding box spans <= 3x3 cells
-        # and contains the segment, so marking those cells over-approximates the boundary cells.
-        rings = shapely.segmentize(shapely.get_rings(shapely.get_parts(geometry)), cell_m * 0.999)
-        ring_xy, ring_index = shapely.get_coordinates(rings, return_index=True)
-        same_ring = ring_index[1:] == ring_index[:-1]
-        start_xy, end_xy = ring_xy[:-1][same_ring], ring_xy[1:][same_ring]
-        lo = np.floor((np.minimum(start_xy, end_xy) - pad_m) * inv_cell).astype(np.intp) - first
-        hi = np.floor((np.maximum(start_xy, end_xy) + pad_m) * inv_cell).astype(np.intp) - first
-        if np.any(hi - lo > 2) or lo.min(initial=1) < 1 or np.any(hi >= (n_cols - 1, n_rows - 1)):
-            raise AssertionError("raster: a boundary segment is longer than a cell or too close to the edge")
-        for d_col in range(3):
-            for d_row in range(3):
-                use = (lo[:, 0] + d_col <= hi[:, 0]) & (lo[:, 1] + d_row <= hi[:, 1])
-                boundary[lo[use, 1] + d_row, lo[use, 0] + d_col] = True
-        side = max(n_cols, n_rows)
-        codes = np.full((side, side), _OUTSIDE, dtype=np.uint8)
-        rows, cols = np.nonzero(~boundary)
-        centre_x = (col0 + cols + 0.5) * cell_m
-        centre_y = (row0 + rows + 0.5) * cell_m
-        codes[rows, cols] = np.where(shapely.contains_xy(geometry, centre_x, centre_y), _INSIDE, _OUTSIDE)
-        codes[:n_rows, :n_cols][boundary] = _BOUNDARY
-        return cls(geometry, inv_cell, first.astype(float), side - 0.5, np.array([1, side], dtype=np.intp),
-                   codes.ravel())
-
-    def covers(self, points_xy_world: np.ndarray) -> np.ndarray:
-        """Boolean (N,): does the region cover each point of (N, 2) (boundary counts as covered)."""
-        if self.codes.size == 0:
-            return np.zeros(len(points_xy_world), dtype=bool)
-        if len(points_xy_world) <= _SMALL_QUERY:
-            return _intersects_xy(self.geometry, points_xy_world[:, 0], points_xy_world[:, 1])
-        cell = points_xy_world * self.inv_cell
-        cell -= self.first_cell
-        np.fmax(cell, 0.0, out=cell)  # also maps NaN onto the (outside) border
-        np.fmin(cell, self.clamp_hi, out=cell)
-        code = self.codes.take(cell.astype(np.intp) @ self.strides)  # truncation == floor: cell >= 0
-        on_boundary = (code == _BOUNDARY).nonzero()[0]
-        result = code.view(np.bool_)  # 0 / 1 are False / True; the BOUNDARY entries are replaced below
-        if on_boundary.size:
-            points = points_xy_world.take(on_boundary, axis=0)
-            result[on_boundary] = _intersects_xy(self.geometry, points[:, 0], points[:, 1])
-        return result
 
 
 # ---------------------------------------------------------------------------------------------
@@ -152,14 +67,15 @@ class _PointLocator:
 # ---------------------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class Terrain:
-    """An immutable, validated terrain: steppable regions whose tops are at ``surface_z``.
+    """An immutable, validated terrain: steppable regions with flat tops (each at its ``z``, default ``surface_z``).
 
     Construct with :meth:`from_dict`, :meth:`load` or a generator (``contactnet.terrain.scenes``);
     the constructor itself also validates everything (raising :class:`TerrainError`), using the
     file's field names (``start`` for ``start_xy``) in messages. Two terrains are equal when their
-    ``to_dict()`` are. ``surface_z`` is the file's field: the nominal ground level, and today also
-    the height of every region's top; ask :meth:`height_at` for the top under a point and
-    :meth:`ground_z` for the height to measure from.
+    ``to_dict()`` are. ``surface_z`` is the file's field: the nominal ground level and the default
+    top of a region; ask :meth:`height_at` for the top under a point and :meth:`ground_z` for the
+    height to measure from. ``levels`` are the tops, highest first: (z, the part of the steppable set
+    whose top is at z), one level (the steppable set) when every region is at the same height.
     """
 
     name: str
@@ -171,7 +87,9 @@ class Terrain:
     source: str = field(default="<dict>", repr=False)
     steppable: BaseGeometry = field(init=False, repr=False)
     bounds: tuple[float, float, float, float] = field(init=False)
-    _locators: dict[float, _PointLocator] = field(init=False, repr=False)
+    levels: tuple[Level, ...] = field(init=False, repr=False)
+    _locators: dict[float, PointLocator] = field(init=False, repr=False)
+    _heights: list[Any] = field(init=False, repr=False)  # [] or, with several levels, [pieces, tops z, locator?]
 
     def __post_init__(self) -> None:
         src = self.source
@@ -182,11 +100,19 @@ class Terrain:
         setattr_(self, "goal_x", goal_x)
         setattr_(self, "surface_z", surface_z)
         setattr_(self, "regions", tuple(map(freeze_region, parsed)))
-        steppable = steppable_union(parsed, src)  # within the complexity budget, or TerrainError
+        pieces = region_pieces(parsed, src)
+        steppable = steppable_union(parsed, src, pieces)  # within the complexity budget, or TerrainError
         shapely.prepare(steppable)
         setattr_(self, "steppable", steppable)
         setattr_(self, "bounds", tuple(float(v) for v in steppable.bounds))
         setattr_(self, "_locators", {})
+        tops_z = np.array([region.get("z", surface_z) for region in parsed], dtype=float)
+        if np.all(tops_z == tops_z[0]):
+            setattr_(self, "levels", ((float(tops_z[0]), steppable),))
+            setattr_(self, "_heights", [])
+        else:  # several heights: the levels within the budget, or TerrainError
+            setattr_(self, "levels", terrain_levels(pieces, tops_z, src))
+            setattr_(self, "_heights", [pieces, tops_z])
         if not shapely.intersects_xy(steppable, start_xy[0], start_xy[1]):
             raise field_error(src, "start", f"{show(start_xy.tolist())} is not on steppable ground")
         if self.goal_x <= start_xy[0]:
@@ -247,28 +173,35 @@ class Terrain:
         return self._locator(margin).geometry
 
     def is_safe(self, points_xy: Any, margin: float = 0.0) -> np.ndarray:
-        """Which points are safe footholds: inside the steppable set shrunk by ``margin`` (metres).
+        """Which points are safe footholds: on a top, at least ``margin`` (metres) from that top's edges.
 
-        ``points_xy`` is an (N, 2) array-like of world-frame x, y in metres; a single (2,) point is
-        accepted and gives a result of shape (1,). Returns a bool array (N,). Points on the boundary
-        count as safe (shapely ``covers``); non-finite points are unsafe. The shrunk geometry and its
-        lookup raster are built on the first call with a new margin and cached on the terrain.
+        With one level that is the steppable set shrunk by ``margin``; with several, each level shrunk
+        on its own (a riser is an edge of the level on either side, so points next to it are unsafe on
+        both sides); margin 0 is the steppable set either way. ``points_xy`` is an (N, 2) array-like of
+        world-frame x, y in metres; a single (2,) point is accepted and gives a result of shape (1,).
+        Returns a bool array (N,). Points on the boundary count as safe (shapely ``covers``); non-finite
+        points are unsafe. The shrunk geometry and its lookup raster are built on the first call with a
+        new margin and cached on the terrain.
         """
         points, _ = _as_points(points_xy)
         return self._locator(margin).covers(points)
 
     def height_at(self, points_xy: Any, outside: float = np.nan) -> np.ndarray:
-        """World z (metres) of the steppable top under each point, ``outside`` where there is none.
+        """World z (metres) of the highest top covering each point, ``outside`` where there is none.
 
         ``points_xy`` is an (N, 2) array-like of world-frame x, y in metres, giving a float array (N,),
-        or a single (2,) point, giving a float array of shape (). A point has a top when the steppable
-        set covers it (its boundary included, like :meth:`is_safe` with margin 0); over holes, off
-        the terrain and for non-finite points the result is ``outside`` (NaN by default). Every
-        region's top is at ``surface_z`` today, so the tops are all ``surface_z``. Vectorized on the
-        same cached raster as :meth:`is_safe`.
+        or a single (2,) point, giving a float array of shape (). A point has a top when a region
+        covers it (its boundary included, like :meth:`is_safe` with margin 0); the top is the highest
+        ``z`` of the regions covering it (on a riser, the upper one). Over holes, off the terrain and
+        for non-finite points the result is ``outside`` (NaN by default). With one level this is the
+        same cached raster as :meth:`is_safe`; with several, a raster of the tops built on the first
+        call (``contactnet.terrain.locate.HeightLocator``).
         """
         points, single = _as_points(points_xy)
-        heights = np.where(self._locator(0.0).covers(points), self.surface_z, float(outside))
+        if self._heights:
+            heights = self._height_locator().heights(points, float(outside))
+        else:
+            heights = np.where(self._locator(0.0).covers(points), self.levels[0][0], float(outside))
         return heights.reshape(()) if single else heights
 
     def ground_z(self, points_xy: Any) -> np.ndarray:
@@ -282,7 +215,13 @@ class Terrain:
         """
         return self.height_at(points_xy, outside=self.surface_z)
 
-    def _locator(self, margin: float) -> _PointLocator:
+    def _height_locator(self) -> HeightLocator:
+        if len(self._heights) == 2:  # built once; a race builds it twice, harmlessly
+            pieces, tops_z = self._heights
+            self._heights.append(HeightLocator.build(pieces, tops_z))
+        return self._heights[2]
+
+    def _locator(self, margin: float) -> PointLocator:
         locator = self._locators.get(margin) if type(margin) is float else None
         if locator is not None:
             return locator
@@ -291,8 +230,13 @@ class Terrain:
             raise ValueError(f"margin must be a finite number >= 0 (metres), got {margin!r}")
         locator = self._locators.get(key)
         if locator is None:
-            geometry = self.steppable if key == 0.0 else shapely.buffer(self.steppable, -key, quad_segs=16)
-            locator = _PointLocator.build(geometry)
+            if key == 0.0:
+                geometry = self.steppable
+            elif len(self.levels) == 1:
+                geometry = shapely.buffer(self.steppable, -key, quad_segs=16)
+            else:
+                geometry = eroded_levels(self.levels, key)
+            locator = PointLocator.build(geometry)
             if len(self._locators) >= _SAFE_CACHE_MAX:
                 self._locators.pop(next(iter(self._locators)))
             self._locators[key] = locator
@@ -312,23 +256,27 @@ class Terrain:
             f"  regions    {len(self.regions)}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())),
             f"  start      ({self.start_xy[0]:.3f}, {self.start_xy[1]:.3f}) m; goal_x {self.goal_x:.3f} m",
         ]
+        if len(self.levels) > 1:
+            lines.insert(3, f"  tops       {len(self.levels)} heights, z from {self.levels[-1][0]:g} to "
+                            f"{self.levels[0][0]:g} m")
         return "\n".join(lines)
 
     # -- geometry for simulation and display (contactnet.terrain.mesh, contactnet.terrain.render) ---
     def mesh(self, thickness: float = 0.4) -> trimesh.Trimesh:
-        """The steppable union as one closed mesh: each piece extruded down by ``thickness`` from its top.
+        """The tops as one mesh of closed prisms, each polygon of each level from its top down to
+        ``min(surface_z, lowest top) - thickness`` (metres).
 
-        Each polygon of the union is a watertight prism from its top (:meth:`height_at`) down to
-        ``top - thickness``; pieces that touch at a single point keep separate vertices there, so
-        edges stay manifold.
+        Each prism is watertight; pieces that touch at a single point keep separate vertices there, so
+        edges stay manifold. Prisms of neighbouring levels share the wall below the lower top (two
+        faces back to back), so the mesh is watertight as a whole only with one level.
         """
-        pieces = [(polygon, float(self.height_at(shapely.get_coordinates(polygon.representative_point())[0])))
-                  for polygon in shapely.get_parts(self.steppable)]
-        return extruded_mesh(pieces, thickness)
+        base_z = min(self.surface_z, self.levels[-1][0])
+        pieces = [(polygon, top_z) for top_z, geometry in self.levels for polygon in shapely.get_parts(geometry)]
+        return extruded_mesh(pieces, thickness, base_z=base_z)
 
     def render(self, ax: Axes | None = None, show_start: bool = True,
                feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> Axes:
-        """Top view: steppable area filled, holes white, start marked, goal line.
+        """Top view: steppable area filled (coloured by height with several levels), holes white, start, goal line.
 
         ``feet_xy_start`` (N, 2), world-frame x, y in metres: feet to mark (e.g. a robot's nominal
         stance at the start, given by the caller); None marks none.

@@ -1,8 +1,8 @@
-"""The terrain as a triangle mesh: the steppable union extruded into closed prisms (simulation, 3D view).
+"""The terrain as a triangle mesh: its tops extruded into closed prisms (simulation, 3D view).
 
-Each polygon of the union (holes allowed) becomes a watertight prism: the top is an earcut
-triangulation (tile by tile for polygons with thousands of holes, where earcut's hole bridging grows
-as vertices x holes), the side walls stand on that triangulation's own border edges, and vertices
+Each polygon of each level (holes allowed) becomes a watertight prism from its top down: the top is
+an earcut triangulation (tile by tile for polygons with thousands of holes, where earcut's hole
+bridging grows as vertices x holes), the side walls stand on that triangulation's own border edges, and vertices
 where a polygon touches itself are split per triangle fan, so every edge stays manifold.
 ``split_mesh`` cuts a mesh into chunks a simulator takes as collision shapes.
 """
@@ -26,11 +26,13 @@ if TYPE_CHECKING:
 _HOLES_PER_TILE = 1000
 
 
-def extruded_mesh(pieces: Iterable[tuple[Polygon, float]], thickness: float = 0.4) -> trimesh.Trimesh:
-    """One closed mesh of flat-topped pieces: each ``(polygon, top_z)`` extruded down by ``thickness``.
+def extruded_mesh(pieces: Iterable[tuple[Polygon, float]], thickness: float = 0.4,
+                  base_z: float | None = None) -> trimesh.Trimesh:
+    """One mesh of closed flat-topped prisms, one per ``(polygon, top_z)``.
 
-    ``Terrain.mesh`` passes the steppable union's parts with their tops. Pieces that touch at a single
-    point keep separate vertices there, so edges stay manifold.
+    Each prism reaches down to ``base_z - thickness`` (metres), or with ``base_z`` None to its own
+    ``top_z - thickness``. ``Terrain.mesh`` passes the polygons of its levels with their tops. Pieces
+    that touch at a single point keep separate vertices there, so edges stay manifold.
     """
     import trimesh
 
@@ -41,7 +43,8 @@ def extruded_mesh(pieces: Iterable[tuple[Polygon, float]], thickness: float = 0.
     for polygon, top_z in pieces:
         if polygon.is_empty or polygon.area <= 0.0:
             continue
-        prism_xyz, prism_faces = _extrude(polygon, top_z - thickness, top_z)
+        bottom_z = (top_z if base_z is None else base_z) - thickness
+        prism_xyz, prism_faces = _extrude(polygon, bottom_z, top_z)
         vertices.append(prism_xyz)
         faces.append(prism_faces + offset)
         offset += len(prism_xyz)

@@ -169,6 +169,25 @@ class _Components:
         return self.root[run]
 
 
+def label_components(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 4-connected components of the True cells of a 2D mask, in time linear in its runs of True.
+
+    Returns (label of every cell (rows, cols) int64: 0..k-1, -1 where the mask is False; (row, col) of one
+    cell of each component (k, 2)).
+    """
+    labels = np.full(mask.shape, -1, dtype=np.int64)
+    rows, first, last = _runs(mask)
+    if not len(rows):
+        return labels, np.zeros((0, 2), dtype=np.int64)
+    root = _Components(mask).root
+    roots, component = np.unique(root, return_inverse=True)
+    lengths = last - first + 1
+    start = rows * mask.shape[1] + first
+    flat = np.repeat(start - np.cumsum(lengths) + lengths, lengths) + np.arange(int(lengths.sum()))
+    labels.reshape(-1)[flat] = np.repeat(component, lengths)
+    return labels, np.column_stack([rows[roots], first[roots]])
+
+
 def _union_find(n: int, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """Root (the smallest node) of every node's component, for the undirected edges src-dst.
 

@@ -1,11 +1,12 @@
-"""Matplotlib top view of a terrain: steppable area filled, holes white, start, feet and goal line marked."""
+"""Matplotlib top view of a terrain: steppable area filled (coloured by the height of its tops when they
+differ), holes white, start, feet and goal line marked."""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import shapely
@@ -32,12 +33,16 @@ class TerrainView(Protocol):
     @property
     def start_xy(self) -> np.ndarray: ...
 
+    @property
+    def levels(self) -> tuple[tuple[float, BaseGeometry], ...]: ...
+
 
 def render(terrain: TerrainView, ax: Axes | None = None, show_start: bool = True,
            feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> Axes:
     """Top view: steppable area filled, holes white, start marked (``show_start``), goal line.
 
-    ``feet_xy_start`` (N, 2), world-frame x, y in metres, are marked as the feet at the start (the
+    With tops at one height the area is one sand colour; with several, each top is coloured by its
+    height (a colour bar gives z in metres) and outlined, so risers show as lines. ``feet_xy_start`` (N, 2), world-frame x, y in metres, are marked as the feet at the start (the
     terrain knows no robot: e.g. the CLI passes the robot's nominal stance placed at the start);
     None marks no feet.
     """
@@ -51,11 +56,14 @@ def render(terrain: TerrainView, ax: Axes | None = None, show_start: bool = True
     minx, miny, maxx, maxy = terrain.bounds
     pad = 0.05 * max(maxx - minx, maxy - miny, 0.2)
     ax.set_facecolor("white")
-    for polygon in shapely.get_parts(terrain.steppable):
-        polygon = orient(polygon, sign=1.0)
-        rings = [np.asarray(polygon.exterior.coords)] + [np.asarray(r.coords) for r in polygon.interiors]
-        path = MplPath.make_compound_path(*[MplPath(r, closed=True) for r in rings])
-        ax.add_patch(PathPatch(path, facecolor="#cdb891", edgecolor="#6b5a3a", linewidth=0.6))
+    levels = terrain.levels
+    colour_of = _height_colours(ax, [z for z, _ in levels]) if len(levels) > 1 else (lambda z: "#cdb891")
+    for top_z, geometry in levels:
+        for polygon in shapely.get_parts(geometry):
+            polygon = orient(polygon, sign=1.0)
+            rings = [np.asarray(polygon.exterior.coords)] + [np.asarray(r.coords) for r in polygon.interiors]
+            path = MplPath.make_compound_path(*[MplPath(r, closed=True) for r in rings])
+            ax.add_patch(PathPatch(path, facecolor=colour_of(top_z), edgecolor="#6b5a3a", linewidth=0.6))
     ax.axvline(terrain.goal_x, color="#2a8a3a", linestyle="--", linewidth=1.2,
                label=f"goal x = {terrain.goal_x:g} m")
     if show_start:
@@ -91,6 +99,18 @@ def render_png(terrain: TerrainView, path: str | os.PathLike[str], dpi: int = 12
     target.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(target, dpi=dpi)
     return target
+
+
+def _height_colours(ax: Axes, tops_z: Sequence[float]) -> Callable[[float], Any]:
+    """Colour of a top at z (metres) on a colour map over the terrain's tops, with a colour bar beside ``ax``."""
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    low, high = min(tops_z), max(tops_z)
+    mappable = ScalarMappable(Normalize(low, high if high > low else low + 1e-3), colormaps["viridis"])
+    ax.figure.colorbar(mappable, ax=ax, label="top z [m]", fraction=0.04, pad=0.02)
+    return mappable.to_rgba
 
 
 def _figure_size(bounds: tuple[float, float, float, float]) -> tuple[float, float]:

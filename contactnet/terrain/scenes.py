@@ -1,8 +1,10 @@
 """The paper's scenes as terrain generators, the shipped terrain files and name resolution.
 
 Generators: :func:`flat`, :func:`random_field` (experiment 3), :func:`stepping_stones` (experiment 1),
-:func:`narrow_stones` (experiment 2) and :func:`push_field` (experiment 5). Each scene's geometry
-(platforms, stones, fields) is written here in metres; none depends on a robot. :data:`SHIPPED`
+:func:`narrow_stones` (experiment 2) and :func:`push_field` (experiment 5); beyond the paper, with
+tops at several heights: :func:`stairs`, :func:`raised_stones` and :func:`random_heights`. Each
+scene's geometry (platforms, stones, fields, heights) is written here in metres; none depends on a
+robot. :data:`SHIPPED`
 names the files in ``terrains/``; ``python -m contactnet.terrain`` (:func:`main`) rewrites them.
 """
 
@@ -19,12 +21,14 @@ from typing import Any
 import numpy as np
 
 from contactnet.terrain.geometry import Terrain
-from contactnet.terrain.schema import TerrainError, is_number, show
+from contactnet.terrain.schema import MAX_HEIGHT_OFFSET_M, TerrainError, finite_float, is_number, show
 
 
-def _rect(center_xy: Sequence[float], size_xy: Sequence[float], yaw: float = 0.0) -> dict[str, Any]:
-    return {"shape": "rect", "center": [float(v) for v in center_xy], "size": [float(v) for v in size_xy],
+def _rect(center_xy: Sequence[float], size_xy: Sequence[float], yaw: float = 0.0,
+          z: float | None = None) -> dict[str, Any]:
+    rect = {"shape": "rect", "center": [float(v) for v in center_xy], "size": [float(v) for v in size_xy],
             "yaw": float(yaw)}
+    return rect if z is None else {**rect, "z": float(z)}
 
 
 def _circle(center_xy: Sequence[float], radius: float) -> dict[str, Any]:
@@ -59,16 +63,11 @@ def random_field(removed: int, seed: int) -> Terrain:
     field from x = 0.25 to 1.75 m, then a solid 0.5 x 0.5 m end platform. ``goal_x`` = 1.75 m: the
     base has crossed the whole field. The removed cells are ``default_rng(seed).choice(300, removed)``.
     """
-    n_cells = RANDOM_FIELD_COLS * RANDOM_FIELD_ROWS
-    if not is_number(removed) or not isinstance(removed, numbers.Integral) or not 0 <= removed <= n_cells:
-        raise TerrainError(f"random_field: removed must be an integer in 0..{n_cells}, got {show(removed)}")
-    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
-        raise TerrainError(f"random_field: seed must be a non-negative integer, got {show(seed)}")
+    flat_index, _ = _random_field_cells("random_field", removed, seed)
     cell, platform = RANDOM_FIELD_CELL_M, RANDOM_FIELD_PLATFORM_M
     width_y = RANDOM_FIELD_ROWS * cell
     field_x0 = 0.5 * platform
     field_x1 = field_x0 + RANDOM_FIELD_COLS * cell
-    flat_index = np.random.default_rng(int(seed)).choice(n_cells, size=int(removed), replace=False)
     removed_cells = [[int(i % RANDOM_FIELD_COLS), int(i // RANDOM_FIELD_COLS)] for i in flat_index]
     regions = [
         _rect((0.0, 0.0), (platform, width_y)),
@@ -81,6 +80,54 @@ def random_field(removed: int, seed: int) -> Terrain:
                    description=f"paper field: 300 squares of 5 x 5 cm, {int(removed)} removed (seed {int(seed)})")
 
 
+def _random_field_cells(what: str, removed: Any, seed: Any) -> tuple[np.ndarray, np.random.Generator]:
+    """(the removed squares' flat indices ``default_rng(seed).choice(300, removed)``, that generator after it)."""
+    n_cells = RANDOM_FIELD_COLS * RANDOM_FIELD_ROWS
+    if not is_number(removed) or not isinstance(removed, numbers.Integral) or not 0 <= removed <= n_cells:
+        raise TerrainError(f"{what}: removed must be an integer in 0..{n_cells}, got {show(removed)}")
+    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
+        raise TerrainError(f"{what}: seed must be a non-negative integer, got {show(seed)}")
+    rng = np.random.default_rng(int(seed))
+    return rng.choice(n_cells, size=int(removed), replace=False), rng
+
+
+RANDOM_HEIGHTS_DEFAULT_M = 0.03
+
+
+def random_heights(removed: int, seed: int, height_m: float = RANDOM_HEIGHTS_DEFAULT_M) -> Terrain:
+    """The paper's random field with heights: the squares of :func:`random_field` (the same ``removed`` ones
+    missing for the same ``seed``), each remaining square's top at a random height within +-``height_m``.
+
+    The heights are ``uniform(-height_m, height_m)`` from the same generator, drawn after the removed
+    squares, rounded to the millimetre (and kept within +-``height_m``); the platforms stay at 0. Each
+    square is a 5 x 5 cm ``rect`` region with its ``z``. Named ``random_heights_<removed>_<seed>``, with
+    ``_h<cm>`` appended when ``height_m`` is not the default 3 cm.
+    """
+    flat_index, rng = _random_field_cells("random_heights", removed, seed)
+    height = finite_float(height_m)
+    if height is None or not 0.0 <= height <= MAX_HEIGHT_OFFSET_M:
+        raise TerrainError(f"random_heights: height_m must be a number in [0, {MAX_HEIGHT_OFFSET_M:g}] m, "
+                           f"got {show(height_m)}")
+    kept = np.setdiff1d(np.arange(RANDOM_FIELD_COLS * RANDOM_FIELD_ROWS), flat_index)
+    tops_z = np.clip(np.round(rng.uniform(-height, height, len(kept)), 3), -height, height)
+    cell, platform = RANDOM_FIELD_CELL_M, RANDOM_FIELD_PLATFORM_M
+    width_y = RANDOM_FIELD_ROWS * cell
+    field_x0 = 0.5 * platform
+    field_x1 = field_x0 + RANDOM_FIELD_COLS * cell
+    col, row = kept % RANDOM_FIELD_COLS, kept // RANDOM_FIELD_COLS
+    squares = [_rect((round(field_x0 + (c + 0.5) * cell, 9), round(-0.5 * width_y + (r + 0.5) * cell, 9)),
+                     (cell, cell), z=float(z) + 0.0)  # + 0.0: no -0.0 in the file
+               for c, r, z in zip(col.tolist(), row.tolist(), tops_z.tolist(), strict=True)]
+    regions = [_rect((0.0, 0.0), (platform, width_y)), *squares,
+               _rect((field_x1 + 0.5 * platform, 0.0), (platform, width_y))]
+    name = f"random_heights_{int(removed)}_{int(seed)}"
+    if height != RANDOM_HEIGHTS_DEFAULT_M:
+        name += f"_h{100 * height:g}"
+    return Terrain(name=name, start_xy=(0.0, 0.0), goal_x=field_x1, regions=regions,
+                   description=f"paper field with heights: 300 squares of 5 x 5 cm, {int(removed)} removed "
+                               f"(seed {int(seed)}), tops within +-{100 * height:g} cm")
+
+
 def stepping_stones() -> Terrain:
     """The paper's Fig. 2 scene: start square, 8 stones (3 stars, 2 circles, 3 rectangles), end square.
 
@@ -88,7 +135,15 @@ def stepping_stones() -> Terrain:
     middle, ~1 m along x; holes between consecutive stones of a lane are at most ~7 cm wide, so each
     leg's 5 x 5 candidate grid (5 cm spacing around its hip) always contains safe footholds.
     """
-    stones = [
+    end_x0 = 1.25
+    regions = [_rect((0.0, 0.0), (0.5, 0.5)), *_stones(), _rect((end_x0 + 0.25, 0.0), (0.5, 0.5))]
+    return Terrain(name="stepping_stones", start_xy=(0.0, 0.0), goal_x=end_x0 + 0.15, regions=regions,
+                   description="paper Fig. 2: 8 stepping stones (3 stars, 2 circles, 3 rectangles)")
+
+
+def _stones() -> list[dict[str, Any]]:
+    """The 8 stones of :func:`stepping_stones` (and :func:`raised_stones`)."""
+    return [
         _circle((0.37, 0.12), 0.085),
         _rect((0.39, -0.13), (0.17, 0.16), yaw=0.12),
         _rect((0.585, 0.145), (0.14, 0.12), yaw=-0.2),
@@ -98,10 +153,32 @@ def stepping_stones() -> Terrain:
         _star((1.065, 0.125), 0.13, 0.07, 5, yaw=-0.25),
         _rect((1.08, -0.12), (0.16, 0.18), yaw=0.3),
     ]
-    end_x0 = 1.25
-    regions = [_rect((0.0, 0.0), (0.5, 0.5)), *stones, _rect((end_x0 + 0.25, 0.0), (0.5, 0.5))]
-    return Terrain(name="stepping_stones", start_xy=(0.0, 0.0), goal_x=end_x0 + 0.15, regions=regions,
-                   description="paper Fig. 2: 8 stepping stones (3 stars, 2 circles, 3 rectangles)")
+
+
+RAISED_STONES_SPREAD_M = 0.06
+
+
+def raised_stones(seed: int = 0, spread_m: float = RAISED_STONES_SPREAD_M) -> Terrain:
+    """The stepping stones (:func:`stepping_stones`) with their tops spread over +-``spread_m`` (default 6 cm).
+
+    The 8 tops are evenly spaced from ``-spread_m`` to ``+spread_m`` (rounded to the millimetre), so the
+    spread is always the full range, and shuffled by ``default_rng(seed)``; the platforms stay at 0.
+    Named ``raised_stones``, or ``raised_stones_<seed>`` for another seed.
+    """
+    if not isinstance(seed, numbers.Integral) or isinstance(seed, bool) or seed < 0:
+        raise TerrainError(f"raised_stones: seed must be a non-negative integer, got {show(seed)}")
+    spread = finite_float(spread_m)
+    if spread is None or not 0.0 <= spread <= MAX_HEIGHT_OFFSET_M:
+        raise TerrainError(f"raised_stones: spread_m must be a number in [0, {MAX_HEIGHT_OFFSET_M:g}] m, "
+                           f"got {show(spread_m)}")
+    tops_z = np.random.default_rng(int(seed)).permutation(np.round(np.linspace(-spread, spread, 8), 3))
+    base = stepping_stones().to_dict()
+    stones = [{**stone, "z": float(z) + 0.0} for stone, z in zip(_stones(), tops_z.tolist(), strict=True)]
+    regions = [base["regions"][0], *stones, base["regions"][-1]]
+    return Terrain(name="raised_stones" if seed == 0 else f"raised_stones_{int(seed)}", start_xy=base["start"],
+                   goal_x=base["goal_x"], regions=regions,
+                   description=f"the 8 stepping stones of paper Fig. 2 with tops from {-100 * spread:g} to "
+                               f"+{100 * spread:g} cm (seed {int(seed)})")
 
 
 def narrow_stones(bar_width_m: float | None = None, last_gap_m: float | None = None) -> Terrain:
@@ -147,6 +224,49 @@ def narrow_stones(bar_width_m: float | None = None, last_gap_m: float | None = N
                                "unevenly spaced, the last gap the widest")
 
 
+STAIRS_RISER_M = 0.05
+STAIRS_TREAD_M = 0.20
+
+
+def stairs(riser_m: float = STAIRS_RISER_M, tread_m: float = STAIRS_TREAD_M, steps: int = 3,
+           top_m: float = 0.4) -> Terrain:
+    """Stairs up, then down: a flat start platform, ``steps`` risers up, a top landing, ``steps`` down, a flat
+    landing at the goal.
+
+    Along x: the 0.5 x 0.5 m start platform at z = 0 centred on the start (0, 0); ``steps - 1`` treads
+    ``tread_m`` deep (20 cm) at z = riser, 2 risers, ...; the top landing ``top_m`` deep (40 cm, room
+    for the whole robot) at ``steps`` risers (15 cm by default); the same treads down; the 0.5 m
+    landing at z = 0, ``goal_x`` 15 cm into it. Every riser is ``riser_m`` (5 cm). 0.5 m wide, each
+    tread a ``rect`` with its ``z``, abutting its neighbours.
+    """
+    checks = (("riser_m", riser_m, 0.005, MAX_HEIGHT_OFFSET_M), ("tread_m", tread_m, 0.05, 2.0),
+              ("top_m", top_m, 0.05, 5.0))
+    for label, value, low, high in checks:
+        number = finite_float(value)
+        if number is None or not low <= number <= high:
+            raise TerrainError(f"stairs: {label} must be a number in [{low:g}, {high:g}] m, got {show(value)}")
+    if not isinstance(steps, numbers.Integral) or isinstance(steps, bool) or not 1 <= steps <= 20:
+        raise TerrainError(f"stairs: steps must be an integer in 1..20, got {show(steps)}")
+    riser, tread, top = float(riser_m), float(tread_m), float(top_m)
+    if steps * riser > MAX_HEIGHT_OFFSET_M + 1e-12:
+        raise TerrainError(f"stairs: the top ({steps} x {riser:g} m) must be at most {MAX_HEIGHT_OFFSET_M:g} m high")
+    width_y, platform = 0.5, 0.5
+    depths = [tread] * (steps - 1) + [top] + [tread] * (steps - 1)
+    levels = [*range(1, steps), steps, *range(steps - 1, 0, -1)]
+    regions = [_rect((0.0, 0.0), (platform, width_y))]
+    x = 0.5 * platform
+    for depth, level in zip(depths, levels, strict=True):
+        regions.append(_rect((round(x + 0.5 * depth, 9), 0.0), (depth, width_y), z=round(level * riser, 9)))
+        x = round(x + depth, 9)
+    regions.append(_rect((round(x + 0.5 * platform, 9), 0.0), (platform, width_y)))
+    name = "stairs" + "".join(f"_{label}{value:g}" for label, value, default in (
+        ("r", 100 * riser, 100 * STAIRS_RISER_M), ("t", 100 * tread, 100 * STAIRS_TREAD_M), ("s", steps, 3),
+        ("top", 100 * top, 40.0)) if value != default)  # the parts that differ from the shipped stairs, in cm
+    return Terrain(name=name, start_xy=(0.0, 0.0), goal_x=round(x + 0.15, 9), regions=regions,
+                   description=f"stairs: {int(steps)} risers of {100 * riser:g} cm up and down, treads "
+                               f"{100 * tread:g} cm, top landing {100 * top:g} cm")
+
+
 def push_field(seed: int = 0) -> Terrain:
     """Flat 4 x 2 m ground with random 10 x 10 cm holes (~15 % of the area) for the push experiment.
 
@@ -171,21 +291,29 @@ def push_field(seed: int = 0) -> Terrain:
 
 
 _GENERATORS: Mapping[str, Callable[..., Terrain]] = MappingProxyType({
-    "flat": flat, "narrow_stones": narrow_stones, "push_field": push_field, "stepping_stones": stepping_stones,
+    "flat": flat, "narrow_stones": narrow_stones, "push_field": push_field, "raised_stones": raised_stones,
+    "stairs": stairs, "stepping_stones": stepping_stones,
 })
+_SEEDED = ("push_field", "raised_stones")  # generators that take a seed (0 is the shipped file)
+_FIELDS = ("random", "random_heights")  # generators that need ``removed``
 
 
-def by_name(name: str, removed: int | None = None, seed: int = 0) -> Terrain:
-    """Generator by name: 'flat', 'random' (needs ``removed``), 'stepping_stones', 'narrow_stones', 'push_field'."""
-    if name == "random":
+def by_name(name: str, removed: int | None = None, seed: int = 0, height_m: float | None = None) -> Terrain:
+    """Generator by name: 'flat', 'random' and 'random_heights' (need ``removed``; the latter's tops within
+    +-``height_m``, default 3 cm), 'stepping_stones', 'narrow_stones', 'push_field', 'raised_stones' (these
+    two with ``seed``), 'stairs'. ``height_m`` is for 'random_heights' only and ignored by the others."""
+    if name in _FIELDS:
         if removed is None:
-            raise TerrainError("random: the random field needs 'removed' (number of squares to remove, 0..300)")
-        return random_field(removed, seed)
-    if name == "push_field":
-        return push_field(seed)
+            raise TerrainError(f"{name}: the random field needs 'removed' (number of squares to remove, 0..300)")
+        if name == "random":
+            return random_field(removed, seed)
+        return random_heights(removed, seed, RANDOM_HEIGHTS_DEFAULT_M if height_m is None else height_m)
+    if name in _SEEDED:
+        return _GENERATORS[name](seed)
     if name in _GENERATORS:
         return _GENERATORS[name]()
-    raise TerrainError(f"unknown terrain generator {show(name)}; expected one of: random, {', '.join(_GENERATORS)}")
+    raise TerrainError(f"unknown terrain generator {show(name)}; expected one of: {', '.join(_FIELDS)}, "
+                       f"{', '.join(_GENERATORS)}")
 
 
 def terrains_dir() -> Path:
@@ -200,25 +328,27 @@ def available() -> list[str]:
     return sorted(p.stem for p in directory.glob("*.json")) if directory.is_dir() else []
 
 
-def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, seed: int = 0) -> Terrain:
-    """Terrain from a CLI argument: a .json path, 'random' (with ``removed``/``seed``), or a shipped name.
+def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, seed: int = 0,
+            height_m: float | None = None) -> Terrain:
+    """Terrain from a CLI argument: a .json path, 'random' or 'random_heights' (with ``removed``/``seed``, the
+    latter with ``height_m``), or a shipped name.
 
-    Order: an existing file or a name ending in .json is loaded; 'random' builds the random field
-    (and 'push_field' with a non-zero ``seed`` builds that field); ``<terrains_dir>/<name>.json`` is
-    loaded; a generator name ('flat', ...) is generated; anything else raises TerrainError listing
-    the available names.
+    Order: an existing file or a name ending in .json is loaded; 'random' and 'random_heights' build
+    their fields (and 'push_field' and 'raised_stones' with a non-zero ``seed`` build that variant);
+    ``<terrains_dir>/<name>.json`` is loaded; a generator name ('flat', ...) is generated; anything
+    else raises TerrainError listing the available names.
     """
     text = os.fspath(name_or_path)
     if text.endswith(".json") or Path(text).is_file():
         return Terrain.load(text)
-    if text == "random" or (text == "push_field" and seed != 0):
-        return by_name(text, removed=removed, seed=seed)
+    if text in _FIELDS or (text in _SEEDED and seed != 0):
+        return by_name(text, removed=removed, seed=seed, height_m=height_m)
     shipped = terrains_dir() / f"{text}.json"
     if shipped.is_file():
         return Terrain.load(shipped)
     if text in _GENERATORS:
         return by_name(text, seed=seed)
-    names = sorted({*available(), *_GENERATORS, "random"})
+    names = sorted({*available(), *_GENERATORS, *_FIELDS})
     raise TerrainError(f"unknown terrain {show(text)}: expected a .json path or one of: {', '.join(names)}")
 
 
@@ -228,6 +358,8 @@ SHIPPED: Mapping[str, Callable[[], Terrain]] = MappingProxyType({
     "narrow_stones": narrow_stones,
     "push_field": push_field,
     "random_80_0": lambda: random_field(80, 0),
+    "stairs": stairs,
+    "raised_stones": raised_stones,
 })
 """File stem -> generator of the terrain files shipped in terrains/."""
 

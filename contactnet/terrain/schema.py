@@ -1,10 +1,11 @@
 """The terrain file format: limits, :class:`TerrainError` and strict validation of the JSON.
 
 A terrain file (``terrains/*.json``) is one JSON object with ``name``, ``start``, ``goal_x``,
-``regions`` and the optional ``description`` and ``surface_z`` (the nominal ground level; every
-region's top is at it today). Every problem raises :class:`TerrainError` with a one-line message
-that names the file and the field, e.g. ``terrains/bad.json: regions[3].size: expected ...``. This
-module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells) and
+``regions`` and the optional ``description`` and ``surface_z`` (the nominal ground level). Every region
+may carry ``z``, the height of its flat top (default ``surface_z``, at most ``MAX_HEIGHT_OFFSET_M`` from
+it); where regions overlap, the highest top wins. Every problem raises :class:`TerrainError` with a
+one-line message that names the file and the field, e.g. ``terrains/bad.json: regions[3].size: expected
+...``. This module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells) and
 back, and reads and writes the files (``contactnet.strict_json``: size, depth, number length and
 duplicate keys limited; pretty, atomic writes). Of geometry it knows only a region's bounds, for the
 extent check, and how many outline vertices a region has, for the complexity budget.
@@ -12,7 +13,8 @@ extent check, and how many outline vertices a region has, for the complexity bud
 The complexity budget (the ``MAX_*`` limits below) holds for every terrain that validates, so that
 whatever validates also validates fast (well under a second), simulates and renders: the input-side
 limits are checked here while parsing, the ones on the steppable union (outline vertices of grids,
-edge contacts between regions, mesh faces) by ``contactnet.terrain.union``.
+edge contacts between regions, mesh faces) by ``contactnet.terrain.union``, the ones on the tops of
+a terrain with several heights (``MAX_LEVEL_*``, mesh faces) by ``contactnet.terrain.levels``.
 """
 
 from __future__ import annotations
@@ -78,6 +80,12 @@ TERRAIN_JSON_LIMITS = JsonLimits(max_bytes=MAX_FILE_BYTES, max_depth=8, max_valu
                                  max_number_chars=40)
 """How terrain JSON is read (``contactnet.strict_json``): a terrain nests 5 levels deep (object, regions,
 region, vertices, vertex) and needs about 1.2 million values at most."""
+MAX_LEVEL_PAIRS = 200_000
+"""Tops at several heights: pairs of parts (of the unions at each height) whose bounding boxes overlap."""
+MAX_LEVEL_CUT_VERTICES = 200_000
+"""Tops at several heights: outline vertices of the higher parts that cut each height's union, summed."""
+MAX_HEIGHT_OFFSET_M = 0.5
+"""A region's top ``z`` lies within +-this of the terrain's ``surface_z`` (metres)."""
 CIRCLE_MAX_ERROR_M = 5e-4
 """Largest distance between a circle and its inscribed polygon (metres)."""
 CIRCLE_MIN_SEGMENTS = 64
@@ -87,11 +95,11 @@ _TOP_LEVEL_KEYS = ("name", "description", "start", "goal_x", "surface_z", "regio
 _REQUIRED_TOP_LEVEL = ("name", "start", "goal_x", "regions")
 _REGION_KEYS: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]] = MappingProxyType(
     {  # shape -> (required keys, optional keys); "shape" itself is implied
-        "rect": (("center", "size"), ("yaw",)),
-        "circle": (("center", "radius"), ()),
-        "star": (("center", "outer_radius", "inner_radius", "points"), ("yaw",)),
-        "polygon": (("vertices",), ()),
-        "grid": (("origin", "cell", "cols", "rows"), ("removed",)),
+        "rect": (("center", "size"), ("yaw", "z")),
+        "circle": (("center", "radius"), ("z",)),
+        "star": (("center", "outer_radius", "inner_radius", "points"), ("yaw", "z")),
+        "polygon": (("vertices",), ("z",)),
+        "grid": (("origin", "cell", "cols", "rows"), ("removed", "z")),
     }
 )
 
@@ -337,7 +345,7 @@ def parse_fields(name: Any, description: Any, start_xy: Any, goal_x: Any, surfac
     parsed: list[dict[str, Any]] = []
     budget = _Budget(source)
     for i, raw in enumerate(regions):
-        parsed.append(_parse_region(raw, source, f"regions[{i}]", budget))
+        parsed.append(_parse_region(raw, source, f"regions[{i}]", budget, surface))
     return start, goal, surface, parsed
 
 
@@ -367,8 +375,9 @@ class _Budget:
                                                  f"the limit is {MAX_GRID_CELLS}")
 
 
-def _parse_region(raw: Any, source: str, path: str, budget: _Budget | None = None) -> dict[str, Any]:
-    """Validate one region and return it normalized (floats, defaults filled in, sorted cells)."""
+def _parse_region(raw: Any, source: str, path: str, budget: _Budget | None = None,
+                  surface_z: float = 0.0) -> dict[str, Any]:
+    """Validate one region and return it normalized (floats, defaults filled in, sorted cells; ``z`` if given)."""
     if not isinstance(raw, Mapping):
         raise field_error(source, path, f"expected an object with a 'shape', got {show(raw)}")
     if "shape" not in raw:
@@ -431,6 +440,10 @@ def _parse_region(raw: Any, source: str, path: str, budget: _Budget | None = Non
                                            f"{path}.removed")
     if shape != "grid":
         budget.add_outline(0 if shape == "polygon" else outline_vertex_count(region), path)
+    if "z" in raw:
+        low, high = surface_z - MAX_HEIGHT_OFFSET_M, surface_z + MAX_HEIGHT_OFFSET_M
+        region["z"] = _number(raw["z"], source, f"{path}.z", low, high, f"a finite top height within "
+                              f"{MAX_HEIGHT_OFFSET_M:g} m of surface_z ({surface_z:g}), in [{low:g}, {high:g}] m")
     minx, miny, maxx, maxy = _region_bounds(region)
     if min(minx, miny) < -MAX_ABS_COORD_M or max(maxx, maxy) > MAX_ABS_COORD_M:
         raise field_error(source, path, f"region extends beyond +-{MAX_ABS_COORD_M:g} m "

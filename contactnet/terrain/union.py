@@ -58,9 +58,9 @@ def snap(values: Any) -> np.ndarray:
     return (whole + (scaled - whole >= 0.5)) / _SNAP_SCALE
 
 
-def steppable_union(regions: Sequence[Mapping[str, Any]], source: str) -> BaseGeometry:
-    """The union of the normalized regions (valid, collinear vertices dropped), or TerrainError naming the
-    limit of the complexity budget it would exceed."""
+def region_pieces(regions: Sequence[Mapping[str, Any]], source: str) -> np.ndarray:
+    """The snapped geometry of each normalized region (an object array aligned with ``regions``; a grid with
+    every cell removed gives an empty polygon), or TerrainError when the outlines exceed the budget."""
     is_grid = np.array([r["shape"] == "grid" for r in regions], dtype=bool)
     present = {int(i): grid_present(regions[i]) for i in np.flatnonzero(is_grid)}
     outline = np.array([outline_corner_count(present[i]) if is_grid[i] else outline_vertex_count(r)
@@ -84,11 +84,22 @@ def steppable_union(regions: Sequence[Mapping[str, Any]], source: str) -> BaseGe
         if invalid.size:  # only a polygon with features below 1 nm gets here: the schema checked the rest
             raise field_error(source, f"regions[{invalid[0]}].vertices", "polygon is not simple at 1e-9 m "
                               f"resolution ({shapely.is_valid_reason(pieces[invalid[0]])})")
+    return pieces
+
+
+def steppable_union(regions: Sequence[Mapping[str, Any]], source: str,
+                    pieces: np.ndarray | None = None) -> BaseGeometry:
+    """The union of the normalized regions (valid, collinear vertices dropped), or TerrainError naming the
+    limit of the complexity budget it would exceed. ``pieces``: the regions' :func:`region_pieces`, when
+    the caller has them already."""
+    if pieces is None:
+        pieces = region_pieces(regions, source)
+    is_grid = np.array([r["shape"] == "grid" for r in regions], dtype=bool)
     nonempty = ~shapely.is_empty(pieces)
     pieces, is_grid = pieces[nonempty], is_grid[nonempty]
     if len(pieces) > 1:
         _check_edge_contacts(pieces, source)
-        union = shapely.simplify(_unite(pieces), 0.0)  # drops exactly collinear vertices only
+        union = shapely.simplify(unite(pieces), 0.0)  # drops exactly collinear vertices only
     elif len(pieces) == 1:  # a grid's trace has no collinear vertices; an outline may
         union = pieces[0] if is_grid[0] else shapely.simplify(pieces[0], 0.0)
     else:
@@ -102,7 +113,7 @@ def steppable_union(regions: Sequence[Mapping[str, Any]], source: str) -> BaseGe
     return union
 
 
-def _unite(pieces: np.ndarray) -> BaseGeometry:
+def unite(pieces: np.ndarray) -> BaseGeometry:
     """The union of the pieces: pieces of similar size together (as disjoint subsets), then those unions and
     the big pieces two at a time, smallest first, each time overlaying only the parts that meet.
 
