@@ -1,16 +1,20 @@
-"""The ContactNet network: rank targets, input normalization, the MLP, fast numpy inference, the model
-file and the top-k metric (paper Sec. III-B and IV).
+"""The ContactNet network: rank targets, the top-k metric, fast numpy inference and the model file
+(paper Sec. III-B and IV).
 
 The network maps the 14 inputs u_r of a state (foot XY of FL, FR, HL, HR in the CoM frame, CoM
 height, CoM velocity, user velocity) to one score per candidate action; a higher score means a
 cheaper (better) candidate. Training regresses the scores onto the paper's rank targets Y.
 
 Two implementations of the same forward pass:
-- `ContactNet` (torch) for training; it takes *normalized* inputs;
+- `ContactNet` (torch, in ``contactnet.network_torch``) for training; it takes *normalized* inputs;
 - `NumpyContactNet` for the planner: raw inputs, normalization folded into the first layer, a few
   microseconds per evaluation, no torch call on the hot path.
 
-The inputs u_r themselves are defined in `contactnet.network_input` (re-exported here).
+This module does not import torch: `load_model` reads the model file with ``contactnet.model_file`` and
+builds the numpy network; ``LoadedModel.torch_model`` builds the torch one when asked for. The torch names
+(`ContactNet`, `save_model`, `torch_scores`, `HIDDEN`) are re-exported from ``contactnet.network_torch``
+on first use. The inputs u_r are defined in `contactnet.network_input`, the input normalization in
+``contactnet.normalizer`` (both re-exported here).
 
 Model file (``contactnet.registry.model_path(robot, gait)``: ``contactnet/models/{walk,trot}.pt`` for
 Solo12): one `torch.save`d dict of plain tensors, strings, numbers and lists, loadable with
@@ -20,30 +24,33 @@ Solo12): one `torch.save`d dict of plain tensors, strings, numbers and lists, lo
      "metadata": {"robot": "solo12", ...}, "content_hash": "sha256:..."}
 ``metadata["robot"]`` names the robot the training data was made with; a file without it (the shipped
 walk.pt and trot.pt predate the field) is a Solo12 model. ``content_hash`` (`content_hash`) is verified at
-load; a file without one (the shipped ones again) has nothing to verify, `rehash` re-saves it with one.
+load; a file without one (the shipped ones again) has nothing to verify but its zip checksums, `rehash`
+re-saves it with one.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
-import io
-import json
 import math
 import os
-import pickle
 import re
-import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import torch
-from torch import nn
 
-from contactnet.atomic import atomic_write_with
 from contactnet.gait import gait_by_name
+from contactnet.model_file import (
+    MODEL_FORMAT,
+    ArchiveError,
+    StoredTensor,
+    TorchArchive,
+    content_hash,
+    read_archive,
+)
 from contactnet.network_input import (
     INPUT_NAMES,
     N_INPUTS,
@@ -52,10 +59,23 @@ from contactnet.network_input import (
     network_input_of_state,
     network_input_one,
 )
+from contactnet.normalizer import Normalizer
 from contactnet.robots import DEFAULT_ROBOT
 
-MODEL_FORMAT = "contactnet-model-v1"
-HIDDEN = (128, 128, 128)
+if TYPE_CHECKING:
+    from contactnet.network_torch import ContactNet
+
+#: Names that need torch, defined in ``contactnet.network_torch`` and imported from there on first use
+#: (``from contactnet.network import ContactNet`` works; ``import contactnet.network`` does not import torch).
+_TORCH_NAMES = ("HIDDEN", "ContactNet", "save_model", "torch_scores")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _TORCH_NAMES:
+        import contactnet.network_torch
+
+        return getattr(contactnet.network_torch, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class ModelFileError(ValueError):
@@ -125,107 +145,7 @@ def topk_accuracy(scores: np.ndarray, V: np.ndarray, k_pred: int = 1, k_true: in
     return float(good.any(axis=1).mean())
 
 
-# ---- input normalization -----------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class Normalizer:
-    """Per-input affine map of the training set's [min, max] onto [-1, 1] (the paper's (-1, 1)).
-
-    An input with a (near) zero range in the training set is only centred (scale 1). Inputs outside
-    the training range map outside [-1, 1]; nothing is clipped.
-    """
-
-    low: np.ndarray  # (14,) training-set minimum of each input
-    high: np.ndarray  # (14,) training-set maximum
-    names: tuple[str, ...] = INPUT_NAMES
-    min_range: float = 1e-9
-
-    def __post_init__(self) -> None:
-        low = np.asarray(self.low, dtype=np.float64).reshape(-1)
-        high = np.asarray(self.high, dtype=np.float64).reshape(-1)
-        if low.shape != high.shape or low.size == 0:
-            raise ValueError(f"Normalizer: low {low.shape} and high {high.shape} must be equal non-empty")
-        if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
-            raise ValueError("Normalizer: low/high must be finite")
-        if np.any(high < low):
-            raise ValueError("Normalizer: high < low for some input")
-        if len(self.names) != low.size:
-            raise ValueError(f"Normalizer: {len(self.names)} names for {low.size} inputs")
-        low.flags.writeable = False
-        high.flags.writeable = False
-        object.__setattr__(self, "low", low)
-        object.__setattr__(self, "high", high)
-        object.__setattr__(self, "names", tuple(str(name) for name in self.names))
-
-    @classmethod
-    def fit(cls, u: np.ndarray, names: tuple[str, ...] | list[str] = INPUT_NAMES) -> Normalizer:
-        u = np.asarray(u, dtype=np.float64)
-        if u.ndim != 2 or u.shape[0] == 0:
-            raise ValueError(f"Normalizer.fit: need (n, n_inputs) with n >= 1, got {u.shape}")
-        return cls(low=u.min(axis=0), high=u.max(axis=0), names=tuple(names))
-
-    @property
-    def center(self) -> np.ndarray:
-        return (self.low + self.high) / 2
-
-    @property
-    def half_range(self) -> np.ndarray:
-        half = (self.high - self.low) / 2
-        return np.where(half > self.min_range, half, 1.0)
-
-    def normalize(self, u: np.ndarray) -> np.ndarray:
-        return (np.asarray(u, dtype=np.float64) - self.center) / self.half_range
-
-    def denormalize(self, x: np.ndarray) -> np.ndarray:
-        return np.asarray(x, dtype=np.float64) * self.half_range + self.center
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"low": [float(v) for v in self.low], "high": [float(v) for v in self.high],
-                "names": list(self.names), "min_range": float(self.min_range)}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> Normalizer:
-        if not isinstance(data, dict):
-            raise ValueError("normalizer must be a dict")
-        missing = [key for key in ("low", "high") if key not in data]
-        if missing:
-            raise ValueError(f"normalizer lacks {', '.join(missing)}")
-        low = data["low"]
-        names = data.get("names") or [f"u{i}" for i in range(len(low))]
-        return cls(low=np.asarray(low, dtype=np.float64), high=np.asarray(data["high"], dtype=np.float64),
-                   names=tuple(names), min_range=float(data.get("min_range", 1e-9)))
-
-
-# ---- the network -------------------------------------------------------------------------------
-class ContactNet(nn.Module):
-    """The paper's MLP: 14 -> 128 -> 128 -> 128 -> N_a, ReLU after every layer but the last.
-
-    The paper says "4 fully connected layers with 128 neurons each, all layers except the last one
-    are followed by ReLU" with input 14 and output N_a. We read that as four Linear layers: three
-    hidden layers of 128 units and the output layer of N_a units (the last layer cannot have 128
-    neurons since it outputs one score per candidate). Input: normalized u (see `Normalizer`).
-    Output: one score per candidate, trained towards the rank targets (1 = cheapest).
-    """
-
-    def __init__(self, n_actions: int, n_inputs: int = N_INPUTS, hidden: tuple[int, ...] = HIDDEN) -> None:
-        super().__init__()
-        sizes = [n_inputs, *hidden, n_actions]
-        layers: list[nn.Module] = []
-        for i, (fan_in, fan_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
-            layers.append(nn.Linear(fan_in, fan_out))
-            if i < len(sizes) - 2:
-                layers.append(nn.ReLU())
-        self.layers = nn.Sequential(*layers)
-        self.n_actions = int(n_actions)
-        self.n_inputs = int(n_inputs)
-        self.hidden = tuple(int(h) for h in hidden)
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.layers(x)
-
-    def linears(self) -> list[nn.Linear]:
-        return [m for m in self.layers if isinstance(m, nn.Linear)]
-
-
+# ---- the network in numpy ----------------------------------------------------------------------
 class NumpyContactNet:
     """ContactNet forward pass in plain numpy for the planner: raw u in, scores out.
 
@@ -244,16 +164,23 @@ class NumpyContactNet:
         self.n_actions = self._wt[-1].shape[1]
 
     @classmethod
-    def from_torch(cls, model: ContactNet, normalizer: Normalizer, dtype: Any = np.float64) -> NumpyContactNet:
-        linears = model.linears()
-        weights = [lin.weight.detach().cpu().double().numpy().copy() for lin in linears]
-        biases = [lin.bias.detach().cpu().double().numpy().copy() for lin in linears]
+    def from_weights(cls, weights: list[np.ndarray], biases: list[np.ndarray], normalizer: Normalizer,
+                     dtype: Any = np.float64) -> NumpyContactNet:
+        """From the Linear layers' weights (out, in) and biases (as stored: float32) and the normalizer."""
+        weights = [np.asarray(w, dtype=np.float64) for w in weights]
+        biases = [np.asarray(b, dtype=np.float64) for b in biases]
         if normalizer.low.size != weights[0].shape[1]:
             raise ValueError(f"normalizer has {normalizer.low.size} inputs, network {weights[0].shape[1]}")
         w1 = weights[0] / normalizer.half_range[None, :]
         biases[0] = biases[0] - w1 @ normalizer.center
         weights[0] = w1
         return cls(weights, biases, dtype=dtype)
+
+    @classmethod
+    def from_torch(cls, model: ContactNet, normalizer: Normalizer, dtype: Any = np.float64) -> NumpyContactNet:
+        linears = model.linears()
+        return cls.from_weights([lin.weight.detach().cpu().double().numpy() for lin in linears],
+                                [lin.bias.detach().cpu().double().numpy() for lin in linears], normalizer, dtype)
 
     def scores(self, u: np.ndarray) -> np.ndarray:
         """(N_a,) scores for one raw input vector u (14,); higher = cheaper candidate. A new array."""
@@ -297,18 +224,28 @@ _HASH = re.compile(r"sha256:[0-9a-f]{64}")
 
 @dataclass
 class LoadedModel:
-    """A model file, loaded and checked."""
+    """A model file, loaded and checked (`load_model`): the numpy network for inference and what the file
+    says. ``torch_model`` is built from the weights (importing torch) only when asked for."""
 
     path: Path
     gait: str
     n_actions: int
-    torch_model: ContactNet
     normalizer: Normalizer
     net: NumpyContactNet
+    #: the Linear layers' weights and biases as stored, float32 and read-only, named as ContactNet's state_dict
+    state_dict: dict[str, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
+    hidden: tuple[int, ...] = ()  #: hidden layer sizes
     metadata: dict[str, Any] = field(default_factory=dict)
     robot: str = DEFAULT_ROBOT  #: the robot the model was trained for (``metadata["robot"]``)
     content_hash: str | None = None  #: recorded at save and verified; None in files saved before hashes
     file_sha256: str = ""  #: of the file's bytes
+
+    @functools.cached_property
+    def torch_model(self) -> ContactNet:
+        """The torch `ContactNet` (eval mode) with these weights, built on first use: training, `rehash`, tests."""
+        from contactnet.network_torch import contactnet_of_state
+
+        return contactnet_of_state(self.state_dict, self.n_actions, self.net.n_inputs, self.hidden)
 
     @property
     def identity(self) -> str:
@@ -322,71 +259,11 @@ class LoadedModel:
         return self.net.ranking(u)
 
 
-def _plain(value: Any, where: str) -> Any:
-    """Metadata as plain str/int/float/bool/None/list/dict (numpy scalars converted), else TypeError."""
-    if value is None or isinstance(value, bool | np.bool_):
-        return None if value is None else bool(value)
-    if isinstance(value, str):
-        return str(value)  # plain str: subclasses (e.g. torch.__version__) are refused by weights_only loading
-    if isinstance(value, int | np.integer):
-        return int(value)
-    if isinstance(value, float | np.floating):
-        return float(value)
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist(), where)
-    if isinstance(value, list | tuple):
-        return [_plain(v, f"{where}[{i}]") for i, v in enumerate(value)]
-    if isinstance(value, dict):
-        return {str(k): _plain(v, f"{where}.{k}") for k, v in value.items()}
-    raise TypeError(f"metadata {where}: {type(value).__name__} is not a plain value")
-
-
-def content_hash(gait: str, robot: str, hidden: Any, state: dict[str, torch.Tensor], normalizer: Normalizer) -> str:
-    """``sha256:<hex>`` over what decides a model's scores and where it may be used: a JSON header (format,
-    gait, robot, hidden sizes, the normalizer's ``to_dict()``, sorted keys), then for each state_dict entry in
-    name order its name and shape and its values as little-endian float32. Metadata (training facts) is
-    not covered."""
-    digest = hashlib.sha256()
-    head = {"format": MODEL_FORMAT, "gait": gait, "robot": robot, "hidden": [int(h) for h in hidden],
-            "normalizer": normalizer.to_dict()}
-    digest.update(json.dumps(head, sort_keys=True).encode())
-    for name in sorted(state):
-        values = state[name].detach().cpu().to(torch.float32).contiguous().numpy()
-        digest.update(f"\n{name} {tuple(values.shape)}\n".encode())
-        digest.update(values.astype("<f4", copy=False).tobytes())
-    return f"sha256:{digest.hexdigest()}"
-
-
-def save_model(path: str | os.PathLike, model: ContactNet, normalizer: Normalizer, metadata: dict[str, Any]) -> Path:
-    """Write the model file atomically (``contactnet.atomic``: a reader sees the old file or the new one).
-
-    `metadata` must name the `gait`, and may name the `robot` (default Solo12); it is stored as plain
-    values (see the module docstring). The file records its `content_hash`, verified at load."""
-    path = Path(path)
-    gait = metadata.get("gait")
-    if gait is None:
-        raise ValueError("save_model: metadata must contain 'gait'")
-    robot = metadata.get("robot", DEFAULT_ROBOT)
-    if not isinstance(robot, str) or not robot:
-        raise ValueError(f"save_model: metadata 'robot' must be a robot name, got {robot!r}")
-    if _n_actions_of(gait) != model.n_actions:
-        raise ValueError(f"save_model: gait {gait!r} has {_n_actions_of(gait)} actions, model {model.n_actions}")
-    if normalizer.low.size != model.n_inputs:
-        raise ValueError(f"save_model: normalizer has {normalizer.low.size} inputs, model {model.n_inputs}")
-    meta = _plain(dict(metadata), "metadata")
-    meta["n_actions"] = model.n_actions
-    meta["robot"] = robot
-    meta.setdefault("normalization", normalizer.to_dict())
-    state = {k: v.detach().cpu().float().clone() for k, v in model.state_dict().items()}
-    payload = {"format": MODEL_FORMAT, "gait": str(gait), "n_actions": model.n_actions, "n_inputs": model.n_inputs,
-               "hidden": list(model.hidden), "state_dict": state, "normalizer": normalizer.to_dict(), "metadata": meta,
-               "content_hash": content_hash(str(gait), robot, model.hidden, state, normalizer)}
-    return atomic_write_with(path, lambda handle: torch.save(payload, handle))
-
-
 def rehash(path: str | os.PathLike, out: str | os.PathLike | None = None) -> Path:
     """Load and check a model file (e.g. one saved before files recorded a content hash) and save it again,
     with its hash, to ``out`` (default: over ``path``, atomically): the same weights, normalizer and metadata."""
+    from contactnet.network_torch import save_model
+
     loaded = load_model(path)
     return save_model(path if out is None else out, loaded.torch_model, loaded.normalizer,
                       {**loaded.metadata, "gait": loaded.gait, "robot": loaded.robot})
@@ -399,52 +276,11 @@ def _first_line(exc: BaseException, limit: int = 120) -> str:
 
 
 def _excerpt(value: Any, limit: int = 60) -> str:
-    text = repr(value)
+    try:
+        text = repr(value)
+    except RecursionError:  # a pickle can nest lists a million deep
+        return f"a deeply nested {type(value).__name__}"
     return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-def _read_archive(path: Path, fail: Callable[[str], ModelFileError]) -> io.BytesIO:
-    """The file's bytes, once they are known to be a zip archive of bounded declared sizes."""
-    if not path.exists():
-        raise fail("no such file")
-    if not path.is_file():
-        raise fail("not a regular file")
-    try:
-        if path.stat().st_size > MAX_FILE_BYTES:
-            raise fail(f"is larger than the largest allowed network needs ({MAX_FILE_BYTES} bytes)")
-        with open(path, "rb") as handle:
-            data = handle.read(MAX_FILE_BYTES + 1)  # bounded even if the file grows meanwhile
-    except OSError as exc:
-        raise fail(f"cannot be read ({type(exc).__name__})") from None
-    if not data:
-        raise fail("is empty")
-    if len(data) > MAX_FILE_BYTES:
-        raise fail(f"is larger than the largest allowed network needs ({MAX_FILE_BYTES} bytes)")
-    archive = io.BytesIO(data)
-    if not zipfile.is_zipfile(archive):  # torch.save writes a zip archive; a truncated one has no directory
-        raise fail("is not a complete torch file (truncated, or some other format)")
-    try:
-        with zipfile.ZipFile(archive) as listing:
-            entries = listing.infolist()
-    except (zipfile.BadZipFile, ValueError, OSError) as exc:
-        raise fail(f"cannot be read as a torch file, corrupt? ({type(exc).__name__})") from None
-    pickled = max((e.file_size for e in entries if e.filename.endswith("data.pkl")), default=0)
-    if pickled > MAX_METADATA_BYTES:
-        raise fail(f"declares {pickled} bytes of metadata, more than {MAX_METADATA_BYTES}")
-    if sum(e.file_size for e in entries) > MAX_FILE_BYTES:
-        raise fail(f"declares more content than the largest allowed network needs ({MAX_FILE_BYTES} bytes)")
-    return archive
-
-
-def _torch_load(archive: io.BytesIO, location: str, fail: Callable[[str], ModelFileError]) -> Any:
-    """``torch.load`` with weights_only; on ``"meta"`` no tensor data is read or allocated, only shapes."""
-    archive.seek(0)
-    try:
-        return torch.load(archive, map_location=location, weights_only=True)
-    except pickle.UnpicklingError:
-        raise fail("holds objects other than tensors and plain values (refused by weights_only loading)") from None
-    except Exception as exc:  # torch raises many types for corrupt archives
-        raise fail(f"cannot be read as a torch file, corrupt? ({type(exc).__name__})") from None
 
 
 def _layer_shapes(n_inputs: int, hidden: list[int], n_actions: int) -> dict[str, tuple[int, ...]]:
@@ -457,9 +293,9 @@ def _layer_shapes(n_inputs: int, hidden: list[int], n_actions: int) -> dict[str,
     return shapes
 
 
-def _check_state(state: Any, shapes: dict[str, tuple[int, ...]], fail: Callable[[str], ModelFileError],
-                 values: bool) -> None:
-    """Names, shapes, dtypes and stored sizes (on meta tensors too); finite values when ``values``."""
+def _check_state(state: Any, shapes: dict[str, tuple[int, ...]],
+                 fail: Callable[[str], ModelFileError]) -> dict[str, StoredTensor]:
+    """Names, shapes, dtypes and declared storage sizes of the stored tensors (nothing read yet)."""
     if not isinstance(state, dict):
         raise fail("state_dict is not a dict")
     missing_w = sorted(set(shapes) - set(state))
@@ -470,15 +306,16 @@ def _check_state(state: Any, shapes: dict[str, tuple[int, ...]], fail: Callable[
         raise fail(f"state_dict does not match the network ({'; '.join(parts)})")
     for name, shape in shapes.items():
         tensor = state[name]
-        if not isinstance(tensor, torch.Tensor):
+        if not isinstance(tensor, StoredTensor):
             raise fail(f"state_dict[{name!r}] is not a tensor")
-        if tuple(tensor.shape) != shape:
-            raise fail(f"state_dict[{name!r}] has shape {_excerpt(tuple(tensor.shape))}, expected {shape}")
-        if not tensor.is_floating_point() or (values and not bool(torch.isfinite(tensor).all())):
+        if tensor.shape != shape:
+            raise fail(f"state_dict[{name!r}] has shape {_excerpt(tensor.shape)}, expected {shape}")
+        if not tensor.floating:
             raise fail(f"state_dict[{name!r}] is not finite floating point")
-        stored = tensor.untyped_storage().nbytes()
-        if stored > 8 * max(1, math.prod(shape)):
-            raise fail(f"state_dict[{name!r}] is stored in {stored} bytes, more than its shape {shape} needs")
+        if tensor.stored_bytes > 8 * max(1, math.prod(shape)):
+            raise fail(f"state_dict[{name!r}] is stored in {tensor.stored_bytes} bytes, more than its shape {shape} "
+                       "needs")
+    return {name: state[name] for name in shapes}
 
 
 def _tensors_outside(payload: dict) -> bool:
@@ -486,7 +323,7 @@ def _tensors_outside(payload: dict) -> bool:
     stack, seen = [value for key, value in payload.items() if key != "state_dict"], set()
     while stack:
         value = stack.pop()
-        if isinstance(value, torch.Tensor):
+        if isinstance(value, StoredTensor):
             return True
         if id(value) in seen:  # a pickle can make a list that holds itself
             continue
@@ -498,21 +335,43 @@ def _tensors_outside(payload: dict) -> bool:
     return False
 
 
+def _read_weights(archive: TorchArchive, tensors: dict[str, StoredTensor],
+                  fail: Callable[[str], ModelFileError]) -> dict[str, np.ndarray]:
+    """The checked tensors' values as read-only float32 arrays (torch's ``.float()``); finite."""
+    state: dict[str, np.ndarray] = {}
+    for name, tensor in tensors.items():
+        try:
+            with np.errstate(over="ignore"):  # a float64 beyond float32's range becomes inf: refused below
+                values = archive.read(tensor).astype(np.float32, copy=False)
+        except ArchiveError as exc:
+            raise fail(str(exc)) from None
+        if not np.isfinite(values).all():
+            raise fail(f"state_dict[{name!r}] is not finite floating point")
+        values.flags.writeable = False
+        state[name] = values
+    return state
+
+
 def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n_actions: int | None = None,
                expect_robot: str | None = None, dtype: Any = np.float64) -> LoadedModel:
-    """Load and check a model file; any problem raises ModelFileError naming the file.
+    """Load and check a model file, without torch; any problem raises ModelFileError naming the file.
 
     ``expect_gait``, ``expect_n_actions``, ``expect_robot``: refuse a model of another gait, size or robot
-    (a file that names no robot is a Solo12 model). Order: the archive's declared sizes; the pickled dict
-    read with its tensors on the ``meta`` device (no data): metadata, architecture limits, every tensor's
-    shape and stored size; only then the tensors' data, their finiteness and the recorded content hash."""
+    (a file that names no robot is a Solo12 model). Order: the archive's declared sizes; the pickled dict,
+    read through an allow-list with its tensors as declarations (``contactnet.model_file``: no data):
+    metadata, architecture limits, every tensor's shape and stored size; only then the tensors' data (each
+    entry's real size against its declared one), their finiteness, the recorded content hash and the zip
+    checksums. ``dtype``: of the numpy network's arithmetic."""
     path = Path(path)
 
     def fail(problem: str) -> ModelFileError:
         return ModelFileError(f"model file {path}: {problem}")
 
-    archive = _read_archive(path, fail)
-    payload = _torch_load(archive, "meta", fail)
+    try:
+        archive = read_archive(path, MAX_FILE_BYTES, MAX_METADATA_BYTES)
+        payload = archive.payload()
+    except ArchiveError as exc:
+        raise fail(str(exc)) from None
     if not isinstance(payload, dict):
         raise fail(f"not a contactnet model (a {type(payload).__name__}, not a dict)")
     if "format" not in payload:
@@ -553,7 +412,7 @@ def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n
         raise fail(f"is a {robot!r} model, but a {expect_robot!r} model was expected")
     try:
         normalizer = Normalizer.from_dict(payload["normalizer"])
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, RecursionError) as exc:
         raise fail(f"bad normalizer ({_first_line(exc)})") from None
     if normalizer.low.size != n_inputs:
         raise fail(f"normalizer has {normalizer.low.size} inputs, expected {n_inputs}")
@@ -561,33 +420,29 @@ def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n
     if recorded is not None and not (isinstance(recorded, str) and _HASH.fullmatch(recorded)):
         raise fail(f"content_hash {_excerpt(recorded)} is not 'sha256:' and 64 hex digits")
     shapes = _layer_shapes(n_inputs, list(hidden), n_actions)
-    _check_state(payload["state_dict"], shapes, fail, values=False)
+    tensors = _check_state(payload["state_dict"], shapes, fail)
     if _tensors_outside(payload):
         raise fail("holds tensors outside state_dict")
 
-    state = _torch_load(archive, "cpu", fail)["state_dict"]  # the same bytes: now with the tensors' data
-    _check_state(state, shapes, fail, values=True)
+    state = _read_weights(archive, tensors, fail)  # the first tensor data read
     if recorded is not None and content_hash(gait, robot, hidden, state, normalizer) != recorded:
         raise fail("content hash mismatch: the file was changed after it was saved")
-    model = ContactNet(n_actions, n_inputs=n_inputs, hidden=tuple(hidden))
-    model.load_state_dict({k: state[k].float() for k in shapes})
-    model.eval()
-    net = NumpyContactNet.from_torch(model, normalizer, dtype=dtype)
-    return LoadedModel(path=path, gait=gait, n_actions=n_actions, torch_model=model, normalizer=normalizer,
-                       net=net, metadata=dict(metadata), robot=robot, content_hash=recorded,
-                       file_sha256=hashlib.sha256(archive.getbuffer()).hexdigest())
+    try:
+        archive.check_checksums(tensors.values())
+    except ArchiveError as exc:
+        raise fail(str(exc)) from None
+    names = list(shapes)  # layers.0.weight, layers.0.bias, layers.2.weight, ...
+    net = NumpyContactNet.from_weights([state[n] for n in names[0::2]], [state[n] for n in names[1::2]],
+                                       normalizer, dtype=dtype)
+    return LoadedModel(path=path, gait=gait, n_actions=n_actions, normalizer=normalizer, net=net, state_dict=state,
+                       hidden=tuple(hidden), metadata=dict(metadata), robot=robot, content_hash=recorded,
+                       file_sha256=hashlib.sha256(archive.data).hexdigest())
 
 
-def torch_scores(model: ContactNet, normalizer: Normalizer, u: np.ndarray) -> np.ndarray:
-    """Reference (slow path) scores from the torch model for raw inputs u (14,) or (B, 14)."""
-    x = torch.as_tensor(normalizer.normalize(u), dtype=torch.float32)
-    with torch.no_grad():
-        return model(x).numpy()
-
-
+#: Without the torch names (`_TORCH_NAMES`): ``from contactnet.network import *`` does not import torch.
 __all__ = [
     "INPUT_NAMES", "MAX_FILE_BYTES", "MAX_HIDDEN_LAYERS", "MAX_HIDDEN_UNITS", "MODEL_FORMAT", "N_INPUTS",
-    "ContactNet", "LoadedModel", "ModelFileError", "Normalizer", "NumpyContactNet", "cheapest_first",
-    "content_hash", "load_model", "network_input", "network_input_of_context", "network_input_of_state",
-    "network_input_one", "rank_targets", "rehash", "save_model", "topk_accuracy", "torch_scores",
+    "LoadedModel", "ModelFileError", "Normalizer", "NumpyContactNet", "cheapest_first", "content_hash",
+    "load_model", "network_input", "network_input_of_context", "network_input_of_state", "network_input_one",
+    "rank_targets", "rehash", "topk_accuracy",
 ]

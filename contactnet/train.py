@@ -43,13 +43,12 @@ from contactnet.jobs import check_file
 from contactnet.network import (
     INPUT_NAMES,
     N_INPUTS,
-    ContactNet,
     ModelFileError,
     Normalizer,
     rank_targets,
-    save_model,
     topk_accuracy,
 )
+from contactnet.network_torch import ContactNet, save_model
 
 DATASET_FORMAT = "contactnet-dataset-v1"
 EXIT_INTERRUPTED = 130

@@ -1,5 +1,5 @@
 """ContactNet network: the input u_r, rank targets, normalizer, numpy == torch, top-k metric, the model file
-(and the robot it records)."""
+(and the robot it records). The torch-free reading of model files: tests/test_model_file.py."""
 
 from __future__ import annotations
 
@@ -101,6 +101,15 @@ def test_network_input_of_context_and_state_match_the_general_function():
                                 vel_cmd_world=np.array([c * cmd[0] - s * cmd[1], s * cmd[0] + c * cmd[1]]),
                                 ground_z=float(ground))
         np.testing.assert_allclose(network_input_of_state(state), expected, rtol=0, atol=1e-12)
+
+
+def test_the_torch_names_are_re_exported_from_network_torch():
+    import contactnet.network_torch as network_torch
+
+    assert ContactNet is network_torch.ContactNet and save_model is network_torch.save_model
+    assert torch_scores is network_torch.torch_scores and network_module.HIDDEN == (128, 128, 128)
+    with pytest.raises(AttributeError, match="no attribute 'Nothing'"):
+        network_module.Nothing  # noqa: B018
 
 
 def test_network_input_module_does_not_need_torch():
