@@ -4,6 +4,7 @@ planner names from `contactnet.registry`, and `state_of`, the State of a LiveVie
 from __future__ import annotations
 
 import math
+import re
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -17,7 +18,7 @@ from pydantic import (
 )
 
 from app.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
-from app.view import LiveView
+from app.view import LiveView, RunSummary, status_line
 from contactnet import registry
 
 
@@ -78,7 +79,30 @@ class PushCommand(_Strict):
 
 
 class PauseCommand(_Strict):
-    paused: bool
+    paused: bool = Field(description="true: stop the clock; false: run (also ends the wait for a first browser)")
+
+
+def compare_command_model() -> type[BaseModel]:
+    """The body of POST /api/compare: two of the registry's planner names (read now: build the API after
+    registering your own), the main robot's first, or none."""
+    planner = Literal[registry.planner_names()]  # type: ignore[valid-type]
+    return create_model(
+        "CompareCommand",
+        __base__=_Strict,
+        __doc__="Compare mode: two planners' robots on the same terrain with the same command, the main robot's "
+        "planner first (both restart); an empty list turns compare mode off.",
+        planners=(
+            list[planner],  # type: ignore[valid-type]
+            Field(..., max_length=2, description="two planner names, or none"),
+        ),
+        __validators__={"two_or_none": model_validator(mode="after")(_two_or_none)},
+    )
+
+
+def _two_or_none(model: BaseModel) -> BaseModel:
+    if len(model.planners) not in (0, 2):
+        raise ValueError("planners: give two planner names (the main robot's first), or none to turn it off")
+    return model
 
 
 def settings_command_model() -> type[BaseModel]:
@@ -93,6 +117,10 @@ def settings_command_model() -> type[BaseModel]:
         noise=(
             bool | None,
             Field(None, description="Gaussian joint-velocity noise, variance 0.01 (rad/s)^2"),
+        ),
+        loop=(
+            bool | None,
+            Field(None, description="start the next run a few seconds after the goal or a fall"),
         ),
         speed=(
             float | None,
@@ -134,10 +162,6 @@ class TerrainSelect(_Strict):
         return self
 
 
-class RecordingStart(_Strict):
-    label: str = Field("", max_length=40, pattern=r"^[A-Za-z0-9_ -]*$")
-
-
 def _vector(kind: type, json_type: str, n: int) -> Any:
     """A tuple of ``n`` values, described in JSON Schema as an array with ``items`` and min/maxItems (a tuple's
     default schema, ``prefixItems``, is not read by every OpenAPI tool)."""
@@ -148,40 +172,111 @@ def _vector(kind: type, json_type: str, n: int) -> Any:
 Float2, Float3, Bool4 = _vector(float, "number", 2), _vector(float, "number", 3), _vector(bool, "boolean", 4)
 
 
-class State(BaseModel):
-    """The live session now."""
+class RunResult(BaseModel):
+    """How one robot of a run ended (or stands when the run was summed up)."""
 
-    t_s: float
-    running: bool
-    paused: bool
-    done: str | None
-    fell: bool
-    fall_reason: str | None
-    reached_goal: bool
-    speed: float
-    real_time_factor: float
-    terrain: str
-    gait: str
-    planner: str
-    planner_active: str
-    planner_note: str | None
-    noise: bool
-    vel_cmd: Float2
-    base_position: Float3
-    com_position: Float3
-    com_velocity: Float3
-    stance: Bool4
-    foot_contact: Bool4
-    steps: int
-    rank_chosen: int | None
-    last_planner_ms: float
-    last_trajopt_ms: float
-    pushes: int
-    push_force: Float3
-    error: str | None
-    recording: bool
-    viser_port: int
-    robot: str
+    planner: str = Field(description="the planner this robot used")
+    x: float = Field(description="m, the base's forward position (world frame)")
+    fell: bool = Field(description="the robot fell")
+    success: bool = Field(description="the robot reached the goal line without falling")
+    steps: int = Field(description="steps taken")
+    rank_mean: float | None = Field(
+        description="mean ranking position of the chosen actions (0 = the network's first choice); null for "
+        "planners that do not rank"
+    )
+
+
+class RunReport(BaseModel):
+    """A finished run (goal, fall, or stopped) of the main robot."""
+
+    index: int = Field(description="1 for the session's first run, then 2, 3, ...")
+    t_s: float = Field(description="s, simulated time the run lasted")
+    steps: int = Field(description="steps taken")
+    rank_mean: float | None = Field(description="mean ranking position of the chosen actions (ranking planners)")
+    rank_max: int | None = Field(description="worst ranking position chosen (ranking planners)")
+    success: bool = Field(description="reached the goal line without falling")
+    reason: str = Field(description='"goal reached", "fell: <why>" or "stopped: <why>"')
+    x: float = Field(description="m, the base's forward position at the end")
+    terrain: str = Field(description="the terrain's label")
+    gait: str = Field(description="the gait")
+    planner: str = Field(description="the planner actually used")
+    compare: list[RunResult] | None = Field(description="the other robots' results in compare mode, else null")
+
+
+class NoticeModel(BaseModel):
+    """A message for the user about a change they made (shown once, as a toast)."""
+
+    seq: int = Field(description="grows by one per notice of the session: show those above the last one shown")
+    level: Literal["info", "warning"] = Field(description="warning: the change stopped or restarted the robot")
+    text: str = Field(description="one sentence")
+
+
+class Scenario(BaseModel):
+    """The query of a link that opens this scenario: /?terrain=...&gait=...&planner=...&compare=a,b."""
+
+    terrain: str | None = Field(
+        description="a terrain name, or 'random' (with removed and seed); null for an edited terrain not saved"
+    )
+    removed: int | None = Field(description="random terrain: squares removed")
+    seed: int | None = Field(description="random terrain: seed")
+    gait: str = Field(description="the gait")
+    planner: str = Field(description="the main robot's planner")
+    compare: list[str] | None = Field(description="compare mode's planners, main first; null when off")
+
+
+class State(BaseModel):
+    """The live session now (world frame: x forward along the terrain, z up; SI units)."""
+
+    session_id: str = Field(description="new on every server start: a client seeing it change reconnects")
+    status_text: str = Field(description="the session's state in one sentence (the page's header and the 3D "
+                             "view's status panel show the same)")
+    t_s: float = Field(description="s, simulated time since the run started")
+    running: bool = Field(description="the simulation advances (not paused, waiting, counting down or done)")
+    paused: bool = Field(description="paused by a user (POST /api/pause)")
+    waiting_for_viewer: bool = Field(
+        description="the robot waits for the first browser to open the 3D view (or POST /api/pause "
+        '{"paused": false})'
+    )
+    starts_in_s: float | None = Field(description="s (wall), count-down before the robot starts; else null")
+    done: str | None = Field(description='how the run ended: "goal reached" or "fell: <why>"; null while walking')
+    fell: bool = Field(description="the main robot fell (see fall_reason)")
+    fall_reason: str | None = Field(description="why the fall detector ended the run; null when not fallen")
+    reached_goal: bool = Field(description="the base crossed the goal line")
+    loop: bool = Field(description="the next run starts a few seconds after the goal or a fall")
+    restart_in_s: float | None = Field(description="s (wall) until the next run (loop); else null")
+    runs: int = Field(description="finished runs since the server started")
+    last_run: RunReport | None = Field(description="the last finished run; null before the first one ends")
+    progress: float = Field(description="0 at the start, 1 at the goal line (forward position)")
+    start_x_m: float = Field(description="m, forward position of the start")
+    goal_x_m: float = Field(description="m, forward position of the goal line")
+    speed: float = Field(description="simulated seconds per wall-clock second")
+    real_time_factor: float = Field(description="simulated / wall time over the last ~2 s of running")
+    terrain: str = Field(description="the terrain's label (file name, generator, or '<name> (edited)')")
+    gait: str = Field(description="the gait (walk: one leg at a time; trot: diagonal pairs)")
+    planner: str = Field(description="the planner asked for")
+    planner_active: str = Field(description="the planner used (the heuristic when the asked one's model is "
+                                "missing: see planner_note)")
+    planner_note: str | None = Field(description="why the planner used is not the one asked for; else null")
+    noise: bool = Field(description="the paper's joint-velocity noise (variance 0.01 (rad/s)^2) is on")
+    vel_cmd: Float2 = Field(description="m/s, commanded (forward, left) velocity in the robot's heading frame")
+    base_position: Float3 = Field(description="m, base position (world)")
+    com_position: Float3 = Field(description="m, centre of mass (world)")
+    com_velocity: Float3 = Field(description="m/s, centre-of-mass velocity (world)")
+    stance: Bool4 = Field(description="planned stance per leg (FL, FR, HL, HR)")
+    foot_contact: Bool4 = Field(description="measured contact per leg (FL, FR, HL, HR)")
+    steps: int = Field(description="steps taken in this run")
+    rank_chosen: int | None = Field(description="ranking position of the step being taken (ranking planners)")
+    last_planner_ms: float = Field(description="ms, the last planner call")
+    last_trajopt_ms: float = Field(description="ms, the last trajectory optimization")
+    pushes: int = Field(description="pushes applied in this run")
+    push_force: Float3 = Field(description="N, the pushes acting now (world)")
+    error: str | None = Field(description="the error that stopped the simulation; null when none")
+    recording: bool = Field(description="a scene recording is in progress")
+    viser_port: int = Field(description="port of the 3D view's websocket (viser)")
+    robot: str = Field(description="the robot's registry name")
+    notices: list[NoticeModel] = Field(description="the last few notices, oldest first")
+    compare: list[RunResult] | None = Field(description="compare mode: the other robots now; null when off")
+    scenario: Scenario = Field(description="the query of a link that opens this scenario (see Scenario)")
 
 
 class TerrainEntry(BaseModel):
@@ -201,41 +296,68 @@ class Saved(BaseModel):
     path: str
 
 
-class RecordingEntry(BaseModel):
-    name: str
-    size_bytes: int
-    modified: float
-    download_url: str
-    html_url: str
-    play_url: str
-
-
-class RecordingStatus(BaseModel):
-    recording: bool
-    name: str | None
-    frames: int
-    duration_s: float
-    last_saved: str | None
-
-
 class Info(BaseModel):
-    viser_port: int
-    viewer_url: str
-    version: str
-    robot: str
+    session_id: str = Field(description="new on every server start")
+    viser_port: int = Field(description="port of the 3D view's websocket (viser)")
+    viewer_url: str = Field(description="the 3D view's page (give it ?websocket=ws://host:viser_port)")
+    version: str = Field(description="contactnet's version")
+    robot: str = Field(description="the robot's registry name")
+
+
+def _result(r: Any) -> RunResult:
+    return RunResult(planner=r.planner, x=r.x_m, fell=r.fell, success=r.success, steps=r.steps,
+                     rank_mean=r.rank_mean)
+
+
+def _run_report(run: RunSummary | None) -> RunReport | None:
+    if run is None:
+        return None
+    return RunReport(
+        index=run.index, t_s=run.t_s, steps=run.steps, rank_mean=run.rank_mean, rank_max=run.rank_max,
+        success=run.success, reason=run.reason, x=run.reached_x_m, terrain=run.terrain, gait=run.gait,
+        planner=run.planner, compare=None if run.compare is None else [_result(r) for r in run.compare],
+    )
+
+
+_RANDOM_LABEL = re.compile(r"^random \(removed (\d+), seed (\d+)\)$")
+_TERRAIN_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$")
+
+
+def scenario_of(view: LiveView) -> Scenario:
+    """The shareable scenario: the terrain as loadable by name (not an edited one), gait, planner, compare."""
+    s = view.status
+    terrain, removed, seed = None, None, None
+    random_label = _RANDOM_LABEL.match(s.terrain)
+    if random_label:
+        terrain, removed, seed = "random", int(random_label[1]), int(random_label[2])
+    elif _TERRAIN_NAME.match(s.terrain):
+        terrain = s.terrain
+    compare = None if view.compare is None else [s.planner, *(r.planner for r in view.compare)]
+    return Scenario(terrain=terrain, removed=removed, seed=seed, gait=s.gait, planner=s.planner, compare=compare)
 
 
 def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
-    s, snap = view.status, view.snapshot
+    s, snap, run = view.status, view.snapshot, view.run
     q = snap.q
     return State(
+        session_id=view.session_id,
+        status_text=status_line(view),
         t_s=snap.t_s,
         running=s.running,
         paused=s.paused,
+        waiting_for_viewer=run.waiting_for_viewer,
+        starts_in_s=run.starts_in_s,
         done=s.done,
         fell=snap.fell,
         fall_reason=snap.fall_reason,
         reached_goal=snap.reached_goal,
+        loop=run.loop,
+        restart_in_s=run.restart_in_s,
+        runs=run.runs,
+        last_run=_run_report(run.last_run),
+        progress=run.progress,
+        start_x_m=run.start_x_m,
+        goal_x_m=run.goal_x_m,
         speed=s.speed,
         real_time_factor=s.real_time_factor,
         terrain=s.terrain,
@@ -260,6 +382,9 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         recording=recording,
         viser_port=viser_port,
         robot=s.robot,
+        notices=[NoticeModel(seq=n.seq, level=n.level, text=n.text) for n in view.notices],
+        compare=None if view.compare is None else [_result(r) for r in view.compare],
+        scenario=scenario_of(view),
     )
 
 

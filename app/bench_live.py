@@ -1,7 +1,7 @@
 """Does the live session keep real time with browsers connected? And how big is a recording?
 
     contactnet bench live                  (the defaults below)
-    python -m app.bench_live [--seconds 60] [--cases 0,1:normal,1:idle,5:idle] [--viewport 960x600] [--json]
+    python -m app.bench_live [--seconds 60] [--cases 0,1:normal,1:idle,5:idle,1:idle:compare] [--json]
 
 Each case starts the whole tool (FastAPI + viser + live session; flat terrain, walk, vx 0.05 m/s,
 scene updates at 30 Hz), opens N headless chromium pages of the front page (playwright, Debian
@@ -16,6 +16,9 @@ it under SCHED_IDLE (`chrt --idle 0`), so the browsers only take CPU the server 
 render with SwiftShader (no GPU): a frame costs about 0.1-0.3 s of CPU, so on this 2-core machine
 five pages want more than all of it; `idle` stands for browsers on other machines, which is what
 the server-side cost per connected browser is about. Both are reported.
+
+A case ending in `:compare` runs compare mode (two robots: ContactNet and the fixed gait, both simulated and
+drawn), the issue-12 target being real time with one browser.
 """
 
 from __future__ import annotations
@@ -72,9 +75,15 @@ def viewer_frame(page):
 
 
 def run_case(
-    n_browsers: int, priority: str, seconds: float, viewport: tuple[int, int], record: bool, workdir: Path
+    n_browsers: int,
+    priority: str,
+    seconds: float,
+    viewport: tuple[int, int],
+    record: bool,
+    workdir: Path,
+    compare: bool = False,
 ) -> dict:
-    from app.commands import Reset
+    from app.commands import Reset, SetCompare
     from app.recordings import free_port
     from app.server import BackgroundServer, ContactnetApp
     from app.settings import ServeSettings
@@ -84,6 +93,7 @@ def run_case(
             terrain="flat",
             gait="walk",
             vx_m_s=0.05,
+            wait_for_viewer=False,
             viser_port=free_port(),
             recordings_dir=workdir / "recordings",
         )
@@ -111,6 +121,8 @@ def run_case(
                 raise RuntimeError(
                     f"expected {n_browsers} viser clients, got {len(app.viewer.server.get_clients())}"
                 )
+        if compare:
+            app.session.call(SetCompare(("contactnet", "fixed")))
         app.session.call(Reset())
         time.sleep(2.0)
         stats, viewer_stats = app.session.stats, app.viewer.stats
@@ -144,6 +156,7 @@ def run_case(
         return {
             "browsers": n_browsers,
             "priority": priority if n_browsers else "-",
+            "robots": 2 if compare else 1,
             "rtf": round(rtf, 3),
             "target": f">= {target}",
             "ok": rtf >= target,
@@ -168,17 +181,23 @@ def run_case(
         app.close()
 
 
-def bench_live(seconds: float = 60.0, cases: str = "0,1:normal,1:idle,5:idle", viewport: str = "960x600") -> list[dict]:
-    """One row per case of ``cases`` (comma-separated ``N[:normal|idle]`` browser counts and priorities)."""
+DEFAULT_CASES = "0,1:normal,1:idle,5:idle,1:idle:compare"
+
+
+def bench_live(seconds: float = 60.0, cases: str = DEFAULT_CASES, viewport: str = "960x600") -> list[dict]:
+    """One row per case of ``cases`` (comma-separated ``N[:normal|idle][:compare]``: browser counts, their
+    priority, compare mode)."""
     size = tuple(int(v) for v in viewport.split("x"))
     rows, recorded = [], False
     with tempfile.TemporaryDirectory() as tmp:
         for spec in cases.split(","):
-            count, _, priority = spec.partition(":")
+            count, *options = spec.split(":")
             n = int(count)
+            compare = "compare" in options
+            priority = next((o for o in options if o in ("normal", "idle")), "normal")
             record = n > 0 and not recorded
             recorded |= record
-            rows.append(run_case(n, priority or "normal", seconds, size, record, Path(tmp)))
+            rows.append(run_case(n, priority, seconds, size, record, Path(tmp), compare))
             print(f"done: {rows[-1]}", file=sys.stderr, flush=True)
     return rows
 
@@ -190,8 +209,8 @@ def main() -> int:
     parser.add_argument("--seconds", type=float, default=60.0, help="measurement window (wall time)")
     parser.add_argument(
         "--cases",
-        default="0,1:normal,1:idle,5:idle",
-        help="comma-separated N[:normal|idle] browser counts and priorities",
+        default=DEFAULT_CASES,
+        help="comma-separated N[:normal|idle][:compare] browser counts, priorities, compare mode",
     )
     parser.add_argument("--viewport", default="960x600")
     parser.add_argument("--json", action="store_true")

@@ -116,7 +116,8 @@ def bench_upload(cols: int = 500, rows: int = 500, removed: int = 20_000) -> lis
 
     body = json.dumps(grid_terrain(cols, rows, removed)).encode()
     with tempfile.TemporaryDirectory() as tmp:
-        app = ContactnetApp(ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, viser_port=free_port(),
+        app = ContactnetApp(ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, wait_for_viewer=False,
+                                          viser_port=free_port(),
                                           terrains_dir=Path(tmp) / "terrains",
                                           recordings_dir=Path(tmp) / "recordings"))
         port = free_port()

@@ -102,6 +102,32 @@ class UndoTerrainEdit:
 
 
 @dataclass(frozen=True)
+class RedoTerrainEdit:
+    """Apply again the edit the last undo took back (EditError when there is none)."""
+
+
+@dataclass(frozen=True)
+class ViewerConnected:
+    """A browser opened the 3D view: a session waiting for its first viewer starts (after a short count-down,
+    so the scene is drawn before the robot moves)."""
+
+
+@dataclass(frozen=True)
+class SetLoop:
+    """Restart the run a few seconds after the goal or a fall (on), or stay at its end (off)."""
+
+    on: bool
+
+
+@dataclass(frozen=True)
+class SetCompare:
+    """Compare mode: ``planners`` = (main, other): two robots on the same terrain with the same command, both
+    restarted; () turns it off."""
+
+    planners: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class RenameTerrain:
     """Call the current terrain ``label`` from now on (after it was saved under that name); no rebuild."""
 
@@ -122,7 +148,11 @@ Command = (
     | SetTerrain
     | EditTerrain
     | UndoTerrainEdit
+    | RedoTerrainEdit
     | RenameTerrain
+    | ViewerConnected
+    | SetLoop
+    | SetCompare
 )
 
 
@@ -178,3 +208,12 @@ def check_command(command: Command) -> None:
     elif isinstance(command, RenameTerrain):
         if not isinstance(command.label, str) or not command.label:
             raise ValueError("RenameTerrain needs a label")
+    elif isinstance(command, SetCompare):
+        planners = command.planners
+        if not isinstance(planners, tuple) or len(planners) not in (0, 2):
+            raise ValueError("compare needs two planner names (the main robot's first), or none to turn it off")
+        unknown = [p for p in planners if p not in registry.planner_names()]
+        if unknown:
+            raise ValueError(
+                f"unknown planner {unknown[0]!r}: choose from {', '.join(registry.planner_names())}"
+            )

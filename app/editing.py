@@ -3,7 +3,7 @@
 The live session owns the current terrain (the `Terrain` it simulates, its dict form, the edit history
 and the label: `app/live.py`); this service holds none of it. It turns a name (a file of its
 `TerrainStore`, a shipped generator, or 'random') or an uploaded dict into a terrain, hands loads,
-edits (the pure functions of `app/editor.py`) and undos to the session as commands, writes files, and
+edits (the pure functions of `app/editor.py`), undos and redos to the session as commands, writes files, and
 tells its listeners (the editor panel) after each change it made. Reads (`current`, `can_undo`,
 `label`) come from the session's latest view.
 
@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from app import editor
-from app.commands import EditTerrain, RenameTerrain, SetTerrain, UndoTerrainEdit
+from app.commands import EditTerrain, RedoTerrainEdit, RenameTerrain, SetTerrain, UndoTerrainEdit
 from app.editor import EditError
 from app.live import LiveSession
 from app.terrain_files import TerrainLibrary, validate_upload
@@ -58,6 +58,10 @@ class TerrainService:
     @property
     def can_undo(self) -> bool:
         return self._view().terrain_can_undo
+
+    @property
+    def can_redo(self) -> bool:
+        return self._view().terrain_can_redo
 
     @property
     def label(self) -> str:
@@ -120,6 +124,20 @@ class TerrainService:
         with self._lock:
             self.session.call(UndoTerrainEdit(), timeout=timeout)
             self._changed()
+
+    def redo(self, timeout: float = 60.0) -> None:
+        """Apply again the edit the last undo took back (EditError when there is none)."""
+        with self._lock:
+            self.session.call(RedoTerrainEdit(), timeout=timeout)
+            self._changed()
+
+    def exists(self, name: str) -> str | None:
+        """Whether saving as ``name`` would replace something: "yours" (a file of the user's folder),
+        "shipped" (a terrain shipped with contactnet), or None."""
+        if self.store.path(name).is_file():
+            return "yours"
+        is_shipped = getattr(self.store, "is_shipped", editor.is_shipped)
+        return "shipped" if is_shipped(name) else None
 
     def save_upload(self, content: bytes, name: str, overwrite: bool = False) -> Path:
         """Validate uploaded JSON bytes once and write them as `<name>.json` (the session is not touched).

@@ -1,6 +1,7 @@
-"""The viser control panel: the panels of `app/panels/` (status, driving, pushes, plots, gait and
-planner, terrain picker, terrain editor, recording) and the per-browser camera that follows the robot
-until the user moves it (`app/camera.py`).
+"""The viser control panel: the panels of `app/panels/`, top to bottom: status (one status line, the
+run's state, progress toward the goal), legend, the per-browser camera block (`app/camera.py`), driving,
+pushes, plots, gait/planner/compare, terrain picker, terrain editor, recording; and the toasts of the
+session's notices.
 
 Every control only submits a command to the live session (never waits for it); `refresh(view)`
 (called by the viewer's update loop a few times a second) writes the session's state back into
@@ -15,11 +16,13 @@ from typing import Protocol
 
 import viser
 
-from app.camera import CameraFollow
+from app.camera import CameraControl
 from app.editing import TerrainService
 from app.live import LiveSession
 from app.panels.drive import DrivePanel
 from app.panels.gait_planner import GaitPlannerPanel
+from app.panels.legend import LegendPanel
+from app.panels.notices import NoticeToasts
 from app.panels.plots import PlotsPanel
 from app.panels.push import PushPanel
 from app.panels.recording import RecordingPanel
@@ -27,6 +30,7 @@ from app.panels.status import StatusPanel
 from app.panels.terrain import TerrainPanel
 from app.panels.terrain_editor import EditorPanel
 from app.recordings import LiveRecorder
+from app.scene import LiveScene
 from app.view import LiveView
 
 
@@ -35,7 +39,8 @@ class Panel(Protocol):
 
 
 class ControlPanel:
-    """The control panel of the viser GUI (shared by all browsers), top to bottom by `order`."""
+    """The control panel of the viser GUI (shared by all browsers, but for the camera block), top to
+    bottom by `order`."""
 
     def __init__(
         self,
@@ -43,9 +48,9 @@ class ControlPanel:
         session: LiveSession,
         terrains: TerrainService,
         recorder: LiveRecorder,
+        scene: LiveScene,
     ):
         self.server = server
-        self.camera = CameraFollow(server)
         gui = server.gui
         gui.configure_theme(
             control_width="large",
@@ -55,15 +60,19 @@ class ControlPanel:
             brand_color=(40, 90, 200),
         )
         self.status = StatusPanel(gui, order=0)
-        self.drive = DrivePanel(server, session, self.camera, order=10)
+        self.legend = LegendPanel(gui, scene, order=1)
+        self.camera = CameraControl(server, order=5)
+        self.drive = DrivePanel(server, session, order=10)
         self.push = PushPanel(gui, session, order=20)
-        self.plots = PlotsPanel(gui, order=30)
+        self.plots = PlotsPanel(gui, order=30, leg_names=scene.leg_names)
         self.gait_planner = GaitPlannerPanel(gui, session, order=40)
         self.terrain = TerrainPanel(gui, terrains, order=45)
         self.editor = EditorPanel(server, terrains, order=50)
         self.recording = RecordingPanel(gui, recorder, order=60)
+        self.toasts = NoticeToasts(server)
         self.panels: tuple[Panel, ...] = (
             self.status,
+            self.legend,
             self.drive,
             self.push,
             self.plots,
@@ -71,7 +80,12 @@ class ControlPanel:
             self.terrain,
             self.editor,
             self.recording,
+            self.toasts,
         )
+
+    def observe(self, view: LiveView) -> None:
+        """Every new view (the scene's rate): the plots' histories."""
+        self.plots.observe(view)
 
     def refresh(self, view: LiveView) -> None:
         for panel in self.panels:

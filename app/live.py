@@ -14,6 +14,11 @@ The session owns the current terrain: the `Terrain` it simulates, its dict form 
 the terrain, its history and what viewers see always change together (`app/editing.py` is the
 service in front of them; see docs/architecture.md).
 
+Runs (`app/runs.py`): the robot waits for the first viewer, counts down so the scene is drawn before it
+moves, and after the goal or a fall (summed up in a `RunSummary`) the loop starts the next run. Changes that
+restart the robot say so in a `Notice` (a toast); terrain edits away from the robot need no restart.
+Compare mode (`SetCompare`) runs other planners' robots beside the main one (`app/compare.py`).
+
 Real-time pacing: the thread advances the simulation in chunks of at most `chunk_ticks` (10 ms)
 toward `anchor_sim + speed * (wall - anchor_wall)` and sleeps when it is ahead, which also lets
 the web threads run. If it falls more than `max_lag_s` behind (a slow machine), it drops the debt
@@ -27,10 +32,10 @@ import queue
 import threading
 import time
 import traceback
+import uuid
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,9 +47,12 @@ from app.commands import (
     CommandConflict,
     EditTerrain,
     NudgeVelocity,
+    RedoTerrainEdit,
     RenameTerrain,
     Reset,
+    SetCompare,
     SetGait,
+    SetLoop,
     SetNoise,
     SetPaused,
     SetPlanner,
@@ -53,12 +61,17 @@ from app.commands import (
     SetVelocity,
     TogglePause,
     UndoTerrainEdit,
+    ViewerConnected,
     check_command,
 )
+from app.compare import CompareRobots, end_of, rank_stats
 from app.editor import EditHistory, to_terrain
+from app.pacing import Pacing, PacingStats
 from app.planners import PlannerFactory, default_planner_factory
+from app.runs import COMPARE_GRACE_S, RunClock
 from app.settings import VELOCITY_LIMIT_M_S, ServeSettings
-from app.view import LiveView, SessionStatus, ViewTracker
+from app.terrain_change import change_is_away
+from app.view import LiveView, Notice, RunSummary, SessionStatus, ViewTracker
 from contactnet import registry
 from contactnet.locomotion import Locomotion
 from contactnet.robots import load_robot
@@ -68,24 +81,7 @@ from contactnet.terrain import Terrain
 log = logging.getLogger("contactnet.app.live")
 
 NOISE_VARIANCE = 0.01  # the paper's joint-velocity noise, (rad/s)^2
-
-
-@dataclass(frozen=True)
-class Pacing:
-    """How the session thread keeps real time."""
-
-    chunk_ticks: int = 10  #: control ticks (1 ms) simulated between two looks at the queue
-    max_lag_s: float = 1.0  #: further behind than this: drop the debt instead of catching up
-    publish_period_s: float = 1.0 / 60.0  #: a new LiveView at most this often while running
-
-
-@dataclass
-class _Stats:
-    running_wall_s: float = 0.0
-    running_sim_s: float = 0.0
-    lag_resets: int = 0
-    longest_stall_s: float = 0.0  # longest wall time between two loop iterations while running
-    history: deque = field(default_factory=lambda: deque(maxlen=240))  # (wall, sim running totals)
+NOTICES_KEPT = 10
 
 
 class LiveSession:
@@ -114,7 +110,8 @@ class LiveSession:
         self._stop = False
         self._view: LiveView | None = None
         self._startup_error: BaseException | None = None
-        self.stats = _Stats()
+        self.stats = PacingStats()
+        self.session_id = uuid.uuid4().hex[:12]  #: new for every session (clients reconnect when it changes)
 
     # ---- the public side (any thread) ------------------------------------------------------------
     def start(self, timeout: float = 60.0) -> LiveSession:
@@ -183,6 +180,16 @@ class LiveSession:
             self._vel = (settings.vx_m_s, settings.vy_m_s)
             self._speed = settings.sim_speed
             self._paused = settings.paused
+            self._runs = RunClock(
+                settings.wait_for_viewer and not settings.paused,
+                settings.viewer_start_delay_s,
+                settings.loop,
+                settings.loop_delay_s,
+            )
+            self._notices: deque[Notice] = deque(maxlen=NOTICES_KEPT)
+            self._notice_seq = 0
+            self._compare_planners: tuple[str, ...] = ()
+            self._compare: CompareRobots | None = None
             self._error: str | None = None
             self._seq = 0
             self._loco: Locomotion | None = None
@@ -198,6 +205,8 @@ class LiveSession:
         finally:
             if self._loco is not None:
                 self._loco.close()
+            if self._compare is not None:
+                self._compare.close()
 
     def _build(self, publish: bool = True) -> None:
         """(Re)build the Locomotion (and its PyBullet world) for the current settings; ``publish=False``
@@ -206,16 +215,32 @@ class LiveSession:
         planner, active, note = self._planner_factory(self._planner_name, gait, self._robot)
         sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0)
         loco = Locomotion(self._robot, self._terrain, gait, planner, sim_config, vel_cmd_xy=self._vel)
+        try:
+            compare = (
+                CompareRobots(
+                    self._compare_planners[1:], self._robot, self._terrain, gait, self._planner_factory,
+                    sim_config, self._vel,
+                )
+                if self._compare_planners
+                else None
+            )
+        except BaseException:
+            loco.close()
+            raise
         if self._loco is not None:
             self._loco.close()
-        self._loco = loco
+        if self._compare is not None:
+            self._compare.close()
+        self._loco, self._compare = loco, compare
         self._planner_active, self._planner_note = active, note
         self._tracker = ViewTracker(self._robot, self._terrain, gait)
         self._after_restart(publish)
 
     def _after_restart(self, publish: bool = True) -> None:
         self._pushes: list[Push] = []
-        self._done: str | None = None
+        self._done: str | None = None  # how the main robot's run ended
+        self._runs.new_run()
+        self._clock_s = 0.0  # simulated time of this run (every robot's clock while it walks)
         self._tracker.reset()
         self._anchor()
         if publish:
@@ -223,13 +248,17 @@ class LiveSession:
 
     def _anchor(self) -> None:
         self._anchor_wall = time.perf_counter()
-        self._anchor_sim = self._loco.t_s
+        self._anchor_sim = self._clock_s
         self._last_tick_wall = self._anchor_wall
         self._last_publish = 0.0
 
     @property
     def _running(self) -> bool:
-        return not self._paused and self._done is None and self._error is None
+        return (
+            not self._paused
+            and not self._runs.holding
+            and self._error is None
+        )
 
     def _loop(self) -> None:
         cfg = self.pacing
@@ -239,42 +268,91 @@ class LiveSession:
             if self._stop:
                 break
             if not self._running:
+                self._count_down()
                 continue
             loco = self._loco
             now = time.perf_counter()
             target = self._anchor_sim + self._speed * (now - self._anchor_wall)
-            behind_s = target - loco.t_s
+            behind_s = target - self._clock_s
             if behind_s > cfg.max_lag_s:  # cannot keep up: drop the debt rather than burst
                 self.stats.lag_resets += 1
-                self._anchor_sim, self._anchor_wall = loco.t_s, now
+                self._anchor_sim, self._anchor_wall = self._clock_s, now
                 behind_s = 0.0
             ticks = min(int(behind_s / dt + 1e-9), cfg.chunk_ticks)
             if ticks <= 0:
                 time.sleep(min(0.005, max(0.0005, (dt - behind_s) / self._speed)))
                 self._account(time.perf_counter())
                 continue
-            t_before = loco.t_s
             try:
-                loco.advance(ticks)
+                if self._done is None:
+                    loco.advance(ticks)
+                if self._compare is not None:
+                    self._compare.advance(ticks)
             except Exception as exc:  # noqa: BLE001 - a bug in the stack must not kill the server
                 log.error("simulation error:\n%s", traceback.format_exc())
                 self._error = f"simulation error: {exc}"
-            self.stats.running_sim_s += loco.t_s - t_before
-            if loco.fall_reason is not None:
-                self._done = f"fell: {loco.fall_reason}"
-            elif loco.reached_goal:
-                self._done = "goal reached"
+            self._clock_s += ticks * dt
+            self.stats.running_sim_s += ticks * dt
+            self._check_run_end()
             wall = time.perf_counter()
             self._account(wall)
-            if self._done or self._error or wall - self._last_publish >= cfg.publish_period_s:
+            if self._runs.over or self._error or wall - self._last_publish >= cfg.publish_period_s:
                 self._publish()
-            if loco.t_s == t_before and self._error is None and self._done is None:
-                time.sleep(0.001)
+
+    def _check_run_end(self) -> None:
+        """Note how the main robot ended; end the run when every robot ended (`RunClock.should_end`)."""
+        if self._done is None:
+            self._done = end_of(self._loco)
+        ended = [self._done is not None] + (self._compare.ended if self._compare is not None else [])
+        if not self._runs.should_end(ended, self._clock_s):
+            return
+        loco = self._loco
+        mean, worst = rank_stats(loco)
+        self._runs.end(
+            RunSummary(
+                index=self._runs.runs + 1,
+                t_s=loco.t_s,
+                steps=len(loco.records),
+                rank_mean=mean,
+                rank_max=worst,
+                success=self._done == "goal reached",
+                reason=self._done or f"stopped: still walking {COMPARE_GRACE_S:g} s after the other robot ended",
+                reached_x_m=float(loco.snapshot().q[0]),
+                terrain=self._terrain_label,
+                gait=self._gait_name,
+                planner=self._planner_active,
+                compare=self._compare.results() if self._compare is not None else None,
+            )
+        )
+
+    def _count_down(self) -> None:
+        """While the robot stands: start it when the first viewer's count-down ends, start the next run
+        when the loop's does; publish the count-downs a few times a second."""
+        due = self._runs.due()
+        if due == "start":
+            self._anchor()
+            self._publish()
+        elif due == "restart" and self._error is None:
+            self._restart()
+            self._paused = False
+            self._publish()
+        elif self._runs.counting_down and time.perf_counter() - self._last_publish >= 0.25:
+            self._publish()
+
+    def _restart(self) -> None:
+        """Every robot back to the start (same settings, same terrain)."""
+        self._loco.reset()
+        self._loco.set_command(*self._vel)
+        if self._compare is not None:
+            self._compare.reset(self._vel)
+        self._after_restart(publish=False)
+
+    def _notify(self, text: str, level: str = "info") -> None:
+        self._notice_seq += 1
+        self._notices.append(Notice(self._notice_seq, level, text))
 
     def _account(self, wall: float) -> None:
-        gap = wall - self._last_tick_wall
-        self.stats.running_wall_s += gap
-        self.stats.longest_stall_s = max(self.stats.longest_stall_s, gap)
+        self.stats.account(wall - self._last_tick_wall)
         self._last_tick_wall = wall
 
     def _drain(self, block: bool) -> None:
@@ -303,14 +381,14 @@ class LiveSession:
         was_running = self._running
         result = None
         if isinstance(command, SetVelocity):
-            self._vel = (float(command.vx), float(command.vy))
-            loco.set_command(*self._vel)
+            self._set_velocity((float(command.vx), float(command.vy)))
         elif isinstance(command, NudgeVelocity):
-            self._vel = tuple(
-                float(np.clip(round(v + d, 3), -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S))
-                for v, d in zip(self._vel, (command.dvx, command.dvy), strict=True)
+            self._set_velocity(
+                tuple(
+                    float(np.clip(round(v + d, 3), -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S))
+                    for v, d in zip(self._vel, (command.dvx, command.dvy), strict=True)
+                )
             )
-            loco.set_command(*self._vel)
         elif isinstance(command, ApplyPush):
             if not self._running:  # the clock stands still: the push would act later, or never
                 raise CommandConflict(f"cannot push now: the robot is {self._not_running_reason()}")
@@ -320,44 +398,71 @@ class LiveSession:
                 force_world=(float(command.fx), float(command.fy), 0.0),
             )
             loco.push(push)
+            if self._compare is not None:
+                self._compare.push(push)
             self._pushes.append(push)
         elif isinstance(command, Reset):
-            loco.reset()
-            loco.set_command(*self._vel)
+            self._restart()
             self._paused = False
+            self._runs.start_now()
             self._error = None
-            self._after_restart()
         elif isinstance(command, SetPaused):
             self._paused = bool(command.paused)
+            if not self._paused:
+                self._runs.start_now()  # an explicit start needs no viewer
         elif isinstance(command, TogglePause):
-            if self._done is not None or self._error is not None:
+            if self._runs.over or self._error is not None:
                 self._apply(Reset())
             else:
-                self._paused = not self._paused
+                self._apply(SetPaused(not self._paused))
+        elif isinstance(command, ViewerConnected):
+            self._runs.viewer_connected()
+        elif isinstance(command, SetLoop):
+            self._runs.set_loop(bool(command.on))
+        elif isinstance(command, SetCompare):
+            self._set_compare(tuple(command.planners))
         elif isinstance(command, SetSpeed):
             self._speed = float(command.speed)
         elif isinstance(command, SetGait):
-            self._rebuild(gait=command.gait)
+            if command.gait != self._gait_name:
+                self._rebuild(gait=command.gait)
+                self._notify(f"Gait set to {command.gait}: the robot restarted from the start.")
         elif isinstance(command, SetPlanner):
-            self._rebuild(planner=command.planner)
+            if command.planner != self._planner_name:
+                compare = self._compare_planners
+                if compare:  # the main robot's planner is compare mode's first
+                    self._compare_planners = (command.planner, *compare[1:])
+                try:
+                    self._rebuild(planner=command.planner)
+                except Exception:
+                    self._compare_planners = compare
+                    raise
+                self._notify(f"Planner set to {self._planner_active}: the robot restarted from the start.")
         elif isinstance(command, SetNoise):
-            self._rebuild(noise=bool(command.on))
+            if bool(command.on) != self._noise:
+                self._rebuild(noise=bool(command.on))
+                self._notify(f"Joint-velocity noise {'on' if command.on else 'off'}: the robot restarted.")
         elif isinstance(command, SetTerrain):
             history = EditHistory(command.terrain.to_dict())  # a new terrain forgets the undo steps
             self._rebuild(terrain=(command.terrain, command.label))
             self._terrain_history, self._terrain_base_label = history, command.label
+            self._notify(f"Terrain {command.label} loaded: the robot starts from its start.")
         elif isinstance(command, EditTerrain):
             history = self._terrain_history
             new = command.edit(history.current, *command.args)
             if new == history.current:
                 return False
-            self._rebuild(terrain=(to_terrain(new), self._edited_label()))
+            self._change_terrain(new, "edited")
             history.apply(new)
             result = True
         elif isinstance(command, UndoTerrainEdit):
             previous = self._terrain_history.previous  # EditError when there is nothing to undo
-            self._rebuild(terrain=(to_terrain(previous), self._edited_label()))
+            self._change_terrain(previous, "edit undone")
             self._terrain_history.undo()
+        elif isinstance(command, RedoTerrainEdit):
+            following = self._terrain_history.following  # EditError when there is nothing to redo
+            self._change_terrain(following, "edit redone")
+            self._terrain_history.redo()
         elif isinstance(command, RenameTerrain):
             self._terrain_label = self._terrain_base_label = command.label
         else:  # pragma: no cover - check_command lets only known commands through
@@ -366,11 +471,54 @@ class LiveSession:
             self._anchor()
         return result
 
+    def _set_velocity(self, vel: tuple[float, float]) -> None:
+        self._vel = vel
+        self._loco.set_command(*vel)
+        if self._compare is not None:
+            self._compare.set_command(*vel)
+
+    def _set_compare(self, planners: tuple[str, ...]) -> None:
+        """Compare mode on (main planner first) or off; either way every robot restarts from the start."""
+        old = (self._compare_planners, self._planner_name)
+        self._compare_planners = planners
+        try:
+            self._rebuild(planner=planners[0] if planners else None)
+        except Exception:
+            self._compare_planners, self._planner_name = old
+            raise
+        others = ", ".join(self._compare.planners) if self._compare is not None else ""
+        self._notify(f"Compare mode: {self._planner_active} (solid) beside {others} (ghost), both from the start."
+                     if planners else "Compare mode off: the robot restarted from the start.")
+
+    def _change_terrain(self, data: dict[str, Any], what: str) -> None:
+        """Make ``data`` the session's terrain: in place when the change is away from the robot, else by
+        restarting the robot (paused, so several edits can be made before it walks again)."""
+        terrain = to_terrain(data)
+        label = self._edited_label()
+        locos = [self._loco] + ([o.loco for o in self._compare.others] if self._compare is not None else [])
+        if change_is_away(self._terrain, terrain, self._robot, [loco.snapshot() for loco in locos]):
+            self._loco.replace_terrain(terrain)
+            if self._compare is not None:
+                self._compare.replace_terrain(terrain)
+            self._terrain, self._terrain_label = terrain, label
+            self._tracker.terrain = terrain
+            self._terrain_version += 1
+            self._notify(f"Terrain {what} away from the robot: applied without a restart.")
+        else:
+            self._rebuild(terrain=(terrain, label))
+            self._paused = True
+            self._notify(f"Terrain {what} near the robot: it restarted from the start and waits - press Run.",
+                         "warning")
+
     def _not_running_reason(self) -> str:
         if self._error is not None:
             return "stopped by an error (reset it)"
-        if self._done is not None:
-            return f"done ({self._done}): reset it first"
+        if self._runs.over:
+            return f"done ({self._done or 'stopped'}): reset it first"
+        if self._runs.waiting:
+            return "waiting for a browser to open the 3D view: open it or run the robot first"
+        if self._runs.start_at is not None:
+            return "about to start: push it once it walks"
         return "paused: run it first"
 
     def _edited_label(self) -> str:
@@ -400,7 +548,6 @@ class LiveSession:
             raise
         if terrain is not None:
             self._terrain_version += 1
-            self._paused = True  # an edited terrain puts the robot back at the start: wait for "run"
         self._error = None
 
     def _publish(self) -> None:
@@ -408,14 +555,7 @@ class LiveSession:
         snap = loco.snapshot()
         parts = self._tracker.update(snap)
         wall = time.perf_counter()
-        stats = self.stats
-        stats.history.append((wall, stats.running_wall_s, stats.running_sim_s))
-        rtf = 0.0
-        for then in stats.history:
-            if wall - then[0] <= 2.0:
-                d_wall = stats.running_wall_s - then[1]
-                rtf = (stats.running_sim_s - then[2]) / d_wall if d_wall > 0.2 else 0.0
-                break
+        rtf = self.stats.real_time_factor(wall)
         t = loco.t_s
         push_force = np.zeros(3)
         for push in self._pushes:
@@ -424,7 +564,7 @@ class LiveSession:
         status = SessionStatus(
             running=self._running,
             paused=self._paused,
-            done=self._done,
+            done=self._done or (self._runs.last_run.reason if self._runs.over and self._runs.last_run else None),
             speed=self._speed,
             real_time_factor=rtf if self._running else 0.0,
             terrain=self._terrain_label,
@@ -449,6 +589,11 @@ class LiveSession:
             wall_time_s=time.monotonic(),
             terrain_dict=self._terrain_history.current,
             terrain_can_undo=self._terrain_history.can_undo,
+            terrain_can_redo=self._terrain_history.can_redo,
+            run=self._runs.info(float(snap.q[0]), float(self._terrain.start_xy[0]), float(self._terrain.goal_x)),
+            notices=tuple(self._notices),
+            compare=self._compare.views() if self._compare is not None else None,
+            session_id=self.session_id,
             **parts,
         )
         self._last_publish = wall

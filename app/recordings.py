@@ -13,14 +13,20 @@ headless server on a free loopback port is enough, so a plain loop can record to
             recorder.add(view_of(loco, tracker))   # app.recordings.view_of
         Path("demo.viser").write_bytes(recorder.finish())
 
-`RecordingStore` lists and serves the files of the recordings folder; `LiveRecorder` starts and
-stops recordings of the live session (from the GUI or REST) and is fed by the viewer's update
-loop. The viser client plays a file with `?playbackPath=URL` (play, pause, scrub);
+A recording holds the 3D scene only, so the recorder also draws the status line and the gait schedule
+into it (`app.recording_overlay`), and keeps what it recorded (terrain, gait, planner, duration, how the
+run ended: `SceneRecorder.meta`, `app.recording_meta`) for the metadata file saved next to the recording.
+
+`RecordingStore` (`app.recording_store`) lists, renames and deletes the files of the recordings folder
+with their metadata; `LiveRecorder` starts and stops recordings of the live session (from the GUI or
+REST), is fed by the viewer's update loop, and guards the recording in progress against renames and
+deletions. The viser client plays a file with `?playbackPath=URL` (play, pause, scrub);
 `viser_html(data)` wraps a recording into one HTML file that plays anywhere.
 
 `FileRecording` is what `contactnet simulate --record FILE.viser` uses: it checks the path and
 reserves a temporary file next to it before the simulation starts (a bad path fails at once, not
-after a long run), records frames as the loop goes, and replaces the target atomically at the end.
+after a long run), records frames as the loop goes, and replaces the target atomically at the end
+(with its metadata file, ``NAME.viser.json``).
 `read_recording(data)` checks that bytes are a .viser recording and says what is in it.
 """
 
@@ -29,8 +35,8 @@ from __future__ import annotations
 import base64
 import contextlib
 import io
+import logging
 import os
-import re
 import socket
 import tempfile
 import threading
@@ -43,16 +49,33 @@ import numpy as np
 import viser
 import zstandard
 
+from app.recording_meta import MetaCollector, RecordingMeta, write_meta
+from app.recording_overlay import StatusOverlay
+from app.recording_store import RECORDING_NAME, RecordingInfo, RecordingStore
 from app.scene import LiveScene
 from app.settings import RECORD_RATE_RANGE_HZ
-from app.view import LiveView, SessionStatus, ViewTracker
+from app.view import LiveView, RunInfo, SessionStatus, ViewTracker
 from contactnet.atomic import atomic_write_bytes
 from contactnet.robots import DEFAULT_ROBOT, Robot, load_robot
+
+log = logging.getLogger("contactnet.app.recordings")
+
+__all__ = [  # the store's names are imported from here too
+    "RECORDING_NAME",
+    "FileRecording",
+    "LiveRecorder",
+    "RecordingBusy",
+    "RecordingInfo",
+    "RecordingStore",
+    "SceneRecorder",
+    "read_recording",
+    "view_of",
+    "viser_html",
+]
 
 DEFAULT_RATE_HZ = 12.0
 FRAME_SLACK_S = 5e-4
 MAX_DURATION_S = 600.0  # a recording stops itself after 10 simulated minutes (memory bound)
-RECORDING_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -77,7 +100,8 @@ class SceneRecorder:
 
     `server`: a viser server to draw on and serialize; by default a headless one on a free
     loopback port, owned (and stopped) by the recorder. `robot`: the robot drawn (default Solo12).
-    Use from one thread."""
+    `overlay`: draw the status line and gait strip into the scene (`app.recording_overlay`): a recording
+    has no panel. `meta(title)` is what was recorded (`app.recording_meta`). Use from one thread."""
 
     def __init__(
         self,
@@ -86,17 +110,23 @@ class SceneRecorder:
         robot: Robot | None = None,
         rate_hz: float = DEFAULT_RATE_HZ,
         max_duration_s: float = MAX_DURATION_S,
+        overlay: bool = True,
     ):
         low, high = RECORD_RATE_RANGE_HZ
         if not low <= rate_hz <= high:
             raise ValueError(f"rate_hz must be in [{low:g}, {high:g}], got {rate_hz}")
         self._own_server = server is None
         self.server = server if server is not None else quiet_viser_server()
-        self.scene = LiveScene(self.server, robot if robot is not None else load_robot(DEFAULT_ROBOT))
+        robot = robot if robot is not None else load_robot(DEFAULT_ROBOT)
+        self.scene = LiveScene(self.server, robot)
+        self.overlay = StatusOverlay(self.server, robot.description.leg_names) if overlay else None
+        self.collector = MetaCollector()
         self.rate_hz = rate_hz
         self.max_duration_s = max_duration_s
         self._serializer = None
         self._last_t: float | None = None
+        self._last_view: LiveView | None = None  # the last view recorded
+        self._pending: LiveView | None = None  # a later one that ended the run, not (yet) due
         self.frames = 0
         self.duration_s = 0.0
         self._data: bytes | None = None
@@ -116,29 +146,54 @@ class SceneRecorder:
             camera.up = (0.0, 0.0, 1.0)
             camera.look_at = tuple(look_at)
             camera.position = tuple(position)
-            self.scene.update(view)
+            self._draw(view)
             self._serializer = self.server.get_scene_serializer()
         else:
-            period = 1.0 / self.rate_hz
-            # Half a tick of slack: a loop stepping by whole 1 ms ticks reaches 1/12 s at 83 ms.
-            if self._last_t is not None and 0.0 <= t - self._last_t < period - FRAME_SLACK_S:
-                return False
             if self.full:
                 return False
-            # After a reset the simulated clock goes back: continue one period later.
-            dt = t - self._last_t if self._last_t is not None and t >= self._last_t else period
-            self._serializer.insert_sleep(dt)
-            self.duration_s += dt
-            self.scene.update(view)
-        self._last_t = t
-        self.frames += 1
+            # Half a tick of slack: a loop stepping by whole 1 ms ticks reaches 1/12 s at 83 ms.
+            if self._last_t is not None and 0.0 <= t - self._last_t < 1.0 / self.rate_hz - FRAME_SLACK_S:
+                if self._last_view is not None and _outcome(view) != _outcome(self._last_view):
+                    self._pending = view  # a fall or the goal between two frames: `finish` draws it if last
+                return False
+            self._sleep_until(t)
+            self._draw(view)
+        self._recorded(view, t)
         return True
 
+    def _sleep_until(self, t: float) -> None:
+        # After a reset the simulated clock goes back: continue one period later.
+        dt = t - self._last_t if self._last_t is not None and t >= self._last_t else 1.0 / self.rate_hz
+        self._serializer.insert_sleep(dt)
+        self.duration_s += dt
+
+    def _recorded(self, view: LiveView, t: float) -> None:
+        self._last_t, self._last_view, self._pending = t, view, None
+        self.frames += 1
+        self.collector.add(view)
+
+    def _draw(self, view: LiveView) -> None:
+        self.scene.update(view)
+        if self.overlay is not None:
+            with self.server.atomic():
+                self.overlay.update(view)
+
+    def meta(self, title: str = "") -> RecordingMeta:
+        """What this recording shows so far (terrain, gait, planner, duration, how the run ended)."""
+        return self.collector.meta(self.duration_s, self.frames, title)
+
     def finish(self) -> bytes:
-        """The .viser bytes (call once; stops an owned server)."""
+        """The .viser bytes (call once; stops an owned server). A run that ended (fell, reached the goal) after the
+        last recorded frame gets one more frame: the recording shows how it ended."""
         if self._data is None:
             if self._serializer is None:
                 raise RuntimeError("nothing recorded")
+            pending = self._pending
+            if pending is not None:  # the run ended after the last frame: the recording shows how
+                t = float(pending.snapshot.t_s)
+                self._sleep_until(t)
+                self._draw(pending)
+                self._recorded(pending, t)
             self._serializer.insert_sleep(1.0 / self.rate_hz)
             self._data = self._serializer.serialize()
             self.close()
@@ -154,6 +209,10 @@ class SceneRecorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _outcome(view: LiveView) -> tuple[str | None, str | None]:
+    return view.status.done, view.status.error
 
 
 def overview_camera(terrain) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001 - a Terrain
@@ -191,6 +250,13 @@ def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
         pushes=len(loco.sim.pushes),
         robot=loco.robot.name,
     )
+    start_x, goal_x = float(loco.terrain.start_xy[0]), float(loco.terrain.goal_x)
+    span = goal_x - start_x
+    run = RunInfo(
+        progress=float(np.clip((snap.q[0] - start_x) / span, 0.0, 1.0)) if span > 0 else 0.0,
+        start_x_m=start_x,
+        goal_x_m=goal_x,
+    )
     return LiveView(
         seq=loco.tick,
         snapshot=snap,
@@ -200,6 +266,7 @@ def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
         gait=loco.gait,
         push_force_world=push_force,
         wall_time_s=time.monotonic(),
+        run=run,
         **tracker.update(snap),
     )
 
@@ -282,12 +349,17 @@ class FileRecording:
         return self._recorder.add(view_of(loco, self._tracker))
 
     def save(self) -> Path:
-        """Write the recording (temporary file, then an atomic rename onto the path)."""
+        """Write the recording (temporary file, then an atomic rename onto the path) and its metadata next to it
+        (``NAME.viser.json``)."""
         if self._recorder is None:
             raise RuntimeError("nothing recorded")
         data = self._recorder.finish()
         atomic_write_bytes(self.path, data)
         self._tmp.unlink(missing_ok=True)
+        try:  # what the recordings list shows (app.recording_meta); the recording itself is saved
+            write_meta(self.path, self._recorder.meta())
+        except OSError as exc:
+            log.warning("recording %s: metadata not saved (%s)", self.path.name, exc.strerror or exc)
         self.size_bytes = len(data)
         return self.path
 
@@ -370,53 +442,14 @@ def viser_html(data: bytes, dark_mode: bool = False) -> str:
     return client_html[:head_end] + script + client_html[head_end:]
 
 
-@dataclass(frozen=True)
-class RecordingInfo:
-    name: str
-    size_bytes: int
-    modified: float
-
-
-class RecordingStore:
-    """The .viser files of one folder."""
-
-    def __init__(self, directory: Path):
-        self.directory = Path(directory)
-
-    def path(self, name: str) -> Path:
-        if not isinstance(name, str) or not RECORDING_NAME.fullmatch(name):
-            raise ValueError(
-                f"invalid recording name {name!r}: expected letters, digits, '_', '-' and .viser"
-            )
-        return self.directory / name
-
-    def list(self) -> list[RecordingInfo]:
-        if not self.directory.is_dir():
-            return []
-        infos = []
-        for path in self.directory.glob("*.viser"):
-            if RECORDING_NAME.fullmatch(path.name):
-                stat = path.stat()
-                infos.append(RecordingInfo(path.name, stat.st_size, stat.st_mtime))
-        return sorted(infos, key=lambda r: r.modified, reverse=True)
-
-    def new_name(self, label: str = "") -> str:
-        stem = re.sub(r"[^A-Za-z0-9_-]+", "-", label).strip("-")[:40]
-        base = time.strftime("%Y%m%d-%H%M%S") + (f"-{stem}" if stem else "")
-        name, k = f"{base}.viser", 1
-        while (self.directory / name).exists():
-            k += 1
-            name = f"{base}-{k}.viser"
-        return name
-
-    def save(self, data: bytes, name: str) -> Path:
-        path = self.path(name)
-        return atomic_write_bytes(path, data)
+class RecordingBusy(RuntimeError):
+    """The recording is being made (or saved) right now: it cannot be renamed or deleted yet."""
 
 
 class LiveRecorder:
     """Start/stop recordings of the live session (of ``robot``, default Solo12); `feed(view)` is called by
-    the viewer's update loop."""
+    the viewer's update loop. Renames, titles and deletions of the folder's recordings go through it too,
+    so that the recording in progress (not yet on disk) is never renamed over nor deleted (`RecordingBusy`)."""
 
     def __init__(self, store: RecordingStore, robot: Robot | None = None, rate_hz: float = DEFAULT_RATE_HZ):
         self.store = store
@@ -425,6 +458,8 @@ class LiveRecorder:
         self._lock = threading.Lock()
         self._recorder: SceneRecorder | None = None
         self._name: str | None = None
+        self._title = ""
+        self._saving: str | None = None  # the name being written by `stop`
         self._started_wall = 0.0
         self.last_saved: str | None = None
 
@@ -443,12 +478,14 @@ class LiveRecorder:
                 "last_saved": self.last_saved,
             }
 
-    def start(self, label: str = "") -> str:
+    def start(self, label: str = "", title: str = "") -> str:
+        """Start recording into a new file named from the time and `label`; `title` goes in its metadata."""
         with self._lock:
             if self._recorder is not None:
                 raise RuntimeError(f"already recording {self._name}")
             self._recorder = SceneRecorder(robot=self.robot, rate_hz=self.rate_hz)
-            self._name = self.store.new_name(label)
+            self._name = self.store.new_name(label, taken=(self._saving,))
+            self._title = title
             self._started_wall = time.monotonic()
             return self._name
 
@@ -460,17 +497,42 @@ class LiveRecorder:
                 self._recorder.add(view)
 
     def stop(self) -> RecordingInfo:
+        """Stop and save the recording with its metadata."""
         with self._lock:
             recorder, name = self._recorder, self._name
             if recorder is None or name is None:
                 raise RuntimeError("not recording")
-            self._recorder, self._name = None, None
+            self._recorder, self._name, self._saving = None, None, name
         try:
-            path = self.store.save(recorder.finish(), name)
+            data = recorder.finish()
+            self.store.save(data, name, recorder.meta(self._title))
         finally:
             recorder.close()
+            self._saving = None
         self.last_saved = name
-        return RecordingInfo(name, path.stat().st_size, path.stat().st_mtime)
+        return self.store.info(name)
+
+    def _check_idle(self, *names: str | None) -> None:
+        for name in names:
+            if name is not None and name in (self._name, self._saving):
+                raise RecordingBusy(f"{name} is being recorded: stop the recording first")
+
+    def change(self, name: str, new_name: str | None = None, title: str | None = None) -> RecordingInfo:
+        """Rename recording `name` to `new_name` and/or give it `title`; the recording as it is then."""
+        with self._lock:
+            self._check_idle(name, new_name)
+            if new_name is not None:
+                self.store.rename(name, new_name)
+                name = new_name
+            if title is not None:
+                return self.store.set_title(name, title)
+            return self.store.info(name)
+
+    def delete(self, name: str) -> None:
+        """Delete recording `name` and its metadata."""
+        with self._lock:
+            self._check_idle(name)
+            self.store.delete(name)
 
     def save_in_progress(self) -> str | None:
         """At shut-down: save the recording in progress, if any. One line saying what happened (saved, with

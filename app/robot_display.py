@@ -28,6 +28,8 @@ log = logging.getLogger("contactnet.app.robot_display")
 
 ROBOT_ROOT = "/robot"
 ROBOT_COLOR = (0.32, 0.34, 0.40)
+#: The other robots of compare mode: translucent teal, a colour nothing else in the scene uses.
+GHOST_COLOR = (0.0, 0.62, 0.58, 0.45)
 #: The finest clustering cell; coarser cells (x CELL_GROWTH each) until the robot fits the budget.
 ROBOT_MESH_CELL_M = 0.004
 CELL_GROWTH = 1.25
@@ -120,16 +122,25 @@ class RobotDisplay:
     viser's internals are not as expected.
     """
 
-    def __init__(self, server: viser.ViserServer, robot: Robot):
+    def __init__(
+        self,
+        server: viser.ViserServer,
+        robot: Robot,
+        root: str = ROBOT_ROOT,
+        color: tuple[float, ...] = ROBOT_COLOR,
+        display: DisplayUrdf | None = None,
+    ):
+        """``root``: the scene node the robot hangs from; ``color``: RGB, or RGBA for a translucent robot;
+        ``display``: a loaded `DisplayUrdf` to share (another robot of the same kind), else loaded here."""
         joint_names = list(robot.description.joint_names)
-        self.root = server.scene.add_frame(ROBOT_ROOT, show_axes=False)
-        self.display = load_display_urdf(robot.files.urdf)
+        self.root = server.scene.add_frame(root, show_axes=False)
+        self.display = display if display is not None else load_display_urdf(robot.files.urdf)
         self.urdf = ViserUrdf(
             server,
             self.display.urdf,
-            root_node_name=ROBOT_ROOT,
-            mesh_color_override=ROBOT_COLOR,
-            collision_mesh_color_override=ROBOT_COLOR,
+            root_node_name=root,
+            mesh_color_override=color,
+            collision_mesh_color_override=color,
             load_meshes=self.display.visual,
             load_collision_meshes=not self.display.visual,
         )
@@ -155,6 +166,15 @@ class RobotDisplay:
             self._fast = None
         self._last_q: np.ndarray | None = None
 
+    @property
+    def visible(self) -> bool:
+        return bool(self.root.visible)
+
+    @visible.setter
+    def visible(self, value: bool) -> None:
+        if bool(self.root.visible) != bool(value):
+            self.root.visible = bool(value)
+
     def set(self, q: np.ndarray) -> None:
         q = np.asarray(q, dtype=float)
         if self._last_q is not None and np.array_equal(q, self._last_q):
@@ -173,3 +193,76 @@ class RobotDisplay:
         wxyz = quat_mul_wxyz(origin_q, motion)
         for handle, value in zip(handles, wxyz, strict=True):
             handle.wxyz = value
+
+
+def robot_state_text(planner: str, done: str | None, x_m: float, steps: int) -> str:
+    """A robot's label in compare mode, short: its planner and how it is doing (the panel has the details)."""
+    if done and done.startswith("fell"):
+        state = f"fell at x {x_m:.2f} m"
+    elif done:
+        state = f"{done}, {steps} steps"
+    else:
+        state = f"x {x_m:.1f} m · {steps} steps"
+    return f"{planner}: {state}"
+
+
+class CompareGhosts:
+    """The robots of compare mode (`LiveView.compare`): the other robots drawn translucent teal at their own
+    poses, each labelled with its planner and state, and a label over the main robot naming its planner.
+    Nodes are made the first time compare mode is on and hidden (not removed) when it is off."""
+
+    label_height_m = 0.28
+
+    def __init__(self, server: viser.ViserServer, robot: Robot, display: DisplayUrdf):
+        self.server = server
+        self.robot = robot
+        self.display = display
+        self.ghosts: list[RobotDisplay] = []
+        self.labels: list[viser.LabelHandle] = []  # [main robot, ghost 0, ghost 1, ...]
+        self._texts: list[str] = []
+        self._on = False
+
+    def _label(self, index: int, text: str, base: np.ndarray) -> None:
+        position = np.asarray(base, dtype=float) + np.array([0.0, 0.0, self.label_height_m])
+        if index == len(self.labels):
+            self.labels.append(
+                self.server.scene.add_label(f"/compare/label_{index}", text, position=position, anchor="bottom-center")
+            )
+            self._texts.append(text)
+            return
+        label = self.labels[index]
+        if self._texts[index] != text:
+            label.text = text
+            self._texts[index] = text
+        if not np.allclose(label.position, position, atol=2e-3):
+            label.position = position
+        if not label.visible:
+            label.visible = True
+
+    def update(self, view: Any) -> None:
+        compare = getattr(view, "compare", None)
+        if not compare:
+            if self._on:
+                for node in (*self.ghosts, *self.labels):
+                    node.visible = False
+                self._on = False
+            return
+        self._on = True
+        status, snap = view.status, view.snapshot
+        self._label(0, robot_state_text(status.planner_active, status.done, float(snap.q[0]), snap.steps), snap.q[:3])
+        for i, other in enumerate(compare):
+            if i == len(self.ghosts):
+                self.ghosts.append(
+                    RobotDisplay(self.server, self.robot, root=f"/compare/robot_{i}", color=GHOST_COLOR,
+                                 display=self.display)
+                )
+            ghost = self.ghosts[i]
+            ghost.visible = True
+            q = np.asarray(other.snapshot.q, dtype=float)
+            ghost.set(q)
+            self._label(i + 1, robot_state_text(other.planner_active or other.planner, other.done, float(other.x_m),
+                                                int(other.steps)), q[:3])
+        for ghost in self.ghosts[len(compare):]:
+            ghost.visible = False
+        for label in self.labels[len(compare) + 1:]:
+            label.visible = False

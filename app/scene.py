@@ -1,5 +1,7 @@
 """The 3D scene of a live session in viser: the robot on the terrain, candidate disks, planned steps,
-CoM paths and force arrows. `LiveScene.update(view)` draws one `LiveView`.
+CoM paths and force arrows, and in compare mode the other robots as translucent ghosts
+(`app/robot_display.py`). `LiveScene.update(view)` draws one `LiveView`. A click on a candidate disk
+says what the planner knew of it (viser 1.1 reports clicks on scene nodes, not hovers).
 
 Cheap updates matter (the simulation shares the process and the GIL): every node is created once
 and later only its changed properties are sent. Per update that is the robot (12 joint rotations
@@ -13,12 +15,15 @@ The scene draws on any viser server: the live one (browsers), or a headless one 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
 import numpy as np
 import trimesh
 import viser
 
-from app.robot_display import RobotDisplay
-from app.view import LiveView
+from app.robot_display import CompareGhosts, RobotDisplay
+from app.view import CandidateView, LiveView
 from contactnet.robots import Robot
 
 DISK_RADIUS_M = 0.017
@@ -32,14 +37,15 @@ COM_CHUNK = 200  # points per chunk of the actual CoM path
 
 TERRAIN_DISPLAY_THICKNESS_M = 0.08  # drawn as slabs (the simulation's are 0.4 m deep) over a floor grid
 TERRAIN_COLOR = (181, 160, 120)
-# Candidate disks (drawn with a toon material, which keeps these colours recognizable).
-BEST_COLOR = np.array([0, 80, 10], dtype=np.float64)  # the best-ranked safe candidate: vivid green
-WORST_COLOR = np.array([150, 150, 150], dtype=np.float64)  # far down the ranking: grey
-RANK_FADE = 8.0  # safe candidates fade toward grey over about this many ranking positions
-SAFE_COLOR = np.array([0, 80, 10], dtype=np.uint8)  # safe, when the planner does not rank
-UNSAFE_COLOR = np.array([200, 0, 0], dtype=np.uint8)
+# Candidate disks (drawn with a toon material, which keeps these colours recognizable). Safe candidates
+# go from BEST_COLOR (the best-ranked safe one) to WORST_COLOR, RANK_FADE places down the ranking.
+BEST_COLOR = np.array([0, 90, 15], dtype=np.float64)  # the best-ranked safe candidate: vivid green
+WORST_COLOR = np.array([120, 120, 120], dtype=np.float64)  # RANK_FADE places down the ranking: grey
+RANK_FADE = 8  # safe candidates reach grey this many ranking positions below the best safe one
+SAFE_COLOR = np.array([0, 90, 15], dtype=np.uint8)  # safe, when the planner does not rank
+UNSAFE_COLOR = np.array([200, 40, 40], dtype=np.uint8)  # a soft red on screen, and small: present, not dominant
 CHOSEN_COLOR = np.array([255, 190, 0], dtype=np.uint8)
-UNSAFE_SCALE = 0.7
+UNSAFE_SCALE = 0.5
 CHOSEN_SCALE = (1.7, 1.7, 3.0)
 STEP_COLORS = np.array([[255, 80, 0], [255, 130, 0], [255, 180, 40]], dtype=np.uint8)
 UNSAFE_STEP_COLOR = np.array([200, 0, 120], dtype=np.uint8)
@@ -48,7 +54,54 @@ ACTUAL_COM_COLOR = (190, 30, 190)
 FORCE_COLOR = (40, 90, 235)
 PUSH_COLOR = (230, 20, 20)
 GOAL_COLOR = (30, 150, 60)
+#: How the toon material shows these colours under viser's default lights (lighter: measured on a screenshot,
+#: viser 1.1, chromium): the legend draws these, so it looks like the scene.
+SHOWN_AS = {
+    (0, 90, 15): (0, 172, 70),
+    (120, 120, 120): (191, 191, 191),
+    (200, 40, 40): (226, 124, 120),
+    (255, 190, 0): (228, 214, 82),
+}
+PICK_LABEL_OFFSET_M = 0.05  # a picked disk's label floats this high above it
+#: The default view: from behind and to the right of the robot, looking ahead along +x.
+CAMERA_OFFSET_M = np.array([-0.75, -1.0, 0.85])
 HIDDEN_POS = np.array([0.0, 0.0, -100.0], dtype=np.float32)
+
+
+def rank_fade(position: np.ndarray) -> np.ndarray:
+    """0 (best safe) .. 1 (RANK_FADE or more places below it) for positions among the safe candidates."""
+    return np.minimum(np.asarray(position, dtype=float), RANK_FADE) / RANK_FADE
+
+
+def rank_color(position: np.ndarray) -> np.ndarray:
+    """(N, 3) uint8: the colour of safe candidates at these positions down the ranking (0 = best safe)."""
+    fade = rank_fade(np.atleast_1d(position))[:, None]
+    return np.rint((1.0 - fade) * BEST_COLOR + fade * WORST_COLOR).astype(np.uint8)
+
+
+def shown_color(color) -> np.ndarray:  # noqa: ANN001 - an RGB triple
+    """How a disk colour looks on screen (`SHOWN_AS`; other colours as they are)."""
+    key = tuple(int(v) for v in np.asarray(color).ravel()[:3])
+    return np.asarray(SHOWN_AS.get(key, key), dtype=float)
+
+
+def shown_rank_color(position: np.ndarray) -> np.ndarray:
+    """(N, 3) uint8: how safe candidates at these ranking positions look on screen (for the legend)."""
+    fade = rank_fade(np.atleast_1d(position))[:, None]
+    best, worst = shown_color(BEST_COLOR), shown_color(WORST_COLOR)
+    return np.rint((1.0 - fade) * best + fade * worst).astype(np.uint8)
+
+
+def safe_positions(safe: np.ndarray, rank: np.ndarray) -> np.ndarray:
+    """(N,) each candidate's position among the safe ones by rank (0 = the best-ranked safe one; equal
+    ranks, e.g. the two legs of one trot action, share a position); -1 for unsafe ones."""
+    safe = np.asarray(safe, dtype=bool)
+    rank = np.asarray(rank)
+    position = np.full(len(safe), -1, dtype=int)
+    if np.any(safe):
+        _, dense = np.unique(rank[safe], return_inverse=True)
+        position[safe] = dense.ravel()
+    return position
 
 
 def disk_style(
@@ -57,8 +110,9 @@ def disk_style(
     """(colors (N, 3) uint8, scales (N, 3)) of candidate disks.
 
     With a ranking: safe candidates go from vivid green (the best-ranked safe one) to grey by their
-    position among the safe ones (`RANK_FADE`), and shrink a little as they fade; unsafe ones are
-    red and smaller; the chosen one(s) gold, larger and taller. Without one: safe green, unsafe red.
+    position among the safe ones (`rank_color`, reaching grey `RANK_FADE` places down), and shrink a
+    little as they fade; unsafe ones are soft red, small and flat; the chosen one(s) gold, larger and
+    taller. Without a ranking: safe green, unsafe soft red.
     """
     safe = np.asarray(safe, dtype=bool)
     n = len(safe)
@@ -67,15 +121,12 @@ def disk_style(
     if rank is None:
         colors[:] = np.where(safe[:, None], SAFE_COLOR, UNSAFE_COLOR)
     else:
-        rank = np.asarray(rank)
-        position = np.zeros(n)
-        safe_index = np.flatnonzero(safe)
-        position[safe_index[np.argsort(rank[safe_index], kind="stable")]] = np.arange(len(safe_index))
-        fade = 1.0 - np.exp(-position / RANK_FADE)
-        colors[:] = np.rint((1.0 - fade)[:, None] * BEST_COLOR + fade[:, None] * WORST_COLOR).astype(np.uint8)
-        scales[:, :2] = (1.0 - 0.3 * fade)[:, None]
+        position = np.maximum(safe_positions(safe, rank), 0)
+        colors[:] = rank_color(position)
+        scales[:, :2] = (1.0 - 0.3 * rank_fade(position))[:, None]
     colors[~safe] = UNSAFE_COLOR
     scales[~safe, :2] = UNSAFE_SCALE
+    scales[~safe, 2] = 0.6  # flatter too: under a green disk, never over it
     for k in chosen:
         if 0 <= k < n:
             colors[k] = CHOSEN_COLOR
@@ -122,8 +173,64 @@ def arrow_segments(tail: np.ndarray, tip: np.ndarray, head_fraction: float = 0.2
     return segments.reshape(-1, 2, 3).astype(np.float32)
 
 
+def _ordinal(n: int) -> str:
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
+
+
+@dataclass(frozen=True)
+class PickedCandidate:
+    """What is known about one candidate disk (a click on it shows this)."""
+
+    index: int
+    leg: str
+    xy_world: tuple[float, float]
+    safe: bool
+    chosen: bool
+    rank: int | None  # the planner's ranking position (0 = best), None without a ranking
+    safe_position: int | None  # its position among the safe candidates (0 = best safe)
+    score: float | None = None  # the network's score or the cost, when the view carries one
+    score_name: str = "score"
+
+    def text(self) -> str:
+        """One line: leg, rank, safety, score."""
+        parts = [self.leg]
+        if self.rank is not None:
+            rank = f"rank {self.rank}"
+            if self.safe and self.safe_position is not None:
+                rank += " (best safe)" if self.safe_position == 0 else f" ({_ordinal(self.safe_position + 1)} safe)"
+            parts.append(rank)
+        parts.append("chosen" if self.chosen else ("safe" if self.safe else "unsafe"))
+        if self.score is not None:
+            parts.append(f"{self.score_name} {self.score:.3g}")
+        return " · ".join(parts)
+
+
+def describe_candidate(cand: CandidateView, index: int, leg_names: tuple[str, ...]) -> PickedCandidate:
+    """The `PickedCandidate` of candidate ``index`` of a view's candidates."""
+    leg = int(cand.leg[index])
+    rank = None if cand.rank is None else int(cand.rank[index])
+    position = None if cand.rank is None else int(safe_positions(cand.safe, cand.rank)[index])
+    scores = getattr(cand, "score", None)  # a future CandidateView.score (network score or cost)
+    return PickedCandidate(
+        index=index,
+        leg=leg_names[leg] if 0 <= leg < len(leg_names) else "?",
+        xy_world=(float(cand.xy_world[index, 0]), float(cand.xy_world[index, 1])),
+        safe=bool(cand.safe[index]),
+        chosen=index in cand.chosen,
+        rank=rank,
+        safe_position=None if position is None or position < 0 else position,
+        score=None if scores is None else float(scores[index]),
+        score_name=str(getattr(cand, "score_name", "score")),
+    )
+
+
 class LiveScene:
-    """Scene nodes of one session on one viser server; `update(view)` sends what changed."""
+    """Scene nodes of one session on one viser server; `update(view)` sends what changed.
+
+    A click on a candidate disk shows what the planner knew about it (`PickedCandidate`) in a label
+    next to the disk, for the browser that clicked, and tells the `pick_listeners` (the legend panel).
+    """
 
     def __init__(self, server: viser.ViserServer, robot: Robot):
         self.server = server
@@ -132,6 +239,8 @@ class LiveScene:
         scene = server.scene
         scene.set_up_direction("+z")
         self.robot = RobotDisplay(server, robot)
+        self.leg_names = tuple(robot.description.leg_names)
+        self.ghosts = CompareGhosts(server, robot, self.robot.display)
         disk = trimesh.creation.cylinder(radius=DISK_RADIUS_M, height=DISK_HEIGHT_M, sections=20)
         self.disks = scene.add_batched_meshes_simple(
             "/plan/candidates",
@@ -174,6 +283,11 @@ class LiveScene:
         self._plan_key: tuple | None = None
         self._candidates_key: int | None = None
         self._com_plan_last: np.ndarray | None = None
+        self._drawn: tuple[CandidateView | None, np.ndarray] = (None, np.zeros((0, 3)))  # candidates, disk positions
+        self._pick_labels: dict[int, viser.LabelHandle] = {}
+        #: Called with (client, PickedCandidate) after a click on a disk, (None, None) when the disks change.
+        self.pick_listeners: list[Callable[[viser.ClientHandle | None, PickedCandidate | None], None]] = []
+        self.disks.on_click(self._on_disk_click)
 
     def update(self, view: LiveView) -> None:
         with self.server.atomic():
@@ -194,6 +308,7 @@ class LiveScene:
                 self._com_plan_last = com_plan
                 self.planned_com.points = _segments(_on_ground(com_plan, view.terrain.surface_z + 0.004))
             self._draw_com_path(view.com_path, view.terrain.surface_z + 0.003)
+            self.ghosts.update(view)
 
     # ---- pieces ------------------------------------------------------------------------------------
     def _draw_terrain(self, view: LiveView) -> None:
@@ -252,6 +367,36 @@ class LiveScene:
         self.disks.batched_positions = positions
         self.disks.batched_colors = colors
         self.disks.batched_scales = scales
+        self._drawn = (cand, positions)
+        self._clear_picks()
+
+    # ---- clicks on disks ------------------------------------------------------------------------------
+    def _on_disk_click(self, event: viser.SceneNodePointerEvent) -> None:
+        cand, positions = self._drawn
+        index = event.instance_index
+        if cand is None or index is None or not 0 <= index < min(len(cand.xy_world), DISK_POOL):
+            return
+        picked = describe_candidate(cand, int(index), self.leg_names)
+        client = event.client
+        label_at = positions[index] + np.array([0.0, 0.0, PICK_LABEL_OFFSET_M])
+        if client is not None:
+            self._pick_labels[client.client_id] = client.scene.add_label(
+                "/plan/picked", picked.text(), position=label_at, anchor="bottom-center", font_screen_scale=0.9
+            )
+        for listener in self.pick_listeners:
+            listener(client, picked)
+
+    def _clear_picks(self) -> None:
+        """The disks changed: a label would now describe another candidate."""
+        labels, self._pick_labels = self._pick_labels, {}
+        for label in labels.values():
+            try:
+                label.remove()
+            except Exception:  # noqa: BLE001 - the browser may be gone
+                pass
+        if labels:
+            for listener in self.pick_listeners:
+                listener(None, None)
 
     def _draw_steps(self, view: LiveView) -> None:
         positions = np.tile(HIDDEN_POS, (STEP_POOL, 1))
@@ -311,10 +456,13 @@ class LiveScene:
         self._com_drawn = n
 
 
+def follow_anchor(view: LiveView) -> np.ndarray:
+    """The point a following camera looks at: a little ahead of the robot's base, near the ground."""
+    base = np.asarray(view.snapshot.q[:3], dtype=float)
+    return np.array([base[0] + 0.25, base[1], float(view.terrain.ground_z(base[:2])) + 0.05])
+
+
 def default_camera(view: LiveView) -> tuple[np.ndarray, np.ndarray]:
     """(position, look_at) behind and to the right of the robot, looking ahead along +x."""
-    base = np.asarray(view.snapshot.q[:3], dtype=float)
-    look_at = np.array([base[0] + 0.25, base[1], float(view.terrain.ground_z(base[:2])) + 0.05])
-    position = look_at + np.array([-0.75, -1.0, 0.85])
-    return position, look_at
-
+    look_at = follow_anchor(view)
+    return look_at + CAMERA_OFFSET_M, look_at

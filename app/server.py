@@ -24,25 +24,22 @@ from typing import Annotated, Any
 import uvicorn
 from fastapi import FastAPI, HTTPException, Query, Request
 from fastapi import Path as PathParam
-from fastapi.responses import FileResponse, HTMLResponse, Response
+from fastapi.responses import FileResponse
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
-from starlette.convertors import Convertor, register_url_convertor
 
 from app.api_errors import StrictJsonRoute, install_error_handlers, responses
 from app.api_models import (
     Info,
     PauseCommand,
     PushCommand,
-    RecordingEntry,
-    RecordingStart,
-    RecordingStatus,
     Saved,
     State,
     TerrainEntry,
     TerrainList,
     TerrainSelect,
     VelocityCommand,
+    compare_command_model,
     settings_command_model,
     state_of,
 )
@@ -50,7 +47,9 @@ from app.commands import (
     ApplyPush,
     CommandConflict,
     Reset,
+    SetCompare,
     SetGait,
+    SetLoop,
     SetNoise,
     SetPaused,
     SetPlanner,
@@ -61,7 +60,8 @@ from app.editing import TerrainService
 from app.editor import MAX_UPLOAD_BYTES, EditError, ShippedTerrainError
 from app.live import LiveSession
 from app.planners import default_planner_factory
-from app.recordings import RECORDING_NAME, LiveRecorder, RecordingStore, viser_html
+from app.recording_routes import add_recording_routes
+from app.recordings import LiveRecorder, RecordingStore
 from app.security import AccessPolicy, RequestGuard
 from app.settings import (
     COMMAND_BODY_LIMIT_BYTES,
@@ -82,23 +82,6 @@ VISER_CLIENT = Path(__import__("viser").__file__).parent / "client" / "build" / 
 TERRAIN_NAME = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 COMMAND_TIMEOUT_S = 60.0
 TerrainName = Annotated[str, PathParam(pattern=TERRAIN_NAME, description="a terrain file's stem")]
-RecordingName = Annotated[str, PathParam(pattern=RECORDING_NAME.pattern)]
-
-
-class RecordingFileConvertor(Convertor[str]):
-    """``{name:recording_file}``: only names of .viser files match, so ``GET /api/recordings/start`` finds
-    no GET route and answers 405 (the route exists for POST), instead of a 422 about a bad file name."""
-
-    regex = RECORDING_NAME.pattern.strip("^$")
-
-    def convert(self, value: str) -> str:
-        return value
-
-    def to_string(self, value: str) -> str:
-        return value
-
-
-register_url_convertor("recording_file", RecordingFileConvertor())
 
 
 # ---- the application ----------------------------------------------------------------------------
@@ -190,6 +173,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
     install_error_handlers(api)
     api.add_middleware(RequestGuard, policy=app.policy, body_limit=body_limit)
     SettingsCommand = settings_command_model()  # noqa: N806 - a model class
+    CompareCommand = compare_command_model()  # noqa: N806 - a model class
 
     # The error codes every route can answer (Host, token) and those of every state-changing one.
     everywhere = (421, 401) if app.policy.needs_token else (421,)
@@ -226,7 +210,13 @@ def create_api(app: ContactnetApp) -> FastAPI:
     # ---- session ------------------------------------------------------------------------------------
     @api.get("/api/info", response_model=Info, tags=["session"], responses=responses(*everywhere))
     def info() -> Info:
-        return Info(viser_port=app.viser_port, viewer_url="/viewer/", version="0.1.0", robot=app.settings.robot)
+        return Info(
+            session_id=app.session.session_id,
+            viser_port=app.viser_port,
+            viewer_url="/viewer/",
+            version="0.1.0",
+            robot=app.settings.robot,
+        )
 
     @api.get("/api/state", response_model=State, tags=["session"], responses=responses(*everywhere, 503))
     def get_state() -> State:
@@ -261,13 +251,23 @@ def create_api(app: ContactnetApp) -> FastAPI:
 
     @api.post("/api/pause", response_model=State, tags=["session"], responses=responses(*session_command))
     def pause(body: PauseCommand) -> State:
+        """Stop or run the clock; running also ends the wait for the first browser."""
         return run(SetPaused(body.paused))
+
+    @api.post("/api/compare", response_model=State, tags=["session"], responses=responses(*session_command))
+    def compare(body: CompareCommand) -> State:
+        """Compare mode: ``{"planners": ["contactnet", "fixed"]}`` runs two robots on the same terrain with the
+        same command (the main robot with the first planner, the other drawn as a ghost), both from the start;
+        ``{"planners": []}`` turns it off. `State.compare` reports the other robot."""
+        return run(SetCompare(tuple(body.planners)))
 
     @api.post("/api/settings", response_model=State, tags=["session"], responses=responses(*session_command))
     def settings(body: SettingsCommand) -> State:
-        """Change gait, planner, noise (each restarts the robot) and simulation speed."""
+        """Change gait, planner, noise (each restarts the robot), simulation speed and loop."""
         if body.speed is not None:
             run(SetSpeed(body.speed))
+        if body.loop is not None:
+            run(SetLoop(body.loop))
         if body.gait is not None:
             run(SetGait(body.gait))
         if body.planner is not None:
@@ -363,92 +363,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
         return Saved(name=name, path=str(path))
 
     # ---- recordings ---------------------------------------------------------------------------------
-    def entry(name: str, size: int, modified: float) -> RecordingEntry:
-        url = f"/api/recordings/{name}"
-        return RecordingEntry(
-            name=name,
-            size_bytes=size,
-            modified=modified,
-            download_url=url,
-            html_url=f"{url}/html",
-            play_url=f"/viewer/?playbackPath={url}",
-        )
-
-    @api.get(
-        "/api/recordings",
-        response_model=list[RecordingEntry],
-        tags=["recordings"],
-        responses=responses(*everywhere),
-    )
-    def list_recordings() -> list[RecordingEntry]:
-        return [entry(r.name, r.size_bytes, r.modified) for r in app.recordings.list()]
-
-    @api.get(
-        "/api/recordings/status",
-        response_model=RecordingStatus,
-        tags=["recordings"],
-        responses=responses(*everywhere),
-    )
-    def recording_status() -> RecordingStatus:
-        return RecordingStatus(**app.recorder.status())
-
-    @api.post(
-        "/api/recordings/start",
-        response_model=RecordingStatus,
-        tags=["recordings"],
-        responses=responses(*changing, 409, 422),
-    )
-    def start_recording(body: RecordingStart | None = None) -> RecordingStatus:
-        """Record the scene (12 Hz) until stopped (at most 10 simulated minutes)."""
-        try:
-            app.recorder.start((body.label if body else "").replace(" ", "-"))
-        except RuntimeError as exc:
-            raise HTTPException(409, str(exc)) from None
-        return RecordingStatus(**app.recorder.status())
-
-    @api.post(
-        "/api/recordings/stop",
-        response_model=RecordingEntry,
-        tags=["recordings"],
-        responses=responses(*changing, 409),
-    )
-    def stop_recording() -> RecordingEntry:
-        try:
-            info = app.recorder.stop()
-        except RuntimeError as exc:
-            raise HTTPException(409, str(exc)) from None
-        return entry(info.name, info.size_bytes, info.modified)
-
-    def recording_path(name: str) -> Path:
-        path = app.recordings.path(name)
-        if not path.is_file():
-            raise HTTPException(404, f"no recording named {name!r}")
-        return path
-
-    @api.get(
-        "/api/recordings/{name:recording_file}",
-        tags=["recordings"],
-        response_class=FileResponse,
-        responses={
-            **responses(*everywhere, 404, 422, json_route=False),
-            200: {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}},
-        },
-    )
-    def download_recording(name: RecordingName) -> FileResponse:
-        """The .viser file (play it with /viewer/?playbackPath=<this URL>)."""
-        return FileResponse(recording_path(name), media_type="application/octet-stream", filename=name)
-
-    @api.get(
-        "/api/recordings/{name:recording_file}/html",
-        tags=["recordings"],
-        response_class=HTMLResponse,
-        responses=responses(*everywhere, 404, 422, json_route=False),
-    )
-    def recording_html(name: RecordingName, download: bool = True) -> Response:
-        """One self-contained HTML file that plays the recording in any browser."""
-        html = viser_html(recording_path(name).read_bytes())
-        headers = {"Content-Disposition": f'attachment; filename="{name[:-6]}.html"'} if download else {}
-        return HTMLResponse(html, headers=headers)
+    add_recording_routes(api, app, everywhere, changing)
 
     return api
 

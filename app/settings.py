@@ -52,6 +52,12 @@ class ServeSettings:
     vx_m_s: float = 0.05  #: commanded forward velocity at the start
     vy_m_s: float = 0.0  #: commanded leftward velocity at the start
     paused: bool = False  #: start paused (press Run)
+    #: the robot waits (``waiting_for_viewer``) until the first browser opens the 3D view, then starts after
+    #: `viewer_start_delay_s` (so the scene is drawn before it moves), or until POST /api/pause {"paused": false}
+    wait_for_viewer: bool = True
+    viewer_start_delay_s: float = 3.0  #: software WebGL draws a first full scene 2-5 s after connecting
+    loop: bool = True  #: after the goal or a fall, start the next run after `loop_delay_s`
+    loop_delay_s: float = 6.0  #: wall seconds the end-of-run card shows before the next run
     noise: bool = False  #: the paper's joint-velocity noise at the start
     sim_speed: float = 1.0  #: simulated seconds per wall-clock second at the start
     #: the user's terrain files (saved from the page or PUT /api/terrains); None: <data dir>/terrains, the data
@@ -84,6 +90,10 @@ class ServeSettings:
         low, high = SIM_SPEED_RANGE
         if not (_finite(self.sim_speed) and low <= self.sim_speed <= high):
             fail("sim_speed", f"in [{low}, {high}]")
+        for field in ("viewer_start_delay_s", "loop_delay_s"):
+            value = getattr(self, field)
+            if not (_finite(value) and 0.0 <= value <= 600.0):
+                fail(field, "in [0, 600] s")
         if not (_finite(self.scene_hz) and self.scene_hz > 0):
             fail("scene_hz", "a positive rate in Hz")
         low, high = RECORD_RATE_RANGE_HZ
@@ -178,6 +188,8 @@ CLI_FIELDS = {
     "vy": "vy_m_s",
     "recordings": "recordings_dir",
     "allow_host": "allowed_hosts",
+    "wait": "wait_for_viewer",
+    "loop": "loop",
 }
 
 

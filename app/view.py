@@ -58,6 +58,72 @@ class SessionStatus:
 
 
 @dataclass(frozen=True)
+class Notice:
+    """Something a user should be told once (a toast): the change they made restarted the robot, an edit
+    applied without a restart, ... `seq` grows by one per notice of a session."""
+
+    seq: int
+    level: str  # "info" or "warning"
+    text: str
+
+
+@dataclass(frozen=True)
+class CompareResult:
+    """How one robot of a run ended (or stands when the run was summed up)."""
+
+    planner: str
+    x_m: float
+    fell: bool
+    success: bool
+    steps: int
+    rank_mean: float | None
+    done: str | None  # "goal reached", "fell: ...", or None (still walking)
+
+
+@dataclass(frozen=True)
+class CompareRobot(CompareResult):
+    """Another robot of compare mode: its result so far and its pose (drawn as a ghost)."""
+
+    planner_active: str = ""
+    snapshot: Snapshot | None = None
+    foot_pos_world: np.ndarray | None = None  # (4, 3)
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """One finished run: the main robot's result (and the compare robots', when compare mode was on)."""
+
+    index: int  # 1, 2, ... since the session started
+    t_s: float  # simulated time the run lasted
+    steps: int
+    rank_mean: float | None  # mean ranking position of the chosen actions (ranking planners only)
+    rank_max: int | None
+    success: bool
+    reason: str  # "goal reached", "fell: <why>", or "stopped: <why>"
+    reached_x_m: float
+    terrain: str
+    gait: str
+    planner: str
+    compare: tuple[CompareResult, ...] | None = None
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """Where the session is in its runs: waiting for a first browser, counting down to a start or to the
+    next run (loop), and how far the robot is from the start toward the goal."""
+
+    runs: int = 0  # finished runs since the session started
+    last_run: RunSummary | None = None
+    waiting_for_viewer: bool = False
+    starts_in_s: float | None = None  # the robot starts moving in this many wall seconds
+    restart_in_s: float | None = None  # the next run (loop) starts in this many wall seconds
+    loop: bool = False
+    progress: float = 0.0  # 0 at the start, 1 at the goal line (x)
+    start_x_m: float = 0.0
+    goal_x_m: float = 0.0
+
+
+@dataclass(frozen=True)
 class LiveView:
     """One immutable picture of the session (world frame, SI units)."""
 
@@ -81,6 +147,12 @@ class LiveView:
     #: whether an edit can be undone. None / False for views made outside a live session (`view_of`).
     terrain_dict: dict[str, Any] | None = None
     terrain_can_undo: bool = False
+    terrain_can_redo: bool = False
+    run: RunInfo = RunInfo()
+    notices: tuple[Notice, ...] = ()
+    #: the other robots of compare mode (the main robot runs the first planner), None when it is off
+    compare: tuple[CompareRobot, ...] | None = None
+    session_id: str = ""
 
 
 class ViewTracker:
@@ -208,3 +280,38 @@ def gait_chart(view: LiveView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     edges = (view.stance_history_node0 + np.arange(nodes + 1)) * dt
     t = np.stack([edges[:-1], edges[1:]], axis=1).ravel()
     return t, np.repeat(past, 2, axis=0), np.repeat(planned, 2, axis=0)
+
+
+def status_line(view: LiveView) -> str:
+    """The session's state in one sentence: the header of the page (State.status_text) and the control
+    panel both show this, so they never disagree."""
+    s, snap, run = view.status, view.snapshot, view.run
+    if s.error:
+        state = f"ERROR: {s.error}"
+    elif run.waiting_for_viewer:
+        state = "waiting for a browser"
+    elif run.starts_in_s is not None:
+        state = f"starting in {math.ceil(run.starts_in_s)} s"
+    elif s.done and run.restart_in_s is not None:
+        state = f"{_done_text(s.done)}; next run in {math.ceil(run.restart_in_s)} s"
+    elif s.done:
+        state = _done_text(s.done)
+    elif s.paused:
+        state = "paused"
+    else:
+        state = "walking"
+    rank = snap.planned_steps[0].rank if snap.planned_steps else None
+    parts = [state, f"t {snap.t_s:.1f} s", f"x {snap.q[0]:.2f} m ({100 * run.progress:.0f} %)", f"steps {snap.steps}"]
+    if rank is not None:
+        parts.append(f"rank {rank}")
+    if run.runs:
+        parts.append(f"run {run.runs + (0 if s.done else 1)}")
+    return " · ".join(parts)
+
+
+def _done_text(done: str) -> str:
+    if done == "goal reached":
+        return "GOAL REACHED"
+    if done.startswith("fell: "):
+        return f"FELL ({done.removeprefix('fell: ')})"
+    return done.upper()

@@ -2,6 +2,10 @@
 editor (`app/gui.py`), and the loop that keeps them up to date (scene ~30 Hz, panel and plots ~5 Hz,
 following cameras ~10 Hz, recordings at their own rate). The loop only reads `session.view`; it never
 waits for the simulation, and the simulation never waits for it.
+
+When a browser connects, the session is told (`ViewerConnected`: a session waiting for its first
+viewer starts after a short count-down, so the scene is drawn before the robot moves), and viser's
+software-WebGL toast is given an auto-close (`app/panels/notices.py`).
 """
 
 from __future__ import annotations
@@ -15,9 +19,12 @@ from dataclasses import dataclass, field
 
 import viser
 
+from app.commands import ViewerConnected
 from app.editing import TerrainService
 from app.gui import ControlPanel
 from app.live import LiveSession
+from app.panels.common import submit
+from app.panels.notices import close_software_webgl_toast
 from app.recordings import LiveRecorder, stop_quietly
 from app.scene import LiveScene, default_camera
 from app.security import AccessPolicy, guard_viser, prepare_viser_guard
@@ -69,12 +76,17 @@ class Viewer:
             self.server.initial_camera.look_at = tuple(look_at)
             self.server.initial_camera.up = (0.0, 0.0, 1.0)
         self.scene = LiveScene(self.server, robot)
-        self.panel = ControlPanel(self.server, session, terrains, recorder)
+        self.panel = ControlPanel(self.server, session, terrains, recorder, self.scene)
+        self.server.on_client_connect(self._on_connect)
         self.scene_period = 1.0 / scene_hz
         self.stats = UpdateStats()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="viewer-update", daemon=True)
         self._thread.start()
+
+    def _on_connect(self, client: viser.ClientHandle) -> None:
+        close_software_webgl_toast(client)
+        submit(self.session, ViewerConnected(), client, "Starting the session failed")
 
     @property
     def port(self) -> int:
@@ -95,6 +107,7 @@ class Viewer:
                     last_seq = view.seq
                     cpu0 = time.thread_time()
                     self.scene.update(view)
+                    self.panel.observe(view)
                     self.stats.add(time.thread_time() - cpu0)
                 self.recorder.feed(view)  # cheap when no frame is due (also records a paused scene once)
                 if view is not None and now >= next_camera:

@@ -31,7 +31,7 @@ USER_ERROR_CLASSES = (
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     """The exception classes that mean a user mistake. Only modules already imported can have raised
-    one, so this imports nothing (the network module would pull in torch just to print an error)."""
+    one, so this imports nothing (printing an error must not import e.g. the training modules, which pull in torch)."""
     found = [getattr(sys.modules[module], name) for module, name in USER_ERROR_CLASSES if module in sys.modules]
     return (UserError, *found)
 

@@ -180,6 +180,14 @@ class Locomotion:
         self.vel_cmd_xy = np.array([vx, vy], dtype=float)
         self._vel_cmd_world = rotate_xy(self.vel_cmd_xy, self.yaw_ref_rad)
 
+    def replace_terrain(self, terrain: Terrain) -> None:
+        """Walk on ``terrain`` from now on without a restart (its start and goal must be the old ones): for
+        edits away from the robot and its planned steps. The plan in progress is kept."""
+        if not np.allclose(terrain.start_xy, self.terrain.start_xy) or terrain.goal_x != self.terrain.goal_x:
+            raise ValueError("replace_terrain keeps the start and the goal: restart for a new start or goal")
+        self.sim.replace_terrain(terrain)
+        self.terrain = terrain
+
     def push(self, push: Push) -> None:
         self.sim.add_push(push)
 

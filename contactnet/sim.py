@@ -75,6 +75,23 @@ class Push:
         return Push(t0, duration, (fx, fy, 0.0))
 
 
+@dataclass(frozen=True)
+class BodyContact:
+    """A robot link other than a foot touching the terrain (the referee's non-foot contact), world frame."""
+
+    link: str  # the link's name in the URDF, e.g. FR_LOWER_LEG or base_link
+    leg: str | None  # the leg the link belongs to (its foot's leg name), None for the body
+    point_world: tuple[float, float, float]  # contact point on the terrain, m
+    normal_world: tuple[float, float, float]  # contact normal, from the terrain toward the link
+    normal_force_n: float
+    foot_over_gap: bool  # the link's leg has its foot-ball centre over no steppable ground (a hole, off an edge)
+
+    @property
+    def on_edge(self) -> bool:
+        """The terrain touches the link with its side or a corner (normal more than ~25 deg off vertical)."""
+        return self.normal_world[2] < 0.9
+
+
 @dataclass
 class SimState:
     """What the robot's sensors (and the referee) see at one instant. World frame unless named."""
@@ -216,6 +233,17 @@ class Simulator:
             c.changeDynamics(body, link, lateralFriction=self.config.foot_friction, restitution=0.0)
         return body
 
+    def replace_terrain(self, terrain: Terrain) -> None:
+        """Swap the terrain body for ``terrain``'s while the robot stays where it is (an edit away from it)."""
+        old_id = self.terrain_id
+        previous, self.terrain = self.terrain, terrain
+        try:
+            self.terrain_id = self._load_terrain()
+        except BaseException:
+            self.terrain = previous
+            raise
+        self.client.removeBody(old_id)
+
     def _index_robot(self) -> None:
         c = self.client
         joints, links = {}, {}
@@ -232,6 +260,14 @@ class Simulator:
         self._foot_slot = {link: i for i, link in enumerate(self.foot_links)}
         base_name = c.getBodyInfo(self.robot_id)[0].decode()
         self.link_names = {i: name for name, i in links.items()} | {-1: base_name}
+        # Each link on the chain from the base to a foot belongs to that foot's leg (the base to none).
+        parent = {i: c.getJointInfo(self.robot_id, i)[16] for i in links.values()}
+        self._leg_of_link: dict[int, int] = {}
+        for slot, foot in enumerate(self.foot_links):
+            link = foot
+            while link != -1:
+                self._leg_of_link.setdefault(link, slot)
+                link = parent[link]
         # Disable the default velocity motors: joints move only under our torques.
         c.setJointMotorControlArray(
             self.robot_id, self.joint_ids, self._pb.VELOCITY_CONTROL, forces=[0.0] * len(self.joint_ids)
@@ -349,6 +385,31 @@ class Simulator:
         links = {point[3] for point in self._contact_points()} - self._foot_slot.keys()
         return sorted(self.link_names.get(link, str(link)) for link in links)
 
+    def body_contacts(self) -> list[BodyContact]:
+        """The non-foot contacts now, one per link (its point of largest normal force), sorted by link name."""
+        strongest: dict[int, tuple] = {}
+        for point in self._contact_points():
+            link = point[3]
+            if link not in self._foot_slot and (link not in strongest or point[9] > strongest[link][9]):
+                strongest[link] = point
+        if not strongest:
+            return []
+        feet_xy = self.foot_positions_world()[:, :2]
+        over_gap = ~self.terrain.is_safe(feet_xy)
+        leg_names = self.robot.description.leg_names
+        contacts = []
+        for link, point in strongest.items():
+            slot = self._leg_of_link.get(link)
+            contacts.append(BodyContact(
+                link=self.link_names.get(link, str(link)),
+                leg=None if slot is None else leg_names[slot],
+                point_world=tuple(float(v) for v in point[6]),
+                normal_world=tuple(float(v) for v in point[7]),
+                normal_force_n=float(point[9]),
+                foot_over_gap=bool(slot is not None and over_gap[slot]),
+            ))
+        return sorted(contacts, key=lambda contact: contact.link)
+
     # ---- referee ---------------------------------------------------------------------------
     def fall_reason(self, state: SimState | None = None) -> str | None:
         """Why the robot counts as fallen now, or None: base too low, too tilted, or a shin/body contact."""
@@ -359,9 +420,9 @@ class Simulator:
         roll, pitch, _ = s.rpy
         if max(abs(roll), abs(pitch)) > self.config.fall_tilt_rad:
             return f"base tilted (roll {roll:.2f}, pitch {pitch:.2f} rad)"
-        touching = self.non_foot_contacts()
+        touching = self.body_contacts()
         if touching:
-            return "non-foot contact: " + ", ".join(touching)
+            return describe_body_contacts(touching)
         return None
 
     def fallen(self, state: SimState | None = None) -> bool:
@@ -383,6 +444,23 @@ class Simulator:
         self.close()
 
 
+def describe_body_contacts(contacts: list[BodyContact]) -> str:
+    """The referee's sentence for a non-foot contact: which links touch where, and why when a foot stepped into
+    a gap, e.g. "non-foot contact: FR_LOWER_LEG on an edge at x 0.25, y -0.14 m (the FR foot stepped into a
+    gap)". Starts with "non-foot contact: " and the link names."""
+    places = []
+    for contact in contacts:
+        x, y, _ = contact.point_world
+        where = "on an edge" if contact.on_edge else "on top of the terrain"
+        places.append(f"{contact.link} {where} at x {x:.2f}, y {y:.2f} m")
+    gap_legs = sorted({c.leg for c in contacts if c.foot_over_gap and c.leg is not None})
+    why = ""
+    if gap_legs:
+        feet = " and ".join(gap_legs)
+        why = f" (the {feet} foot stepped into a gap)" if len(gap_legs) == 1 else f" (the {feet} feet stepped into gaps)"
+    return "non-foot contact: " + "; ".join(places) + why
+
+
 @dataclass(frozen=True)
 class StandingGains:
     """Joint PD that holds the nominal stance (the simplest controller; the benchmark reference)."""
@@ -397,6 +475,7 @@ def standing_torques(state: SimState, joint_target: np.ndarray, gains: StandingG
 
 __all__ = [
     "LEG_NAMES",
+    "BodyContact",
     "Push",
     "SimConfig",
     "SimState",
@@ -404,6 +483,7 @@ __all__ = [
     "StandingGains",
     "quat_to_matrix",
     "quat_to_rpy",
+    "describe_body_contacts",
     "standing_torques",
     "yaw_to_quat",
 ]

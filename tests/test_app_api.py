@@ -43,6 +43,7 @@ def app(tmp_path_factory):
             terrain="flat",
             planner="heuristic",
             vx_m_s=0.0,
+            wait_for_viewer=False,
             viser_port=free_port(),
             terrains_dir=terrains,
             recordings_dir=tmp_path_factory.mktemp("rec"),
@@ -67,6 +68,39 @@ def test_state_and_info(client, app):
     assert state["terrain"] == "flat" and state["gait"] == "walk" and state["viser_port"] == app.viser_port
     assert client.get("/api/info").json()["viser_port"] == app.viser_port
     assert "/api/command" in client.get("/openapi.json").json()["paths"]
+
+
+def test_state_says_the_run_the_notices_and_the_scenario(client, app):
+    state = client.get("/api/state").json()
+    assert state["session_id"] == client.get("/api/info").json()["session_id"] == app.session.session_id
+    assert not state["waiting_for_viewer"] and state["loop"] and state["goal_x_m"] > state["start_x_m"]
+    assert 0.0 <= state["progress"] <= 1.0 and state["status_text"]
+    assert state["scenario"] == {"terrain": state["terrain"], "removed": None, "seed": None, "gait": "walk",
+                                 "planner": state["planner"], "compare": None}
+    state = client.post("/api/settings", json={"loop": False}).json()
+    assert state["loop"] is False and state["restart_in_s"] is None
+    assert client.post("/api/settings", json={"loop": True}).json()["loop"] is True
+
+
+def test_compare_mode_over_rest(client):
+    state = client.post("/api/compare", json={"planners": ["heuristic", "fixed"]}).json()
+    assert state["compare"] is not None and len(state["compare"]) == 1
+    assert set(state["compare"][0]) == {"planner", "x", "fell", "success", "steps", "rank_mean"}
+    assert state["compare"][0]["planner"] == "fixed" and state["scenario"]["compare"] == ["heuristic", "fixed"]
+    assert "Compare mode" in state["notices"][-1]["text"]
+    for body, field in (({"planners": ["heuristic"]}, "two planner names"), ({"planners": ["a", "b"]}, "planners"),
+                        ({"planners": ["heuristic", "fixed", "oracle"]}, "planners")):
+        response = client.post("/api/compare", json=body)
+        assert response.status_code == 422 and field in response.text, body
+    state = client.post("/api/compare", json={"planners": []}).json()
+    assert state["compare"] is None and state["scenario"]["compare"] is None
+
+
+def test_state_schema_describes_every_field(client):
+    """Units and meaning of every State field are in the OpenAPI schema (what /docs shows)."""
+    schema = client.get("/openapi.json").json()["components"]["schemas"]["State"]["properties"]
+    undescribed = [name for name, field in schema.items() if not field.get("description")]
+    assert not undescribed, undescribed
 
 
 def test_api_docs_are_served_from_the_package_not_a_cdn(client):
@@ -187,6 +221,8 @@ def test_pause_and_settings(client):
     state = client.post("/api/settings", json={"gait": "trot", "noise": True}).json()
     assert (state["gait"], state["planner_active"], state["noise"]) == ("trot", "contactnet", True)
     assert state["planner_note"] is None and state["paused"]  # a rebuild keeps the pause
+    texts = [n["text"] for n in state["notices"][-2:]]
+    assert "Gait set to trot" in texts[0] and "noise on" in texts[1]  # each restart is said
     client.post("/api/pause", json={"paused": False})
     wait = time.monotonic() + 20
     while (state := client.get("/api/state").json())["rank_chosen"] is None and time.monotonic() < wait:
@@ -209,9 +245,13 @@ def test_terrain_round_trip(client, app):
     saved = client.get("/api/terrains/my_stones").json()
     assert saved["name"] == "my_stones" and saved["regions"] == stones["regions"]
     state = client.post("/api/session/terrain", json={"name": "my_stones"}).json()
-    assert state["terrain"] == "my_stones" and state["paused"]
+    assert state["terrain"] == "my_stones" and state["t_s"] < 0.1 and state["running"]  # from the start
+    assert "my_stones loaded" in state["notices"][-1]["text"]
+    assert state["scenario"]["terrain"] == "my_stones"
     state = client.post("/api/session/terrain", json={"name": "random", "removed": 60, "seed": 3}).json()
     assert state["terrain"].startswith("random")
+    assert {k: state["scenario"][k] for k in ("terrain", "removed", "seed")} == {
+        "terrain": "random", "removed": 60, "seed": 3}
     assert client.post("/api/session/terrain", json={"name": "nowhere"}).status_code == 404
     client.post("/api/session/terrain", json={"name": "flat"})
     client.post("/api/pause", json={"paused": False})
@@ -320,11 +360,17 @@ def test_clicks_in_the_3d_view_edit_the_terrain(client, app):
     panel._on_moved(SimpleNamespace(phase="end", client=None))
     assert editor.region_pose(app.terrains.current["regions"][-1])[0] == pytest.approx((0.8, 0.45))
     panel._on_delete(SimpleNamespace(client=None))
-    panel._on_undo(SimpleNamespace(client=None))
+
+    def history(button: str) -> None:  # as if clicked: setting a button group's value runs its callback
+        panel.history_buttons.value = button
+
+    history("Undo")
     assert app.terrains.current["regions"][-1]["shape"] == "star"
     for _ in range(3):
-        panel._on_undo(SimpleNamespace(client=None))
+        history("Undo")
     assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(before)
+    history("Redo")  # the hole comes back
+    assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(before - 0.0025)
     panel.tool.value = "off"
     client.post("/api/session/terrain", json={"name": "flat"})
     client.post("/api/pause", json={"paused": False})

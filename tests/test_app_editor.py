@@ -74,3 +74,19 @@ def test_bad_uploads_are_refused_with_a_message(content, message):
 
 def test_good_upload(stones):
     assert editor.parse_upload(json.dumps(stones).encode()) == stones
+
+
+def test_the_service_says_what_a_save_would_replace(tmp_path, stones):
+    """The editor asks before a save that replaces something: the user's own file, or a shipped name."""
+    from app.editing import TerrainService
+    from app.terrain_files import TerrainLibrary
+
+    library = TerrainLibrary(tmp_path / "user", shipped_dir=tmp_path / "shipped")
+    TerrainStore(tmp_path / "shipped").save(stones, "stepping_stones")
+    service = TerrainService(session=None, store=library)
+    assert service.exists("brand_new") is None
+    assert service.exists("stepping_stones") == "shipped"
+    library.save(stones, "mine")
+    assert service.exists("mine") == "yours"
+    with pytest.raises(EditError):
+        service.exists("../outside")

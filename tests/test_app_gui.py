@@ -62,6 +62,10 @@ class ViserProtocolClient:
     def key(self, command) -> None:  # noqa: ANN001 - a hotkey command
         self.send(messages.CommandTriggerMessage(command._impl.uuid))
 
+    def click_node(self, name: str, instance: int | None = None) -> None:
+        """A click on a (clickable) scene node, e.g. one disk of the batched candidate disks."""
+        self.send(messages.SceneNodeClickMessage(name, instance, (0.0, 0.0, 1.0), (0.0, 0.0, -1.0), (0.5, 0.5), None))
+
     def click_scene(self, xy: tuple[float, float], z: float = 0.0) -> None:
         """A click in the 3D view on the point (x, y, z), seen from above and behind."""
         origin = (xy[0] - 0.5, xy[1] - 0.3, z + 1.0)
@@ -205,16 +209,20 @@ def test_terrain_picker_files_and_random_field(app, browser):
     wait_for(lambda: not panel.removed.visible, what="N and seed to hide")
     browser.click(panel.load_button)
     wait_for(lambda: state(app).terrain == "stepping_stones", what="stepping stones")
-    assert state(app).paused  # a new terrain waits for Run
+    notice = app.session.view.notices[-1]  # the restart is said, in a toast to every browser
+    assert notice.text.startswith("Terrain stepping_stones loaded")
+    wait_for(lambda: app.viewer.panel.toasts.shown_seq == notice.seq, what="the toast")
+    assert panel.terrain_pick.value == "stepping_stones"
     browser.set(panel.terrain_pick, "flat")
     browser.click(panel.load_button)
     wait_for(lambda: state(app).terrain == "flat", what="flat")
 
 
 def test_record_button(app, browser):
+    from app.commands import SetPaused
+
     panel = app.viewer.panel.recording
-    browser.click(app.viewer.panel.drive.run_button)
-    wait_for(lambda: not state(app).paused, what="running")
+    app.session.call(SetPaused(False))  # a loaded terrain starts at once (a toast says it restarted)
     browser.click(panel.record_button)
     wait_for(lambda: app.recorder.recording, what="recording")
     wait_for(lambda: panel.record_button.label == "Stop recording", what="the button to say Stop")
@@ -270,28 +278,67 @@ def test_terrain_editor(app, browser):
     browser.click(panel.delete_button)
     wait_for(lambda: len(regions()) == star_index, what="the circle deleted")
     assert regions()[-1]["shape"] == "star"
-    browser.click(panel.undo_button)
+    browser.click(panel.history_buttons, "Undo")
     wait_for(lambda: len(regions()) == star_index + 1, what="undo of the delete")
+    assert app.terrains.can_redo
+    browser.click(panel.history_buttons, "Redo")
+    wait_for(lambda: len(regions()) == star_index, what="redo of the delete")
+    wait_for(lambda: panel.info.content.startswith("Redone"), what="the redo said")
+    browser.click(panel.history_buttons, "Undo")
+    wait_for(lambda: len(regions()) == star_index + 1, what="undo again")
 
     browser.set(panel.name, "gui_saved")
     wait_for(lambda: panel.name.value == "gui_saved", what="the name")
     browser.click(panel.save_button)
-    saved = app.terrains.store.directory / "gui_saved.json"
+    saved = app.terrains.store.path("gui_saved")
     wait_for(saved.exists, what="the saved file")
     assert Terrain.load(saved).to_dict()["regions"] == app.terrains.current["regions"]
+    wait_for(lambda: state(app).terrain == "gui_saved", what="the label to follow the saved name")
+    wait_for(lambda: app.viewer.panel.terrain.terrain_pick.value == "gui_saved", what="the picker to follow")
 
-    shipped = app.terrains.store.directory / "flat.json"
-    before = shipped.read_bytes()
+    browser.set(panel.tool, "add rect")  # one more edit, then save again under the same name: asks first
+    wait_for(lambda: panel.tool.value == "add rect", what="the rect tool")
+    browser.click_scene((1.2, 0.45))
+    wait_for(lambda: state(app).terrain == "gui_saved (edited)", what="an edit")
+    before = saved.read_bytes()
+    wait_for(lambda: panel.name.value == "gui_saved", what="the name to stay")
+    browser.click(panel.save_button)
+    wait_for(lambda: panel.save_button.label == "Overwrite gui_saved?" and panel.cancel_button.visible,
+             what="the confirm step")
+    assert saved.read_bytes() == before  # nothing written yet
+    browser.click(panel.cancel_button)
+    wait_for(lambda: panel.save_button.label == "Save terrain" and not panel.cancel_button.visible, what="cancel")
+    browser.click(panel.save_button)
+    wait_for(lambda: panel.save_button.label == "Overwrite gui_saved?", what="the confirm step again")
+    browser.click(panel.save_button)
+    wait_for(lambda: saved.read_bytes() != before, what="the confirmed overwrite")
+    assert Terrain.load(saved).to_dict()["regions"] == app.terrains.current["regions"]
+
+    shipped = terrains_dir() / "flat.json"  # a shipped name: asks too, and never touches the shipped file
+    shipped_bytes = shipped.read_bytes()
     browser.set(panel.name, "flat")
     wait_for(lambda: panel.name.value == "flat", what="the name")
-    browser.click(panel.save_button)  # a shipped file without "Overwrite": refused
-    time.sleep(0.5)
-    assert shipped.read_bytes() == before
+    browser.click(panel.save_button)
+    wait_for(lambda: panel.save_button.label == "Overwrite flat?", what="the confirm step for a shipped name")
+    browser.set(panel.name, "flat2")  # a new name ends the confirm step
+    wait_for(lambda: panel.save_button.label == "Save terrain", what="confirm dropped")
+    assert shipped.read_bytes() == shipped_bytes
+
+    browser.set(panel.tool, "select stone")  # a click that misses every stone says so
+    wait_for(lambda: panel.tool.value == "select stone", what="the select tool")
+    browser.click_scene((0.3, 3.0))
+    wait_for(lambda: panel.info.content.startswith("No stone here"), what="the miss said")
+    browser.set(panel.tool, "fill hole")
+    wait_for(lambda: panel.tool.value == "fill hole", what="the fill tool")
+    browser.click_scene((0.3, 0.45))  # on the rect added above: nothing to fill
+    wait_for(lambda: panel.info.content.startswith("No hole here"), what="the no-op fill said")
 
     browser.set(panel.tool, "off")
-    for _ in range(10):  # all the way back to the loaded terrain
-        browser.click(panel.undo_button)
-    wait_for(lambda: len(regions()) == n and not app.terrains.can_undo, what="undo to the start")
+    for _ in range(12):  # all the way back to the loaded terrain
+        browser.click(panel.history_buttons, "Undo")
+    wait_for(lambda: not app.terrains.can_undo, what="undo to the start")
+    app.terrains.load("stepping_stones")
+    wait_for(lambda: len(regions()) == n, what="the shipped terrain again")
     assert Terrain.from_dict(app.terrains.current).steppable.area == pytest.approx(area)
 
 
@@ -308,9 +355,77 @@ def test_terrain_upload(app, browser):
     assert app.terrains.current == current and state(app).terrain == "narrow_stones (uploaded)"
 
 
-def test_recenter_camera(app, browser):
-    panel = app.viewer.panel
+def test_camera_modes_per_browser(app, browser):
+    camera = app.viewer.panel.camera
     client_id = next(iter(app.viewer.server.get_clients()))
-    panel.camera._state[client_id]["follow"] = False  # as after the user orbits
-    browser.click(panel.drive.recenter)
-    wait_for(lambda: panel.camera.following(client_id), what="following again")
+    client = app.viewer.server.get_clients()[client_id]
+    mode, recenter = camera.controls[client_id]  # this browser's own camera block
+    assert mode.value == "follow" and camera.following(client_id)
+    browser.set(mode, "top-down")
+    wait_for(lambda: camera.mode(client_id) == "top-down", what="top-down")
+    def from_above() -> bool:
+        offset = client.camera.position - client.camera.look_at
+        return offset[2] > 0.5 and np.linalg.norm(offset[:2]) < 0.05 * offset[2]
+
+    wait_for(from_above, what="the camera above the terrain, looking down")
+    browser.set(mode, "free")
+    wait_for(lambda: camera.mode(client_id) == "free", what="free")
+    browser.click(recenter)  # free: back to the default view once, no following
+    browser.set(mode, "follow")
+    wait_for(lambda: camera.following(client_id), what="following again")
+    browser.click(recenter)
+    wait_for(lambda: camera.following(client_id), what="still following")
+
+
+def test_disk_click_shows_leg_rank_and_safety(app, browser):
+    from app.commands import SetPaused, SetPlanner
+
+    app.terrains.load("stepping_stones")
+    app.session.call(SetPlanner("contactnet"))
+    app.session.call(SetPaused(False))
+    wait_for(lambda: app.session.view.candidates is not None and app.session.view.candidates.rank is not None,
+             what="ranked candidates")
+    app.session.call(SetPaused(True))
+    scene = app.viewer.scene
+    wait_for(lambda: scene._drawn[0] is app.session.view.candidates, what="the disks drawn")
+    cand = scene._drawn[0]
+    (chosen,) = cand.chosen
+    browser.click_node("/plan/candidates", chosen)
+    legend = app.viewer.panel.legend
+    leg = ("FL", "FR", "HL", "HR")[int(cand.leg[chosen])]
+    wait_for(lambda: f"{leg} · rank {int(cand.rank[chosen])}" in legend.picked.content, what="the picked disk")
+    assert "chosen" in legend.picked.content
+    client_id = next(iter(app.viewer.server.get_clients()))
+    assert scene._pick_labels[client_id].text.startswith(leg)  # the 3D label next to the disk
+    unsafe = np.flatnonzero(~cand.safe)
+    if len(unsafe):
+        browser.click_node("/plan/candidates", int(unsafe[0]))
+        wait_for(lambda: "unsafe" in legend.picked.content, what="an unsafe disk")
+    app.session.call(SetPlanner("heuristic"))
+    app.terrains.load("flat")
+
+
+def test_compare_button_toggles_compare_mode(app, browser):
+    panel = app.viewer.panel.gait_planner
+    browser.set(panel.compare_with, "fixed")
+    wait_for(lambda: panel.compare_button.label == "Compare with fixed", what="the button label")
+    browser.click(panel.compare_button)
+    wait_for(lambda: app.session.view.compare, what="compare mode on")
+    assert [c.planner for c in app.session.view.compare] == ["fixed"]
+    ghosts = app.viewer.scene.ghosts
+    wait_for(lambda: ghosts.ghosts and ghosts.ghosts[0].visible, what="the ghost robot drawn")
+    wait_for(lambda: ghosts.labels[1].text.startswith("fixed"), what="the ghost's label")
+    wait_for(lambda: panel.compare_button.label == "Stop comparing", what="the button to say Stop")
+    browser.click(panel.compare_button)
+    wait_for(lambda: app.session.view.compare is None, what="compare mode off")
+    wait_for(lambda: not ghosts.ghosts[0].visible and not ghosts.labels[0].visible, what="the ghost hidden")
+
+
+def test_status_panel_says_what_the_header_says(app, browser):
+    from app.view import status_line
+
+    status = app.viewer.panel.status
+    wait_for(lambda: status.text.content.startswith(f"**{status_line(app.session.view)}**"), what="one status")
+    assert 0.0 <= status.progress.value <= 100.0
+    plots = app.viewer.panel.plots
+    assert plots.gait_plot.axes[1]["values"] == ("FL", "FR", "HL", "HR")

@@ -41,7 +41,7 @@ def random_models(tmp_path_factory):
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
     live = LiveSession(
-        ServeSettings(planner="heuristic", vx_m_s=0.0),
+        ServeSettings(planner="heuristic", vx_m_s=0.0, wait_for_viewer=False),
         flat(),
         "flat",
         planner_factory=partial(default_planner_factory, model_dir=tmp_path_factory.mktemp("no_models")),
@@ -146,7 +146,7 @@ def test_contactnet_session_shows_the_ranking(random_models, tmp_path):
     """A ContactNet planner session (random weights) yields ranked candidates with the chosen cell:
     every candidate ranked before the chosen one is unsafe (the planner takes the first safe one)."""
     live = LiveSession(
-        ServeSettings(planner="contactnet"),
+        ServeSettings(planner="contactnet", wait_for_viewer=False),
         stepping_stones(),
         "stepping_stones",
         planner_factory=partial(default_planner_factory, model_dir=random_models),
@@ -218,7 +218,8 @@ def test_gait_and_terrain_rebuild_the_world(session):
     session.call(SetTerrain(stepping_stones(), "stones"))
     view = session.view
     assert view.terrain_version == version + 1 and view.status.terrain == "stones"
-    assert view.status.paused  # an edited terrain waits for "run"
+    assert view.status.running and view.snapshot.t_s < 0.1  # a loaded terrain: the robot starts from its start
+    assert "stones loaded" in view.notices[-1].text and "Gait set to trot" in view.notices[-2].text
     session.call(SetGait("walk"))
     session.call(SetTerrain(flat(), "flat"))
     session.call(SetPaused(False))
@@ -335,60 +336,6 @@ def test_recorder_from_a_plain_loop(robot, tmp_path):
     assert "__VISER_EMBED_DATA__" in html and len(html) > len(data)
 
 
-def test_camera_follows_until_the_user_moves_it(session):
-    """The follow logic with a fake browser: our own (late, repeated) camera reports keep it on; an
-    orbit or a pan by the user switches it off; re-centring switches it on again."""
-    import asyncio
-    from dataclasses import replace
-    from types import SimpleNamespace
-
-    from app.camera import CameraFollow
-
-    class Camera:
-        def __init__(self, client):
-            self.client, self.position, self.look_at = client, np.zeros(3), np.zeros(3)
-
-    class Client:
-        client_id = 7
-
-        def __init__(self):
-            self.camera = Camera(self)
-
-    client = Client()
-    initial = SimpleNamespace(position=np.array([9.0, 9.0, 9.0]), look_at=np.array([8.0, 8.0, 8.0]))
-    server = SimpleNamespace(
-        on_client_connect=lambda f: f,
-        on_client_disconnect=lambda f: f,
-        initial_camera=initial,
-        get_clients=lambda: {7: client},
-    )
-    follow = CameraFollow(server)
-
-    def report(position, look_at):
-        camera = Camera(client)
-        camera.position, camera.look_at = np.asarray(position, float), np.asarray(look_at, float)
-        asyncio.run(follow._on_camera(camera))
-
-    session.call(Reset())
-    view = session.view
-    follow.step(view)
-    follow.recenter(client)
-    ours = (client.camera.position.copy(), client.camera.look_at.copy())
-    report(initial.position, initial.look_at)  # the page's initial camera, reported late: ignored
-    report(*ours)  # synced
-    moved = view.snapshot.q.copy()
-    moved[0] += 0.02
-    follow.step(replace(view, snapshot=replace(view.snapshot, q=moved)))
-    assert client.camera.position[0] == pytest.approx(ours[0][0] + 0.02)
-    report(*ours)  # a report from before our last step
-    report(client.camera.position, client.camera.look_at)
-    assert follow.following(7)
-    report(client.camera.position + [0.0, 0.0, 0.2], client.camera.look_at)  # the user orbits
-    assert not follow.following(7)
-    follow.recenter(client)
-    assert follow.following(7)
-
-
 def test_arrow_segments_have_a_shaft_and_a_symmetric_head():
     from app.scene import arrow_segments
 
@@ -419,7 +366,7 @@ def test_the_session_owns_the_terrain_and_its_history(tmp_path):
             published.append(self._view)
 
     live = RecordedSession(
-        ServeSettings(planner="heuristic", vx_m_s=0.0), flat(), "flat",
+        ServeSettings(planner="heuristic", vx_m_s=0.0, wait_for_viewer=False), flat(), "flat",
         planner_factory=partial(default_planner_factory, model_dir=tmp_path), robot_cache_dir=tmp_path,
     ).start()
     try:

@@ -1,9 +1,10 @@
 """End to end in a real headless browser (Debian chromium driven by playwright): the front page,
 the embedded 3D view, its controls, and recording playback. Asserts on server state and DOM text,
-never on frame timing. Screenshots go to artifacts/ (git-ignored)."""
+never on frame timing. Screenshots go to $CONTACTNET_ARTIFACTS (else artifacts/, git-ignored)."""
 
 from __future__ import annotations
 
+import os
 import shutil
 import time
 from pathlib import Path
@@ -14,7 +15,7 @@ from helpers import save_random_models, wait_for
 from app.commands import SetPaused, SetPlanner, SetVelocity
 from app.headless import CHROMIUM, LAUNCH_ARGS
 
-ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
+ARTIFACTS = Path(os.environ.get("CONTACTNET_ARTIFACTS") or Path(__file__).resolve().parent.parent / "artifacts")
 
 pytestmark = [
     pytest.mark.slow,
@@ -57,7 +58,7 @@ def page(live):
     from playwright.sync_api import sync_playwright
 
     app, url = live
-    ARTIFACTS.mkdir(exist_ok=True)
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
     with sync_playwright() as playwright:
         browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
         page = browser.new_page(viewport={"width": 1600, "height": 1000})
@@ -97,7 +98,7 @@ def test_push_button_and_velocity_keys_drive_the_robot(live, page):
     app.session.call(SetPlanner("heuristic"))  # random ContactNet weights do not make a steady walk
     app.session.call(SetVelocity(0.0, 0.0))
     app.session.call(SetPaused(False))
-    viewer.get_by_text("terrain flat").wait_for(timeout=20_000)
+    viewer.get_by_text("terrain flat").first.wait_for(timeout=20_000)  # a toast says it too
 
     # A DOM click event straight to the button: a pointer click first scrolls the button into view,
     # which can take long while the software renderer keeps the page busy.

@@ -31,7 +31,7 @@ REPO = Path(__file__).resolve().parent.parent
 def live(tmp_path_factory):
     data = tmp_path_factory.mktemp("data")
     app = ContactnetApp(
-        ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, viser_port=free_port(),
+        ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, wait_for_viewer=False, viser_port=free_port(),
                       terrains_dir=data / "terrains", recordings_dir=data / "recordings")
     )
     port = free_port()
@@ -307,7 +307,7 @@ def test_serve_saves_the_recording_in_progress_on_a_signal(tmp_path, signum):
     env = os.environ | {"CONTACTNET_DATA": str(tmp_path), "CONTACTNET_LOG": "WARNING"}
     process = subprocess.Popen(
         [sys.executable, "-m", "contactnet.cli", "serve", "--port", str(port), "--viser-port", str(viser_port),
-         "--terrain", "flat", "--planner", "heuristic", "--vx", "0"],
+         "--terrain", "flat", "--planner", "heuristic", "--vx", "0", "--no-wait"],  # walks with no browser
         cwd=REPO, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
     try:

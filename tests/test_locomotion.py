@@ -129,3 +129,27 @@ def test_simulate_json_contract():
     for key in ("planner_ms", "trajopt_ms"):
         assert set(report[key]) == {"mean", "median", "p99", "max"}
         assert 0 < report[key]["median"] <= report[key]["max"]
+
+
+@pytest.mark.slow
+def test_heuristic_shin_on_the_start_edge_is_a_real_fall(robot):
+    """Issue 12 item 9: the blind heuristic planner puts the FR foot in the gap after the start platform of
+    stepping_stones (x 0.28 m; the platform ends at 0.25 m, the next stone starts at 0.30 m). At 1.26 s the
+    robot still stands upright, but its FR shin rests on the platform's edge: the referee says why, and the
+    fall is real: without the non-foot rule the robot tips over (tilt rule) within a second."""
+    terrain = resolve("stepping_stones")
+    with Locomotion(robot, terrain, WALK, HeuristicPlanner(WALK), vel_cmd_xy=(0.05, 0.0)) as loco:
+        result = loco.run(3.0)
+        assert result["fell"] and 1.0 < result["sim_time_s"] < 1.5
+        reason = result["fall_reason"]
+        assert reason.startswith("non-foot contact: FR_LOWER_LEG on an edge at x 0.25"), reason
+        assert reason.endswith("(the FR foot stepped into a gap)"), reason
+        assert not terrain.is_safe(loco.records[-1].footholds_xy_world).any()  # the FR foothold is in the gap
+        contacts = loco.sim.body_contacts()
+        assert [(c.link, c.leg, c.foot_over_gap) for c in contacts] == [("FR_LOWER_LEG", "FR", True)]
+        assert abs(loco.sim.state().rpy[:2]).max() < 0.1  # upright when the shin touches
+    with Locomotion(robot, terrain, WALK, HeuristicPlanner(WALK), vel_cmd_xy=(0.05, 0.0)) as loco:
+        loco.sim.body_contacts = lambda: []  # the referee without the non-foot rule
+        loco.run(3.0)
+        assert loco.fall_reason is not None and "tilted" in loco.fall_reason
+        assert loco.t_s < result["sim_time_s"] + 1.2

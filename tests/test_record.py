@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from app.recording_meta import read_meta
 from app.recordings import RecordingStore, read_recording
 from contactnet.cli import EXIT_USER_ERROR, main
 
@@ -32,6 +33,22 @@ def robot_x(data: bytes) -> list[float]:
     ]
 
 
+def status_texts(data: bytes) -> list[str]:
+    """The status label's text in every frame of a recording."""
+    import msgspec
+    import zstandard
+
+    inner = zstandard.ZstdDecompressor().decompress(data[8:], max_output_size=int.from_bytes(data[:8], "little"))
+    header = msgspec.msgpack.decode(inner[8 : 8 + int.from_bytes(inner[:8], "little")])
+    texts = []
+    for _, m in header["messages"]:
+        if m.get("name") == "/status/text":
+            text = m.get("props", {}).get("text") if m["type"] == "LabelMessage" else m.get("updates", {}).get("text")
+            if text:
+                texts.append(text)
+    return texts
+
+
 def test_record_writes_a_viser_recording(tmp_path, capsys):
     path = tmp_path / "walk.viser"
     assert main([*SIMULATE, "--duration", "1.5", "--record", str(path)]) == 0
@@ -49,8 +66,18 @@ def test_record_writes_a_viser_recording(tmp_path, capsys):
     x = robot_x(data)
     assert len(x) >= 15  # one pose per frame, 12 frames per simulated second
     assert x[-1] - x[0] > 0.05 and np.all(np.diff(x) > -0.01)  # it walks forward over time
-    assert [p.name for p in tmp_path.iterdir()] == ["walk.viser"]  # no temporary file left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.viser", "walk.viser.json"]  # no temporary file
     assert oct(path.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+    # the metadata the recordings list shows, next to the file (app.recording_meta)
+    meta = read_meta(path).meta
+    assert (meta.robot, meta.terrain, meta.gait, meta.planner) == ("solo12", "flat", "walk", "heuristic")
+    assert meta.frames == len(x) and meta.duration_s == pytest.approx(contents.duration_s, abs=0.1)
+    assert meta.result == "stopped" and meta.title == "" and meta.runs == ()
+    # the status plays back with the scene: a label following the robot, and the gait schedule
+    assert {"/status/text", "/status/gait"} <= contents.node_names
+    texts = status_texts(data)
+    assert len(texts) >= 15 and texts[0].startswith("walking · t 0.0 s · x 0.00 m (0 %)")
+    assert texts[-1].startswith("walking · t 1.5 s") and "steps" in texts[-1]
 
 
 def _umask() -> int:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactnet.sim import Push, SimConfig, Simulator, standing_torques
+from contactnet.sim import BodyContact, Push, SimConfig, Simulator, describe_body_contacts, standing_torques
 from contactnet.terrain import flat, random_field, resolve
 
 
@@ -109,6 +109,12 @@ def test_body_contact_and_tilt_are_falls(flat_sim):
     stand(flat_sim, 0.4, target=kneeling)
     assert flat_sim.state().base_pos_world[2] > flat_sim.fall_base_height_m + 0.03
     assert flat_sim.fall_reason().startswith("non-foot contact")
+    contacts = flat_sim.body_contacts()
+    assert {c.link for c in contacts} == set(flat_sim.non_foot_contacts())
+    assert {c.leg for c in contacts} <= {"FL", "FR", "HL", "HR"} and contacts
+    assert all(c.link.startswith(c.leg) for c in contacts)  # Solo12 names its links after their leg
+    assert not any(c.foot_over_gap or c.on_edge for c in contacts)  # knees on flat ground
+    assert "on top of the terrain" in flat_sim.fall_reason() and "gap" not in flat_sim.fall_reason()
     # Rolled over by 1 rad.
     flat_sim.reset(base_height_m=0.4)
     c = flat_sim.client
@@ -141,3 +147,14 @@ def test_stands_ten_seconds(robot, terrain_name):
         stand(sim, 10.0)
         assert sim.fall_reason() is None
         assert np.linalg.norm(sim.state().base_pos_world[:2] - sim.terrain.start_xy) < 0.02
+
+
+def test_the_non_foot_contact_sentence_says_where_and_why():
+    shin = BodyContact("FR_LOWER_LEG", "FR", (0.2508, -0.141, 0.0), (0.77, 0.0, 0.64), 75.0, foot_over_gap=True)
+    assert describe_body_contacts([shin]) == (
+        "non-foot contact: FR_LOWER_LEG on an edge at x 0.25, y -0.14 m (the FR foot stepped into a gap)")
+    body = BodyContact("base_link", None, (0.1, 0.0, 0.0), (0.0, 0.0, 1.0), 20.0, foot_over_gap=False)
+    other = BodyContact("FL_LOWER_LEG", "FL", (0.3, 0.1, 0.0), (0.0, 0.0, 1.0), 5.0, foot_over_gap=True)
+    assert describe_body_contacts([body, other, shin]) == (
+        "non-foot contact: base_link on top of the terrain at x 0.10, y 0.00 m; FL_LOWER_LEG on top of the terrain "
+        "at x 0.30, y 0.10 m; FR_LOWER_LEG on an edge at x 0.25, y -0.14 m (the FL and FR feet stepped into gaps)")

@@ -1,13 +1,13 @@
-"""The "Drive" folder: commanded velocity, stop, pause/run, reset, simulation speed, camera and shadows,
-and the keyboard shortcuts that drive the robot."""
+"""The "Drive" folder: commanded velocity, stop, pause/run, reset, looping runs, simulation speed and
+shadows, and the keyboard shortcuts that drive the robot. (The camera has its own per-browser block:
+`app/camera.py`.)"""
 
 from __future__ import annotations
 
 import numpy as np
 import viser
 
-from app.camera import CameraFollow
-from app.commands import NudgeVelocity, Reset, SetSpeed, SetVelocity, TogglePause
+from app.commands import NudgeVelocity, Reset, SetLoop, SetSpeed, SetVelocity, TogglePause
 from app.live import LiveSession
 from app.panels.common import ChangeTracker, submit
 from app.settings import SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
@@ -20,10 +20,9 @@ VELOCITY_STEP_M_S = 0.05
 class DrivePanel:
     """Driving the robot: sliders, buttons and hotkeys (`shortcuts`, by key)."""
 
-    def __init__(self, server: viser.ViserServer, session: LiveSession, camera: CameraFollow, order: float = 10.0):
+    def __init__(self, server: viser.ViserServer, session: LiveSession, order: float = 10.0):
         self.server = server
         self.session = session
-        self.camera = camera
         self._seen = ChangeTracker()
         gui = server.gui
         with gui.add_folder("Drive", order=order):
@@ -45,10 +44,9 @@ class DrivePanel:
                 1.0,
                 hint="simulated seconds per wall-clock second",
             )
-            self.recenter = gui.add_button(
-                "Re-center camera",
-                icon=viser.Icon.FOCUS_CENTERED,
-                hint="The camera follows the robot until you move it",
+            self.loop = gui.add_checkbox(
+                "Loop runs", session.settings.loop,
+                hint="After the goal or a fall, start another run a few seconds later",
             )
             self.shadows = gui.add_checkbox("Shadows", True, hint="Turn off for faster drawing without a GPU")
         self._wire()
@@ -64,7 +62,11 @@ class DrivePanel:
         self.stop_button.on_click(lambda e: self.set_velocity(0.0, 0.0, e.client))
         self.run_button.on_click(lambda e: self.toggle_pause(e.client))
         self.reset_button.on_click(lambda e: submit(self.session, Reset(), e.client))
-        self.recenter.on_click(lambda e: e.client is not None and self.camera.recenter(e.client))
+
+        @self.loop.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetLoop(bool(self.loop.value)), event.client)
 
         @self.shadows.on_update
         def _(event) -> None:
@@ -112,6 +114,8 @@ class DrivePanel:
             self.vy.value = round(vy, 2)
         if self._seen.changed("speed", s.speed):
             self.speed.value = s.speed
+        if self._seen.changed("loop", view.run.loop):
+            self.loop.value = view.run.loop
         paused = s.paused or s.done is not None
         if self._seen.changed("paused", (paused, s.done)):
             self.run_button.label = ("Run again" if s.done else "Run") if paused else "Pause"

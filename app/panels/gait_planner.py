@@ -1,21 +1,22 @@
 """The "Robot and planner" folder: which robot runs, its gait, the contact planner, joint-velocity noise,
-and the legend of the 3D view's markers."""
+and compare mode (a second robot with another planner on the same terrain, drawn as a ghost)."""
 
 from __future__ import annotations
 
 import viser
 
-from app.commands import SetGait, SetNoise, SetPlanner
+from app.commands import SetCompare, SetGait, SetNoise, SetPlanner
 from app.live import LiveSession
 from app.panels.common import ChangeTracker, submit
 from app.view import LiveView
 from contactnet import registry
 
-LEGEND = (
-    "Disks: candidate footholds, **green** = best-ranked safe, fading to grey down the "
-    "ranking; **red** = unsafe; **gold** = chosen. Orange balls: the next 3 steps. "
-    "Lines: planned CoM (blue), actual CoM (purple), foot forces (dark blue), push (red)."
-)
+COMPARE_HINT = "A second robot with this planner walks the same terrain with the same command (a teal ghost)"
+
+
+def compare_label(comparing: bool, other: str) -> str:
+    """The compare button's label: what pressing it does."""
+    return "Stop comparing" if comparing else f"Compare with {other}"
 
 
 class GaitPlannerPanel:
@@ -35,7 +36,14 @@ class GaitPlannerPanel:
             self.noise = gui.add_checkbox(
                 "Joint-velocity noise", settings.noise, hint="Gaussian, variance 0.01 (rad/s)^2"
             )
-            self.legend = gui.add_markdown(LEGEND)
+            others = self._others(settings.planner)
+            self.compare_with = gui.add_dropdown(
+                "Compare with", others, initial_value="fixed" if "fixed" in others else others[0], hint=COMPARE_HINT
+            )
+            self.compare_button = gui.add_button(
+                compare_label(False, self.compare_with.value), icon=viser.Icon.ARROWS_SPLIT, hint=COMPARE_HINT
+            )
+        self._comparing = False
 
         @self.gait.on_update
         def _(event) -> None:
@@ -52,9 +60,32 @@ class GaitPlannerPanel:
             if event.client is not None:
                 submit(self.session, SetNoise(bool(self.noise.value)), event.client)
 
+        @self.compare_with.on_update
+        def _(event) -> None:
+            self.compare_button.label = compare_label(self._comparing, self.compare_with.value)
+
+        @self.compare_button.on_click
+        def _(event) -> None:
+            planners = () if self._comparing else (self.planner.value, self.compare_with.value)
+            submit(self.session, SetCompare(planners), event.client, "Compare mode failed")
+
+    @staticmethod
+    def _others(planner: str) -> tuple[str, ...]:
+        names = registry.planner_names()
+        return tuple(n for n in names if n != planner) or names
+
     def refresh(self, view: LiveView) -> None:
         s = view.status
         for key, handle, value in (("gait", self.gait, s.gait), ("planner", self.planner, s.planner),
                                    ("noise", self.noise, s.noise)):
             if self._seen.changed(key, value):
                 handle.value = value
+        others = self._others(s.planner)
+        if tuple(self.compare_with.options) != others:
+            self.compare_with.options = others  # viser keeps the value if it is still an option
+        comparing = bool(view.compare)
+        label = compare_label(comparing, self.compare_with.value)
+        if self._seen.changed("compare", (comparing, label)):
+            self._comparing = comparing
+            self.compare_button.label = label
+            self.compare_button.color = "teal" if comparing else None

@@ -13,6 +13,7 @@ class TerrainPanel:
 
     def __init__(self, gui: viser.GuiApi, terrains: TerrainService, order: float = 45.0):
         self.terrains = terrains
+        self._label: str | None = None
         with gui.add_folder("Terrain", order=order, expand_by_default=False):
             options = self._options()
             label = terrains.label
@@ -53,3 +54,9 @@ class TerrainPanel:
         options = self._options()  # new files appear after "Save terrain" or a PUT
         if tuple(self.terrain_pick.options) != options:
             self.terrain_pick.options = options
+        label = view.status.terrain  # the picker follows the session's terrain (a load, a save, REST)
+        if label != self._label:
+            self._label = label
+            pick = "random" if label.startswith("random") else label
+            if pick in options and self.terrain_pick.value != pick:
+                self.terrain_pick.value = pick

@@ -1,9 +1,15 @@
 """The "Terrain editor" folder and the 3D interaction that edits the session's terrain.
 
-A click tool (punch or fill a hole, add a stone, select one), undo, delete, save and upload. viser
-1.1's `scene.on_click` gives a ray; we intersect it with the plane z = surface_z on the server.
+A click tool (punch or fill a hole, add a stone, select one), undo, redo, delete, save and upload.
+viser 1.1's `scene.on_click` gives a ray; we intersect it with the plane z = surface_z on the server.
 Selected stones get transform controls (move in x, y and turn about z); releasing them moves the
 stone. Every change goes through the `TerrainService` (and from there to the live session).
+
+Every click says what it did (the info line), and a click that changes nothing says why in a toast
+("no stone here: click on a stone or a grid cell"). Saving over an existing terrain (the user's own
+file, or a shipped name) asks first: the save button turns into "Overwrite NAME?" with a Cancel, and
+only that second press writes. The "Save as" field follows the session's terrain name (after a save,
+a load or an upload).
 """
 
 from __future__ import annotations
@@ -50,44 +56,60 @@ class EditorPanel:
         self._selected: int | None = None
         self._gizmo: viser.TransformControlsHandle | None = None
         gui = server.gui
+        self._pending_save: str | None = None  # the name an "Overwrite NAME?" press would write
+        self._label: str | None = None
         with gui.add_folder("Terrain editor", order=order, expand_by_default=False):
             self.tool = gui.add_dropdown(
-                "Click tool", TOOLS, initial_value="off", hint="What a click on the terrain does"
+                "Click tool", TOOLS, initial_value="off",
+                hint="What a click on the terrain does (the Top-down camera helps)",
             )
             self.info = gui.add_markdown("Pick a tool, then click the terrain.")
-            self.undo_button = gui.add_button("Undo", icon=viser.Icon.ARROW_BACK_UP)
+            self.history_buttons = gui.add_button_group("Edits", ("Undo", "Redo"))
             self.delete_button = gui.add_button("Delete selected stone", icon=viser.Icon.TRASH, disabled=True)
             self.name = gui.add_text("Save as", initial_value="my_terrain", hint="letters, digits, _ and -")
-            self.overwrite = gui.add_checkbox(
-                "Overwrite shipped file", False, hint="Needed to replace flat, stepping_stones, ..."
-            )
             self.save_button = gui.add_button("Save terrain", icon=viser.Icon.DEVICE_FLOPPY)
+            self.cancel_button = gui.add_button("Cancel", icon=viser.Icon.X, visible=False)
             self.upload = gui.add_upload_button(
                 "Upload terrain JSON", icon=viser.Icon.UPLOAD, mime_type="application/json"
             )
-        self.undo_button.on_click(self._on_undo)
+        self.history_buttons.on_click(self._on_history)
         self.delete_button.on_click(self._on_delete)
         self.save_button.on_click(self._on_save)
+        self.cancel_button.on_click(lambda event: self._end_confirm() or self._say("Not saved."))
+        self.name.on_update(lambda event: self._end_confirm())
         self.upload.on_upload(self._on_upload)
         self.tool.on_update(self._on_tool)
         server.scene.on_click()(self._on_click)
-        terrains.on_change(self._clear_selection)
+        terrains.on_change(self._changed)
 
     # ---- helpers --------------------------------------------------------------------------------
     @staticmethod
-    def _notify(client, title: str, body: str, error: bool = False) -> None:
+    def _notify(client, title: str, body: str, error: bool = False, color: str | None = None) -> None:
         if client is not None:
-            client.add_notification(title, body, color="red" if error else "green", auto_close_seconds=6.0)
+            client.add_notification(
+                title, body, color=color or ("red" if error else "green"), auto_close_seconds=6.0 if error else 4.0
+            )
 
     def _run(self, client, title: str, action: Callable[[], Any]) -> Any:
         try:
             return action()
         except (EditError, TerrainError, ValueError, FileNotFoundError) as exc:
+            self._say(f"**{title}**: {exc}")
             self._notify(client, title, str(exc), error=True)
         except Exception as exc:  # noqa: BLE001 - show it, keep the server alive
             log.exception("%s failed", title)
             self._notify(client, title, f"failed: {exc}", error=True)
         return None
+
+    def _say(self, text: str) -> None:
+        self.info.content = text
+
+    def _summary(self) -> str:
+        n = len(self.terrains.current["regions"])
+        undo = "undo" if self.terrains.can_undo else ""
+        redo = "redo" if self.terrains.can_redo else ""
+        available = " and ".join(x for x in (undo, redo) if x)
+        return f"{n} regions · {available + ' available' if available else 'no edits to undo'}"
 
     def _clear_selection(self) -> None:
         self._selected = None
@@ -95,31 +117,59 @@ class EditorPanel:
             self._gizmo.remove()
             self._gizmo = None
         self.delete_button.disabled = True
-        n = len(self.terrains.current["regions"])
-        self.info.content = f"{n} regions · undo {'available' if self.terrains.can_undo else '—'}"
+
+    def _changed(self) -> None:
+        """The service changed the terrain (an edit, undo, redo, load)."""
+        self._clear_selection()
 
     # ---- callbacks --------------------------------------------------------------------------------
     def _on_tool(self, event) -> None:
         if self.tool.value != "select stone":
             self._clear_selection()
+        hints = {
+            "off": "Clicks on the terrain do nothing.",
+            "punch hole": "Click on a stone or a grid cell to cut a 5 cm square out of it.",
+            "fill hole": "Click in a hole to fill it (a removed grid cell comes back, else a 5 cm square is added).",
+            "select stone": "Click on a stone to select it, then drag the gizmo or delete it.",
+        }
+        self._say(hints.get(self.tool.value, f"Click where the new {self.tool.value[4:]} should go."))
 
     def _on_click(self, event: viser.SceneClickEvent) -> None:
         tool = self.tool.value
         if tool == "off":
             return
+        client = event.client
         z = float(self.terrains.current.get("surface_z", 0.0))
         xy = ray_to_plane(event.ray_origin, event.ray_direction, z)
         if xy is None:
+            self._miss(client, "That click does not reach the ground: click on the terrain.")
             return
-        client = event.client
+        at = f"({xy[0]:.2f}, {xy[1]:.2f})"
         if tool == "punch hole":
-            self._run(client, "Punch hole", lambda: self.terrains.edit(editor.punch_hole, xy))
+            if self._run(client, "Punch hole", lambda: self.terrains.edit(editor.punch_hole, xy)):
+                self._say(f"Hole punched at {at} · {self._summary()}")
+            elif editor.region_at(self.terrains.current, xy) is None:
+                self._miss(client, f"No stone here {at}: click on a stone or a grid cell.")
         elif tool == "fill hole":
-            self._run(client, "Fill hole", lambda: self.terrains.edit(editor.fill_hole, xy))
+            if self._run(client, "Fill hole", lambda: self.terrains.edit(editor.fill_hole, xy)):
+                self._say(f"Hole filled at {at} · {self._summary()}")
+            else:
+                self._miss(client, f"No hole here {at}: the ground is already steppable.")
         elif tool.startswith("add "):
-            self._run(client, "Add stone", lambda: self.terrains.edit(editor.add_stone, tool[4:], xy))
+            if self._run(client, "Add stone", lambda: self.terrains.edit(editor.add_stone, tool[4:], xy)):
+                self._say(f"Added a {tool[4:]} at {at} · {self._summary()}")
         elif tool == "select stone":
-            self._select(editor.region_at(self.terrains.current, xy))
+            index = editor.region_at(self.terrains.current, xy)
+            if index is None:
+                self._clear_selection()
+                self._miss(client, f"No stone here {at}: click on a stone to select it.")
+            else:
+                self._select(index)
+
+    def _miss(self, client, text: str) -> None:
+        """A click that changed nothing: say why, in the panel and in a toast."""
+        self._say(text)
+        self._notify(client, "Nothing changed", text, color="yellow")
 
     def _select(self, index: int | None) -> None:
         self._clear_selection()
@@ -141,7 +191,7 @@ class EditorPanel:
         )
         self._gizmo.on_update(self._on_moved)
         self.delete_button.disabled = False
-        self.info.content = f"Selected region {index} ({region['shape']}): drag the gizmo, or delete it."
+        self._say(f"Selected region {index} ({region['shape']}): drag the gizmo, or delete it.")
 
     def _on_moved(self, event) -> None:
         gizmo, index = self._gizmo, self._selected
@@ -154,21 +204,58 @@ class EditorPanel:
             event.client, "Move stone", lambda: self.terrains.edit(editor.move_region, index, xy, yaw)
         ):
             self._select(index)
+            self._say(f"Moved region {index} to ({xy[0]:.2f}, {xy[1]:.2f}) · {self._summary()}")
 
     def _on_delete(self, event) -> None:
         index = self._selected
-        if index is not None:
-            self._run(event.client, "Delete stone", lambda: self.terrains.edit(editor.delete_region, index))
+        if index is not None and self._run(
+            event.client, "Delete stone", lambda: self.terrains.edit(editor.delete_region, index)
+        ):
+            self._say(f"Deleted region {index} · {self._summary()}")
 
-    def _on_undo(self, event) -> None:
-        self._run(event.client, "Undo", self.terrains.undo)
+    def _on_history(self, event) -> None:
+        undo = self.history_buttons.value == "Undo"
+        action = self.terrains.undo if undo else self.terrains.redo
+        done = self._run(event.client, "Undo" if undo else "Redo", lambda: action() or True)
+        if done:
+            self._say(f"{'Undone' if undo else 'Redone'} · {self._summary()}")
 
+    # ---- saving --------------------------------------------------------------------------------
     def _on_save(self, event) -> None:
-        name, overwrite = self.name.value.strip(), self.overwrite.value
-        path = self._run(event.client, "Save terrain", lambda: self.terrains.save(name, overwrite))
+        name = self.name.value.strip()
+        confirmed = self._pending_save == name
+        self._end_confirm()
+        if not confirmed:
+            exists = self._run(event.client, "Save terrain", lambda: self.terrains.exists(name) or "")
+            if exists is None:
+                return  # a bad name: said so
+            if exists:
+                self._ask_overwrite(name, exists)
+                return
+        path = self._run(event.client, "Save terrain", lambda: self.terrains.save(name, overwrite=confirmed))
         if path:
-            self._notify(event.client, "Saved", f"terrain saved to {path}")
-            self.overwrite.value = False
+            self._notify(event.client, "Saved", f"terrain saved as {name} ({path})")
+            self._say(f"Saved as **{name}**.")
+
+    def _ask_overwrite(self, name: str, exists: str) -> None:
+        self._pending_save = name
+        self.save_button.label = f"Overwrite {name}?"
+        self.save_button.color = "red"
+        self.cancel_button.visible = True
+        if exists == "yours":
+            text = f"**{name}** is one of your saved terrains: press *Overwrite {name}?* to replace it, or Cancel."
+        else:
+            text = (f"**{name}** is a shipped terrain: saving keeps the shipped file and saves your own copy under "
+                    f"that name. Press *Overwrite {name}?* to go on, or Cancel.")
+        self._say(text)
+
+    def _end_confirm(self) -> None:
+        if self._pending_save is None:
+            return
+        self._pending_save = None
+        self.save_button.label = "Save terrain"
+        self.save_button.color = None
+        self.cancel_button.visible = False
 
     def _on_upload(self, event) -> None:
         uploaded = self.upload.value
@@ -182,4 +269,17 @@ class EditorPanel:
         self._run(event.client, "Upload terrain", load)
 
     def refresh(self, view: LiveView) -> None:
-        """Nothing to write back: the panel changes with the service's listeners."""
+        """The "Save as" field follows the session's terrain name (a file or generator name, not a label
+        like "random (...)" or "x (uploaded)"); "(edited)" is dropped."""
+        label = view.status.terrain
+        if label == self._label:
+            return
+        self._label = label
+        name = label.removesuffix(" (edited)")
+        try:
+            editor.validate_name(name)
+        except EditError:
+            return
+        if self.name.value != name:
+            self.name.value = name
+            self._end_confirm()

@@ -1,0 +1,126 @@
+"""The front page's recordings list in a real headless browser (Debian chromium, playwright): what each
+recording shows (title, terrain, gait, planner, duration, result), Rename (title and file name, a refused
+name said in a toast), Delete (asks first), Play (the title in the playback bar). Screenshot in artifacts/."""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+from helpers import wait_for
+
+from app.headless import CHROMIUM, LAUNCH_ARGS
+
+ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
+
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.app,
+    pytest.mark.skipif(
+        shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
+        reason="needs Debian chromium (apt-get install -y chromium)",
+    ),
+]
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory):
+    from app.recordings import free_port
+    from app.server import BackgroundServer, ContactnetApp
+    from app.settings import ServeSettings
+    from contactnet.cli import main
+
+    folder = tmp_path_factory.mktemp("recordings")
+    assert main(["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "0.1",
+                 "--duration", "1.0", "--record", str(folder / "cli-run.viser")]) == 0
+    shutil.copy(folder / "cli-run.viser", folder / "old.viser")  # as made before metadata: no sidecar
+    app = ContactnetApp(ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, paused=True,
+                                      viser_port=free_port(), recordings_dir=folder))
+    port = free_port()
+    web = BackgroundServer(app.api, "127.0.0.1", port)
+    yield app, f"http://127.0.0.1:{port}"
+    web.stop()
+    app.close()
+
+
+@pytest.fixture(scope="module")
+def page(live):
+    from playwright.sync_api import sync_playwright
+
+    _, url = live
+    ARTIFACTS.mkdir(exist_ok=True)
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
+        page = browser.new_page(viewport={"width": 1400, "height": 900})
+        page.goto(url + "/")
+        yield page
+        browser.close()
+
+
+# Clicks are DOM click events (`dispatch_event`): a pointer click waits for the element to stand still over
+# two animation frames, which a software-rendered 3D view next to it can delay for long.
+def item(page, text: str):
+    return page.locator("#recording-list li", has_text=text)
+
+
+def test_the_list_shows_what_each_recording_is(live, page):
+    page.locator("#recordings-toggle").dispatch_event("click")
+    cli = item(page, "cli-run.viser")
+    cli.wait_for()
+    text = cli.inner_text()
+    assert "flat · walk · heuristic" in text and "stopped" in text and "1.0 s" in text
+    assert "no metadata" in item(page, "old.viser").inner_text()
+
+
+def test_rename_sets_the_title_and_the_file_name(live, page):
+    app, _ = live
+    folder = app.recordings.directory
+    item(page, "cli-run.viser").get_by_role("button", name="Rename").dispatch_event("click")
+    page.locator(".rec-edit input[name=title]").fill("My first run")
+    page.locator(".rec-edit input[name=name]").fill("first-run")
+    page.locator(".rec-edit").get_by_role("button", name="Save").dispatch_event("click")
+    page.locator("#recording-list .rec-title", has_text="My first run").wait_for()
+    assert {"first-run.viser", "first-run.viser.json"} <= {p.name for p in folder.iterdir()}
+    assert "cli-run.viser" not in {p.name for p in folder.iterdir()}
+    # a name that is taken: refused, said in a toast, nothing changed
+    item(page, "old.viser").get_by_role("button", name="Rename").dispatch_event("click")
+    page.locator(".rec-edit input[name=name]").fill("first-run")
+    page.locator(".rec-edit").get_by_role("button", name="Save").dispatch_event("click")
+    page.locator("#toasts", has_text="exists already").wait_for()
+    assert (folder / "old.viser").is_file()
+    page.locator(".rec-edit").get_by_role("button", name="Cancel").dispatch_event("click")
+    item(page, "old.viser").wait_for()
+
+
+def test_delete_asks_first(live, page):
+    app, _ = live
+    folder = app.recordings.directory
+    asked = []
+
+    def answer(accept: bool):
+        def handle(dialog):
+            asked.append(dialog.message)
+            dialog.accept() if accept else dialog.dismiss()
+
+        return handle
+
+    page.once("dialog", answer(False))
+    item(page, "old.viser").get_by_role("button", name="Delete").dispatch_event("click")
+    wait_for(lambda: asked, what="the confirmation")
+    assert "old.viser" in asked[0] and (folder / "old.viser").is_file()
+    page.once("dialog", answer(True))
+    item(page, "old.viser").get_by_role("button", name="Delete").dispatch_event("click")
+    wait_for(lambda: not (folder / "old.viser").exists(), what="the file deleted")
+    wait_for(lambda: item(page, "old.viser").count() == 0, what="the list updated")
+
+
+def test_play_shows_the_title(live, page):
+    item(page, "My first run").get_by_role("link", name="Play").dispatch_event("click")
+    page.locator("#playback-bar").wait_for()
+    assert page.locator("#playback-name").inner_text() == "My first run"
+    page.frame_locator("#viewer").get_by_label("Show scene tree").first.wait_for(timeout=60_000)
+    time.sleep(3.0)  # the scene fades in
+    page.screenshot(path=str(ARTIFACTS / "browser_recordings.png"))
+    page.locator("#back-to-live").dispatch_event("click")

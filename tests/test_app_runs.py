@@ -1,0 +1,193 @@
+"""The live session's runs: waiting for the first viewer, the count-down, the end of a run and the loop,
+notices, terrain edits with and without a restart, and compare mode (app/live.py, app/compare.py)."""
+
+from __future__ import annotations
+
+import time
+from functools import partial
+
+import pytest
+
+from app import editor
+from app.commands import (
+    ApplyPush,
+    CommandConflict,
+    EditTerrain,
+    RedoTerrainEdit,
+    Reset,
+    SetCompare,
+    SetLoop,
+    SetPaused,
+    SetSpeed,
+    SetTerrain,
+    SetVelocity,
+    UndoTerrainEdit,
+    ViewerConnected,
+)
+from app.live import LiveSession
+from app.planners import default_planner_factory
+from app.settings import ServeSettings
+from app.view import status_line
+from contactnet.terrain import Terrain, flat
+
+pytestmark = pytest.mark.app
+
+
+def short_flat(goal_x: float = 0.06) -> Terrain:
+    """Flat ground with the goal line a few centimetres ahead (a run that ends in about a second)."""
+    data = flat().to_dict()
+    data.update(name="short", goal_x=goal_x)
+    return Terrain.from_dict(data)
+
+
+def make_session(tmp_path, terrain: Terrain, **settings) -> LiveSession:
+    values = dict(planner="heuristic", vx_m_s=0.0, viewer_start_delay_s=0.3, loop_delay_s=0.5) | settings
+    return LiveSession(
+        ServeSettings(**values),
+        terrain,
+        terrain.name,
+        planner_factory=partial(default_planner_factory, model_dir=tmp_path),
+        robot_cache_dir=tmp_path,
+    ).start()
+
+
+def test_waits_for_the_first_viewer_then_counts_down(tmp_path):
+    live = make_session(tmp_path, flat())
+    try:
+        view = live.view
+        assert view.run.waiting_for_viewer and not view.status.running
+        assert status_line(view).startswith("waiting for a browser")
+        with pytest.raises(CommandConflict, match="paused|waiting"):
+            live.call(ApplyPush(5.0, 0.0, 1.0))  # the clock stands still: a push cannot act
+        time.sleep(0.4)
+        assert live.view.snapshot.t_s == 0.0  # nothing moves before a viewer comes
+        live.call(ViewerConnected())
+        view = live.view
+        assert not view.run.waiting_for_viewer and 0.0 < view.run.starts_in_s <= 0.3
+        assert not view.status.running and status_line(view).startswith("starting in")
+        view = live.wait_view(lambda v: v.snapshot.t_s > 0.2, timeout=5)
+        assert view.status.running and view.run.starts_in_s is None
+        live.call(ViewerConnected())  # a second browser changes nothing
+        assert live.view.status.running
+    finally:
+        live.stop()
+
+
+def test_an_explicit_run_needs_no_viewer(tmp_path):
+    live = make_session(tmp_path, flat())
+    try:
+        live.call(SetPaused(False))
+        view = live.view
+        assert not view.run.waiting_for_viewer and view.run.starts_in_s is None and view.status.running
+    finally:
+        live.stop()
+
+
+def test_a_run_ends_is_summed_up_and_the_loop_starts_the_next(tmp_path):
+    live = make_session(tmp_path, short_flat(), vx_m_s=0.2, wait_for_viewer=False)
+    try:
+        live.call(SetSpeed(2.0))
+        view = live.wait_view(lambda v: v.run.runs == 1, timeout=20)
+        last = view.run.last_run
+        assert view.status.done == "goal reached" and not view.status.running
+        assert last.index == 1 and last.success and last.reason == "goal reached" and last.reached_x_m >= 0.06
+        assert last.steps == view.snapshot.steps > 0 and last.t_s == pytest.approx(view.snapshot.t_s)
+        assert last.rank_mean is None and last.planner == "heuristic"  # the heuristic planner does not rank
+        assert view.run.progress == 1.0 and 0.0 < view.run.restart_in_s <= 0.5
+        assert "GOAL REACHED; next run in" in status_line(view)
+        view = live.wait_view(lambda v: v.status.done is None and v.snapshot.t_s > 0.0, timeout=5)
+        assert view.run.runs == 1 and view.run.restart_in_s is None and view.run.progress < 1.0
+        assert view.run.last_run == last  # the card's run stays until the next one ends
+    finally:
+        live.stop()
+
+
+def test_loop_off_stays_at_the_end_and_on_again_restarts(tmp_path):
+    live = make_session(tmp_path, short_flat(), vx_m_s=0.2, wait_for_viewer=False, loop=False)
+    try:
+        live.call(SetSpeed(2.0))
+        view = live.wait_view(lambda v: v.run.runs == 1, timeout=20)
+        assert view.run.restart_in_s is None and not view.run.loop
+        time.sleep(0.8)
+        assert live.view.status.done == "goal reached"  # no loop: the end stays
+        live.call(SetLoop(True))
+        assert live.view.run.restart_in_s is not None
+        live.call(SetLoop(False))
+        assert live.view.run.restart_in_s is None
+        live.call(Reset())
+        assert live.view.status.done is None and live.view.status.running
+    finally:
+        live.stop()
+
+
+def test_edits_away_from_the_robot_apply_without_a_restart(tmp_path):
+    live = make_session(tmp_path, flat(), vx_m_s=0.1, wait_for_viewer=False)
+    try:
+        view = live.wait_view(lambda v: v.snapshot.t_s > 1.0, timeout=10)
+        version, seq = view.terrain_version, view.notices[-1].seq if view.notices else 0
+        assert live.call(EditTerrain(editor.punch_hole, ((2.012, 0.012),))) is True
+        view = live.view
+        assert view.snapshot.t_s > 1.0 and view.status.running  # no restart
+        assert view.terrain_version == version + 1 and not view.terrain.is_safe([[2.012, 0.012]])[0]
+        assert view.notices[-1].seq == seq + 1 and "without a restart" in view.notices[-1].text
+        live.call(UndoTerrainEdit())
+        assert live.view.terrain.is_safe([[2.012, 0.012]])[0] and live.view.snapshot.t_s > 1.0
+        assert live.view.terrain_can_redo
+        live.call(RedoTerrainEdit())
+        assert not live.view.terrain.is_safe([[2.012, 0.012]])[0] and not live.view.terrain_can_redo
+        x = float(live.view.snapshot.q[0])
+        assert live.call(EditTerrain(editor.punch_hole, ((x + 0.2, 0.15),))) is True  # under the front feet
+        view = live.view
+        assert view.snapshot.t_s == 0.0 and view.status.paused  # restarted, waits for "run"
+        assert view.notices[-1].level == "warning" and "restarted" in view.notices[-1].text
+    finally:
+        live.stop()
+
+
+def test_compare_mode_runs_two_robots_with_the_same_command(tmp_path):
+    live = make_session(tmp_path, flat(), vx_m_s=0.1, wait_for_viewer=False)
+    try:
+        live.call(SetCompare(("heuristic", "fixed")))  # no fixed-gait model here: it runs the heuristic
+        view = live.view
+        assert view.compare is not None and len(view.compare) == 1
+        other = view.compare[0]
+        assert (other.planner, other.planner_active) == ("fixed", "heuristic") and other.snapshot.t_s == 0.0 and view.snapshot.t_s == 0.0
+        assert "Compare mode" in view.notices[-1].text
+        view = live.wait_view(lambda v: v.snapshot.t_s > 1.5, timeout=30)
+        other = view.compare[0]
+        assert other.snapshot.t_s == pytest.approx(view.snapshot.t_s, abs=0.02)  # one clock
+        assert other.x_m > 0.05 and other.steps > 0 and other.foot_pos_world.shape == (4, 3)
+        live.call(SetVelocity(0.0, 0.1))
+        assert live.view.compare[0].snapshot.vel_cmd_xy == (0.0, 0.1)
+        live.call(SetCompare(()))
+        assert live.view.compare is None and "off" in live.view.notices[-1].text
+        with pytest.raises(ValueError, match="two planner names"):
+            live.call(SetCompare(("heuristic",)))
+        with pytest.raises(ValueError, match="unknown planner"):
+            live.call(SetCompare(("heuristic", "nope")))
+    finally:
+        live.stop()
+
+
+def test_compare_runs_end_together(tmp_path):
+    live = make_session(tmp_path, short_flat(), vx_m_s=0.2, wait_for_viewer=False, loop=False)
+    try:
+        live.call(SetCompare(("heuristic", "heuristic")))
+        live.call(SetSpeed(2.0))
+        view = live.wait_view(lambda v: v.run.runs == 1, timeout=30)
+        compare = view.run.last_run.compare
+        assert compare is not None and len(compare) == 1 and compare[0].success
+    finally:
+        live.stop()
+
+
+def test_a_new_terrain_restarts_every_robot(tmp_path):
+    live = make_session(tmp_path, flat(), vx_m_s=0.1, wait_for_viewer=False)
+    try:
+        live.call(SetCompare(("heuristic", "heuristic")))
+        live.wait_view(lambda v: v.snapshot.t_s > 0.5, timeout=10)
+        live.call(SetTerrain(short_flat(1.0), "short"))
+        view = live.view
+        assert view.snapshot.t_s == 0.0 and view.compare[0].snapshot.t_s == 0.0 and view.run.goal_x_m == 1.0
+    finally:
+        live.stop()
