@@ -93,7 +93,12 @@ def compare_command_model() -> type[BaseModel]:
         "planner first (both restart); an empty list turns compare mode off.",
         planners=(
             list[planner],  # type: ignore[valid-type]
-            Field(..., max_length=2, description="two planner names, or none"),
+            Field(
+                ...,
+                max_length=2,
+                description="two planner names, or none",
+                json_schema_extra={"anyOf": [{"maxItems": 0}, {"minItems": 2}]},
+            ),
         ),
         __validators__={"two_or_none": model_validator(mode="after")(_two_or_none)},
     )
