@@ -31,3 +31,55 @@ def save_random_models(folder) -> None:
         torch.manual_seed(0)
         save_model(folder / f"{gait}.pt", ContactNet(registry.gait_by_name(gait).n_actions).eval(), Normalizer.fit(u),
                    {"gait": gait})
+
+
+# ---- the browser tests (real Debian chromium driven by playwright) ----------------------------------------
+def _artifacts():
+    import os
+    from pathlib import Path
+
+    return Path(os.environ.get("CONTACTNET_ARTIFACTS") or Path(__file__).resolve().parent.parent / "artifacts")
+
+
+ARTIFACTS = _artifacts()
+"""Where browser tests save their screenshots: $CONTACTNET_ARTIFACTS, else artifacts/ (git-ignored)."""
+
+
+def browser_marks() -> list:
+    """The marks of a browser test module: slow, app, and skipped without Debian's chromium."""
+    import shutil
+    from pathlib import Path
+
+    import pytest
+
+    from app.headless import CHROMIUM
+
+    return [
+        pytest.mark.slow,
+        pytest.mark.app,
+        pytest.mark.skipif(
+            shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
+            reason="needs Debian chromium (apt-get install -y chromium)",
+        ),
+    ]
+
+
+def chromium():
+    """A context manager giving a headless chromium browser (the artifacts folder made)."""
+    from contextlib import contextmanager
+
+    from playwright.sync_api import sync_playwright
+
+    from app.headless import CHROMIUM, LAUNCH_ARGS
+
+    @contextmanager
+    def launched():
+        ARTIFACTS.mkdir(parents=True, exist_ok=True)
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
+            try:
+                yield browser
+            finally:
+                browser.close()
+
+    return launched()

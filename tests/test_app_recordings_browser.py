@@ -6,23 +6,11 @@ from __future__ import annotations
 
 import shutil
 import time
-from pathlib import Path
 
 import pytest
-from helpers import wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, wait_for
 
-from app.headless import CHROMIUM, LAUNCH_ARGS
-
-ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
-
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.app,
-    pytest.mark.skipif(
-        shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
-        reason="needs Debian chromium (apt-get install -y chromium)",
-    ),
-]
+pytestmark = browser_marks()
 
 
 @pytest.fixture(scope="module")
@@ -47,16 +35,11 @@ def live(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(live):
-    from playwright.sync_api import sync_playwright
-
     _, url = live
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
+    with chromium() as browser:
         page = browser.new_page(viewport={"width": 1400, "height": 900})
         page.goto(url + "/")
         yield page
-        browser.close()
 
 
 # Clicks are DOM click events (`dispatch_event`): a pointer click waits for the element to stand still over

@@ -6,28 +6,16 @@ robot, and viser's software-WebGL toast closing by itself. Screenshots go to art
 from __future__ import annotations
 
 import math
-import shutil
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import save_random_models, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
 
 from app.commands import SetCompare, SetPaused, SetPlanner, SetVelocity
-from app.headless import CHROMIUM, LAUNCH_ARGS
 from app.scene import describe_candidate
 
-ARTIFACTS = Path(__file__).resolve().parent.parent / "artifacts"
-
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.app,
-    pytest.mark.skipif(
-        shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
-        reason="needs Debian chromium (apt-get install -y chromium)",
-    ),
-]
+pytestmark = browser_marks()
 
 
 @pytest.fixture(scope="module")
@@ -48,16 +36,11 @@ def live(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(live):
-    from playwright.sync_api import sync_playwright
-
-    ARTIFACTS.mkdir(exist_ok=True)
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
+    with chromium() as browser:
         page = browser.new_page(viewport={"width": 1400, "height": 900})
         page.goto(f"http://127.0.0.1:{live.viser_port}/")
         page.get_by_text("Connected").wait_for(timeout=90_000)
         yield page
-        browser.close()
 
 
 def the_client(app):

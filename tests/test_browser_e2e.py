@@ -4,27 +4,14 @@ never on frame timing. Screenshots go to $CONTACTNET_ARTIFACTS (else artifacts/,
 
 from __future__ import annotations
 
-import os
-import shutil
 import time
-from pathlib import Path
 
 import pytest
-from helpers import save_random_models, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
 
 from app.commands import SetPaused, SetPlanner, SetVelocity
-from app.headless import CHROMIUM, LAUNCH_ARGS
 
-ARTIFACTS = Path(os.environ.get("CONTACTNET_ARTIFACTS") or Path(__file__).resolve().parent.parent / "artifacts")
-
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.app,
-    pytest.mark.skipif(
-        shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
-        reason="needs Debian chromium (apt-get install -y chromium)",
-    ),
-]
+pytestmark = browser_marks()
 
 
 @pytest.fixture(scope="module")
@@ -55,17 +42,12 @@ def live(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def page(live):
-    from playwright.sync_api import sync_playwright
-
     app, url = live
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
+    with chromium() as browser:
         page = browser.new_page(viewport={"width": 1600, "height": 1000})
         page.goto(url + "/")
         page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=90_000)
         yield page
-        browser.close()
 
 
 def test_page_shows_the_session_and_the_3d_view(live, page):

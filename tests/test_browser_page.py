@@ -7,28 +7,15 @@ $CONTACTNET_ARTIFACTS (else artifacts/, git-ignored)."""
 from __future__ import annotations
 
 import json
-import os
-import shutil
 import time
-from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
 import pytest
-from helpers import save_random_models, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
 
 from app.commands import EditTerrain, Reset, SetCompare, SetGait, SetLoop, SetPaused
-from app.headless import CHROMIUM, LAUNCH_ARGS
 
-ARTIFACTS = Path(os.environ.get("CONTACTNET_ARTIFACTS") or Path(__file__).resolve().parent.parent / "artifacts")
-
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.app,
-    pytest.mark.skipif(
-        shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
-        reason="needs Debian chromium (apt-get install -y chromium)",
-    ),
-]
+pytestmark = browser_marks()
 
 #: A short walk on flat ground: the goal line 50 cm ahead, so a run ends within seconds.
 SHORT_FLAT = {
@@ -105,13 +92,8 @@ def tool(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def browser():
-    from playwright.sync_api import sync_playwright
-
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=list(LAUNCH_ARGS))
+    with chromium() as browser:
         yield browser
-        browser.close()
 
 
 @pytest.fixture(scope="module")
