@@ -49,13 +49,26 @@ class ControllerGains:
 @dataclass(frozen=True)
 class SwingTrajectory:
     """A foot's swing from `start_world` to `end_world` between t0_s and t1_s, apex `height_m` above
-    the higher of the two points."""
+    the higher of the two points (and above `clear_z_m`, the highest point the foot must pass over, when
+    given). For the first `liftoff_fraction` and the last `touchdown_fraction` of the swing time the foot
+    only rises or descends (no horizontal motion): it leaves or lands near-vertically next to a higher top."""
 
     start_world: np.ndarray
     end_world: np.ndarray
     t0_s: float
     t1_s: float
     height_m: float = 0.05
+    clear_z_m: float | None = None  # world z the foot centre passes over (highest terrain on the way + radius)
+    liftoff_fraction: float = 0.0  # share of the swing time rising at the lift-off point (no horizontal motion)
+    touchdown_fraction: float = 0.0  # share descending onto the landing point (the two add up to at most 0.6)
+
+    @property
+    def apex_z(self) -> float:
+        """World z of the foot centre at mid-swing."""
+        top = max(float(self.start_world[2]), float(self.end_world[2]))
+        if self.clear_z_m is not None:
+            top = max(top, float(self.clear_z_m))
+        return top + self.height_m
 
     def sample(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration (world frame) at time t_s (clamped to the swing).
@@ -66,15 +79,23 @@ class SwingTrajectory:
         x0, y0, z0 = self.start_world.tolist()
         x1, y1, z1 = self.end_world.tolist()
         dx, dy = x1 - x0, y1 - y0
-        # Horizontal: the projection of a semi-ellipse swept at a constant angular rate.
-        theta = math.pi * s
+        # Horizontal: the projection of a semi-ellipse swept at a constant angular rate (between the
+        # vertical parts at both ends, if any).
+        f0, f1 = self.liftoff_fraction, self.touchdown_fraction
+        if f0 > 0.0 or f1 > 0.0:
+            share = 1.0 - f0 - f1
+            moving = duration * share
+            theta = math.pi * min(max((s - f0) / share, 0.0), 1.0)
+            still = s <= f0 or s >= 1.0 - f1
+        else:
+            moving, theta, still = duration, math.pi * s, False
         cos_theta = math.cos(theta)
         h = 0.5 * (1.0 - cos_theta)
-        dh = 0.5 * math.pi * math.sin(theta) / duration
-        ddh = 0.5 * math.pi**2 * cos_theta / duration**2
+        dh = 0.0 if still else 0.5 * math.pi * math.sin(theta) / moving
+        ddh = 0.0 if still else 0.5 * math.pi**2 * cos_theta / moving**2
         # Vertical: a quintic up to the apex, then a quintic down (zero velocity and acceleration at
         # lift-off, apex and touchdown), on top of a linear blend of the two end heights.
-        apex = max(z0, z1) + self.height_m
+        apex = self.apex_z
         t_half = 0.5 * duration
         if s < 0.5:
             tau, rise, base, sign = 2.0 * s, apex - z0, z0, 1.0
@@ -87,6 +108,17 @@ class SwingTrajectory:
         vel = np.array([dh * dx, dh * dy, sign * rise * dp5])
         acc = np.array([ddh * dx, ddh * dy, rise * ddp5])
         return pos, vel, acc
+
+    def height_at_progress(self, progress: np.ndarray) -> np.ndarray:
+        """World z of the foot centre when it has covered ``progress`` (fractions in [0, 1]) of the horizontal
+        distance: where the swing passes over the terrain it must clear."""
+        f = np.clip(np.asarray(progress, dtype=float), 0.0, 1.0)
+        f0, f1 = self.liftoff_fraction, self.touchdown_fraction
+        s = f0 + (1.0 - f0 - f1) * np.arccos(1.0 - 2.0 * f) / math.pi
+        z0, z1, apex = float(self.start_world[2]), float(self.end_world[2]), self.apex_z
+        tau = np.where(s < 0.5, 2.0 * s, 2.0 * (1.0 - s))
+        p5 = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+        return np.where(s < 0.5, z0 + (apex - z0) * p5, z1 + (apex - z1) * p5)
 
 
 @dataclass

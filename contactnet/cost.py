@@ -102,10 +102,12 @@ class CostState:
     @classmethod
     def from_context(cls, ctx, foot_radius_m: float) -> CostState:  # noqa: ANN001 - planner.PlanningContext
         """The state of a ``PlanningContext`` (feet there are ball centres of ``foot_radius_m``; the CoM
-        height reference is relative to the ground)."""
+        height reference is relative to the feet's support, ``contactnet.ground``: the ground on flat terrain)."""
+        from contactnet.ground import support_height
+
         feet = np.array(ctx.foot_pos_world, dtype=float)
         feet[:, 2] -= foot_radius_m
-        ground_z = float(ctx.terrain.ground_z(np.asarray(ctx.com_pos_world, dtype=float)[:2]))
+        ground_z = support_height(ctx.terrain, feet[:, :2])
         return cls(
             com_pos_world=np.array(ctx.com_pos_world, dtype=float),
             com_vel_world=np.array(ctx.com_vel_world, dtype=float),

@@ -10,6 +10,11 @@ and forces over those 3 steps (960 ms), and the controller tracks the first step
 further than the paper: between plans we re-solve the optimizer from the measured state every
 2 nodes (80 ms), keeping the contact plan. Each solve costs a few milliseconds, and pushes do far
 less harm.
+
+Terrain with heights (tops at several heights): the optimizer's CoM height and pitch references follow
+the tops under the feet node by node (``contactnet.ground``), swings clear the tops on their way
+(``contactnet.swing``) and touchdown adapts to the contact sensed (``_adapt_to_contact``). A terrain whose
+tops are all at one height takes exactly the flat-ground path.
 """
 
 from __future__ import annotations
@@ -24,9 +29,11 @@ import numpy as np
 from contactnet.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
 from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
+from contactnet.ground import body_pitch, front_to_hind_m
 from contactnet.planner import PlannedStep, Planner, PlanningContext
 from contactnet.robots.description import Robot
 from contactnet.sim import Push, SimConfig, SimState, Simulator
+from contactnet.swing import swing_over_terrain
 from contactnet.terrain import Terrain
 from contactnet.trajopt import (
     SrbdModel,
@@ -55,6 +62,20 @@ class LocomotionConfig:
     mu: float = 0.6
     trajopt: TrajoptConfig = TrajoptConfig()
     trajopt_weights: TrajoptWeights = TrajoptWeights()
+    # Terrain with heights (tops at several heights; a single-height terrain takes the flat-ground path):
+    # swings pass this far above the tops they travel over (contactnet.swing) ...
+    swing_clearance_m: float = 0.015
+    # ... and touchdown adapts to the contact sensed: a swinging foot that touches down in the last quarter
+    # of its swing near its landing point becomes a stance foot; one that has not touched at the planned
+    # time keeps descending at this speed, at most this far below its planned landing height, before it is
+    # counted as stance anyway.
+    late_touchdown_speed_m_s: float = 0.2
+    late_touchdown_depth_m: float = 0.03
+    # An early contact counts as touchdown only this close (horizontally) to the planned landing point (farther
+    # away the foot has hit an edge on its way: it keeps swinging).
+    early_touchdown_radius_m: float = 0.03
+    # None: adapt touchdown only on terrain with heights; True / False: always / never.
+    adapt_touchdown: bool | None = None
 
 
 @dataclass
@@ -68,6 +89,9 @@ class StepRecord:
     rank: int | None
     discarded: int
     safe_landing: bool
+    # Largest rise or drop (m) of the tops under a swinging foot from lift-off to touchdown, measured at the
+    # next plan (NaN until then).
+    height_change_m: float = math.nan
 
 
 @dataclass
@@ -104,6 +128,8 @@ class _Plan:
     foot_pos: np.ndarray  # (N, 4, 3) contact points from plan_t0_s
     solution: TrajoptSolution | None
     swings: dict[int, SwingTrajectory] = field(default_factory=dict)
+    tops_z: np.ndarray | None = None  # (N, 4) the top under each foot at each node (contactnet.ground)
+    touched: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))  # swung legs that touched down
 
 
 def summary_stats(values_s: list[float]) -> dict[str, float]:
@@ -149,7 +175,9 @@ class Locomotion:
         self._reoptimize_ticks = self.ticks_per_node * config.reoptimize_every_nodes
         self.foot_radius_m = robot.description.foot_radius_m
         self.com_height_ref_m = robot.description.com_height_nominal_m
+        self._front_to_hind_m = front_to_hind_m(robot.description.foot_nominal_base)
         self.vel_cmd_xy = np.asarray(vel_cmd_xy, dtype=float)
+        self._use_terrain(terrain)
         self.reset()
 
     # ---- commands --------------------------------------------------------------------------
@@ -174,6 +202,9 @@ class Locomotion:
         self.com_xy_ref = com[:2].copy()
         self.max_abs_yaw_rad = 0.0
         self.wall_time_s = 0.0
+        self._liftoff_tops: tuple[tuple[int, ...], np.ndarray] | None = None  # the last step's legs and their tops
+        self._contact_tick = -1
+        self._contact = np.zeros(4, dtype=bool)
 
     def set_command(self, vx: float, vy: float) -> None:
         """Commanded velocity (m/s) in the horizontal body frame of the reference heading."""
@@ -187,6 +218,14 @@ class Locomotion:
             raise ValueError("replace_terrain keeps the start and the goal: restart for a new start or goal")
         self.sim.replace_terrain(terrain)
         self.terrain = terrain
+        self._use_terrain(terrain)
+
+    def _use_terrain(self, terrain: Terrain) -> None:
+        """Whether the terrain has tops at several heights: then swings clear the tops on their way and
+        touchdown adapts to the contact sensed (a single-height terrain takes the flat-ground path)."""
+        self._heights = len(terrain.levels) > 1
+        adapt = self.config.adapt_touchdown
+        self._adapt_touchdown = self._heights if adapt is None else bool(adapt)
 
     def push(self, push: Push) -> None:
         self.sim.add_push(push)
@@ -275,35 +314,41 @@ class Locomotion:
 
     def _plan_steps(self, state: SimState) -> None:
         ctx = self._context(state)
+        self._close_height_change(ctx.foot_pos_world)
         t0 = time.perf_counter()
         steps = self.planner.plan(ctx)
         planner_s = time.perf_counter() - t0
         self.planner_times_s.append(planner_s)
 
         gait = self.gait
+        terrain = self.terrain
         contact = gait.horizon_contact([s.legs for s in steps])
         n = len(contact)
         foot_pos = np.repeat(ctx.foot_pos_world[None], n, axis=0)
         foot_pos[..., 2] -= self.foot_radius_m  # contact points, not ball centres
+        tops = np.repeat(terrain.ground_z(ctx.foot_pos_world[:, :2])[None], n, axis=0)  # (n, 4)
         for j, step in enumerate(steps):
             touchdown_node = j * gait.nodes_per_step + gait.n_stance_pre + gait.n_swing
-            ground_z = self.terrain.ground_z(step.footholds_xy_world)
+            ground_z = terrain.ground_z(step.footholds_xy_world)
             for leg, xy, z in zip(step.legs, step.footholds_xy_world, ground_z, strict=True):
                 foot_pos[touchdown_node:, leg, :2] = xy
                 foot_pos[touchdown_node:, leg, 2] = z
+                tops[touchdown_node:, leg] = z
         t_now = self.sim.t_s
         first = steps[0]
         swings = {}
         for leg, xy in zip(first.legs, first.footholds_xy_world, strict=True):
             end = np.array([xy[0], xy[1], foot_pos[gait.n_stance_pre + gait.n_swing, leg, 2] + self.foot_radius_m])
-            swings[leg] = SwingTrajectory(
-                start_world=ctx.foot_pos_world[leg].copy(),
-                end_world=end,
-                t0_s=t_now + gait.liftoff_s,
-                t1_s=t_now + gait.liftoff_s + gait.swing_duration_s,
-                height_m=self.config.swing_height_m,
-            )
-        landing_safe = bool(self.terrain.is_safe(first.footholds_xy_world).all())
+            t0_s, t1_s = t_now + gait.liftoff_s, t_now + gait.liftoff_s + gait.swing_duration_s
+            start = ctx.foot_pos_world[leg].copy()
+            if self._heights:
+                swings[leg] = swing_over_terrain(terrain, start, end, t0_s, t1_s, self.config.swing_height_m,
+                                                 self.foot_radius_m, self.config.swing_clearance_m)
+            else:
+                swings[leg] = SwingTrajectory(start_world=start, end_world=end, t0_s=t0_s, t1_s=t1_s,
+                                              height_m=self.config.swing_height_m)
+        self._liftoff_tops = (tuple(first.legs), tops[0, list(first.legs)].copy())
+        landing_safe = bool(terrain.is_safe(first.footholds_xy_world).all())
         self.records.append(
             StepRecord(
                 t_s=t_now,
@@ -316,11 +361,21 @@ class Locomotion:
             )
         )
         plan = _Plan(
-            t0_s=t_now, plan_t0_s=t_now, steps=steps, contact=contact, foot_pos=foot_pos, solution=None, swings=swings
+            t0_s=t_now, plan_t0_s=t_now, steps=steps, contact=contact, foot_pos=foot_pos, solution=None, swings=swings,
+            tops_z=tops,
         )
         previous = self.plan
         self.plan = plan
         self._optimize(state, plan, fallback=previous)
+
+    def _close_height_change(self, feet_world: np.ndarray) -> None:
+        """The last step's rise or drop: the tops under its legs now against those at lift-off."""
+        if self._liftoff_tops is None or not self.records:
+            return
+        legs, liftoff = self._liftoff_tops
+        now = self.terrain.ground_z(feet_world[list(legs), :2])
+        self.records[-1].height_change_m = float(np.max(np.abs(now - liftoff)))
+        self._liftoff_tops = None
 
     def _optimize(self, state: SimState, plan: _Plan, fallback: _Plan | None = None) -> None:
         """Solve the optimizer from the measured state over the plan's remaining nodes (padded with
@@ -333,6 +388,9 @@ class Locomotion:
         remaining = len(plan.contact) - offset
         contact[:remaining] = plan.contact[offset:]
         foot_pos[:remaining] = plan.foot_pos[offset:]
+        # The CoM height and pitch references follow the tops under the feet (contactnet.ground), node by node.
+        tops = np.repeat(plan.tops_z[-1][None], n + 1, axis=0)
+        tops[:remaining] = plan.tops_z[offset:]
         com, vcom, _, _ = self.controller.kinematics(state.q_pinocchio(), state.v_pinocchio())
         rot_omega = state.base_ang_vel_world
         x0 = np.concatenate([com, vcom, state.rpy, rot_omega])
@@ -341,9 +399,10 @@ class Locomotion:
             contact=contact,
             foot_pos_world=foot_pos,
             com_vel_ref_xy=self._vel_cmd_world.copy(),
-            com_height_ref_m=float(self.terrain.ground_z(com[:2])) + self.com_height_ref_m,
+            com_height_ref_m=np.mean(tops, axis=1) + self.com_height_ref_m,
             yaw_ref_rad=self.yaw_ref_rad,
             com_xy_ref_start=self.com_xy_ref.copy(),
+            pitch_ref_rad=body_pitch(tops, self._front_to_hind_m),
         )
         solution = self.optimizer.solve(problem)
         self.trajopt_times_s.append(solution.solve_time_s)
@@ -367,6 +426,8 @@ class Locomotion:
         for leg, swing in plan.swings.items():
             if not stance[leg]:
                 swing_pos[leg], swing_vel[leg], _ = swing.sample(t_s)
+        if self._adapt_touchdown and plan.swings:
+            self._adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel)
         solution = plan.solution
         if solution is None:
             com = self.controller.last_com.copy()
@@ -396,6 +457,47 @@ class Locomotion:
             swing_pos=swing_pos,
             swing_vel=swing_vel,
         )
+
+    def _adapt_to_contact(self, plan: _Plan, t_s: float, stance: np.ndarray, swing_pos: np.ndarray,
+                          swing_vel: np.ndarray) -> None:
+        """Touchdown as sensed (in place on ``stance``, ``swing_pos``, ``swing_vel``): a swinging foot that
+        touches the terrain in the last quarter of its swing, within ``early_touchdown_radius_m`` of its
+        landing point, is a stance foot from then on (a top higher than planned); one that has not touched
+        at the planned touchdown keeps descending below its planned landing point
+        (``late_touchdown_speed_m_s``) until it touches or has gone ``late_touchdown_depth_m`` deeper, then
+        it is a stance foot whatever the sensors say."""
+        config = self.config
+        for leg, swing in plan.swings.items():
+            if plan.touched[leg]:
+                stance[leg] = True
+                continue
+            late_s = t_s - swing.t1_s
+            if late_s < -0.25 * (swing.t1_s - swing.t0_s):
+                continue
+            depth = config.late_touchdown_speed_m_s * max(late_s, 0.0)
+            if depth > config.late_touchdown_depth_m or self._landed(swing, leg):
+                plan.touched[leg] = True
+                stance[leg] = True
+                continue
+            if late_s >= 0.0:
+                stance[leg] = False
+                swing_pos[leg] = swing.end_world - np.array([0.0, 0.0, depth])
+                swing_vel[leg] = np.array([0.0, 0.0, -config.late_touchdown_speed_m_s])
+
+    def _landed(self, swing: SwingTrajectory, leg: int) -> bool:
+        """The foot touches the terrain within ``early_touchdown_radius_m`` of its landing point."""
+        if not self._foot_contact()[leg]:
+            return False
+        foot = self.controller.last_foot_pos[leg]
+        radius = self.config.early_touchdown_radius_m
+        return (foot[0] - swing.end_world[0]) ** 2 + (foot[1] - swing.end_world[1]) ** 2 <= radius**2
+
+    def _foot_contact(self) -> np.ndarray:
+        """(4,) bool: the feet touching the terrain at this tick (queried once per tick, when needed)."""
+        if self._contact_tick != self.tick:
+            self._contact = self.sim.foot_contact()
+            self._contact_tick = self.tick
+        return self._contact
 
     # ---- reading -----------------------------------------------------------------------------
     def snapshot(self) -> Snapshot:
@@ -444,6 +546,8 @@ class Locomotion:
             "mean_velocity_xy": (displacement / sim_time).tolist() if sim_time > 0 else [0.0, 0.0],
             "max_abs_yaw_rad": self.max_abs_yaw_rad,
             "trajopt_failures": self.trajopt_failures,
+            "max_height_change_m": max((r.height_change_m for r in self.records
+                                        if not math.isnan(r.height_change_m)), default=0.0),
         }
 
     def close(self) -> None:

@@ -2,7 +2,8 @@
 the planners. Plain numpy: the planner's hot path uses it without importing torch.
 
 u_r is expressed in the yaw-aligned CoM frame: foot XY relative to the CoM (8: FL, FR, HL, HR, x then y),
-CoM height above the ground (1), CoM velocity (3: x, y in the heading frame, z), commanded velocity (2,
+CoM height above the ground (1: above the feet's support, ``contactnet.ground``, the ground itself on flat
+terrain), CoM velocity (3: x, y in the heading frame, z), commanded velocity (2,
 heading frame). Expressing the horizontal vectors in the heading frame makes the ranking independent of
 where the robot stands and which way it faces.
 
@@ -91,14 +92,17 @@ def network_input_one(
 
 def network_input_of_context(ctx: Any) -> np.ndarray:
     """The network input u_r (14,) of a ``contactnet.planner.PlanningContext`` (the measured state a planner
-    sees)."""
+    sees); the CoM height is measured from the feet's support (``contactnet.ground.support_height``)."""
+    from contactnet.ground import support_height
+
+    feet_xy = np.asarray(ctx.foot_pos_world, dtype=np.float64)[:, :2]
     return network_input_one(
-        np.asarray(ctx.foot_pos_world, dtype=np.float64)[:, :2],
+        feet_xy,
         np.asarray(ctx.com_pos_world, dtype=np.float64),
         np.asarray(ctx.com_vel_world, dtype=np.float64),
         np.asarray(ctx.vel_cmd_xy, dtype=np.float64),
         float(ctx.yaw_rad),
-        float(ctx.terrain.ground_z(np.asarray(ctx.com_pos_world, dtype=np.float64)[:2])),
+        support_height(ctx.terrain, feet_xy),
     )
 
 

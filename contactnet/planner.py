@@ -13,11 +13,13 @@ in how they choose; the loop (`locomotion.py`) treats them alike.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from contactnet.footholds import FootholdChecker
 from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
 from contactnet.network_input import network_input_one
@@ -239,6 +241,25 @@ class OraclePlanner:
 SAFETY_CHUNK = 8  # the best actions checked on their own before the whole candidate grid ...
 WHOLE_GRID_MAX_POINTS = 48  # ... unless the grid is this small (trot: 36 cells): then the grid at once
 
+#: A cornered leg's step (``ContactNetPlanner``) is promoted only if it lands no further back than this (m).
+CORNERED_BACKSTEP_M = 0.01
+#: ... and a leg is cornered when its lower leg would reach the terrain this many steps of motion ahead.
+CORNERED_LOOKAHEAD_STEPS = 3.0
+
+#: A further test of landing points besides ``terrain.is_safe``: ``(legs (M,), landing_xy_world (M, 2)) ->
+#: usable (M,) bool`` (the height checks of ``contactnet.footholds`` on terrain with heights).
+LandingCheck = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+
+def _usable(terrain: Terrain, margin_m: float, legs: np.ndarray | None, xy: np.ndarray,
+            check: LandingCheck | None) -> np.ndarray:
+    """(M,) bool: landing points ``xy`` (M, 2) of ``legs`` (M,) that are safe and pass ``check``."""
+    safe = terrain.is_safe(xy, margin_m)
+    if check is not None and safe.any():
+        where = safe.nonzero()[0]
+        safe[where] = check(legs[where], xy[where])
+    return safe
+
 
 def first_safe_step(
     gait: GaitSpec,
@@ -247,10 +268,12 @@ def first_safe_step(
     foot_pos_world: np.ndarray,
     terrain: Terrain,
     margin_m: float,
+    check: LandingCheck | None = None,
 ) -> PlannedStep:
     """Walk down ``order`` (action indices, best first) to the first action whose swinging legs all land on
-    safe ground (``terrain.is_safe`` with ``margin_m``). ``cell_xy_world`` (4, cells_per_leg, 2) is every
-    leg's candidate grid; an action lands its legs on the cells ``gait.action_cells`` names.
+    safe ground (``terrain.is_safe`` with ``margin_m``, and ``check`` when given). ``cell_xy_world`` (4,
+    cells_per_leg, 2) is every leg's candidate grid; an action lands its legs on the cells ``gait.action_cells``
+    names.
 
     The terrain is queried for all 4 x cells_per_leg cells at once, then every action is looked up in
     ranking order, so the cost does not depend on how deep into the ranking the holes push the choice.
@@ -269,9 +292,11 @@ def first_safe_step(
     if not whole_grid:
         head = order[:SAFETY_CHUNK]
         landing = cells_xy[action_legs[head], action_cells[head]]
-        safe = terrain.is_safe(landing.reshape(-1, 2), margin_m).reshape(landing.shape[:2]).all(axis=1)
+        safe = _usable(terrain, margin_m, action_legs[head].ravel(), landing.reshape(-1, 2), check)
+        safe = safe.reshape(landing.shape[:2]).all(axis=1)
     if not safe.any() and (whole_grid or len(order) > SAFETY_CHUNK):
-        cell_safe = terrain.is_safe(cells_xy.reshape(-1, 2), margin_m).astype(np.float32)
+        grid_legs = None if check is None else np.repeat(np.arange(cells_xy.shape[0]), cells_xy.shape[1])
+        cell_safe = _usable(terrain, margin_m, grid_legs, cells_xy.reshape(-1, 2), check).astype(np.float32)
         safe = (gait.action_cell_incidence @ cell_safe == gait.legs_per_step)[order]
     rank = int(safe.argmax()) if len(safe) else 0
     if not len(safe) or not safe[rank]:
@@ -311,7 +336,8 @@ class CandidateRanking:
     cells. Built lazily (``cells()``): planning itself never pays for it."""
 
     def __init__(self, gait: GaitSpec, order: np.ndarray, cell_xy_world: np.ndarray, terrain: Terrain,
-                 margin_m: float, chosen_action: int | None) -> None:
+                 margin_m: float, chosen_action: int | None, check: LandingCheck | None = None) -> None:
+        self.check = check  # the planner's further test of landing points (heights), None on flat ground
         self.gait = gait
         self.order = np.asarray(order)
         self.cell_xy_world = cell_xy_world  # (4, cells_per_leg, 2), see first_safe_step
@@ -340,7 +366,8 @@ class CandidateRanking:
             leg_ids = np.repeat(np.arange(4), n_cells).reshape(4, n_cells)[used]
             flat_index = np.cumsum(used.ravel()) - 1
             chosen_used = tuple(int(flat_index[c]) for c in chosen)
-            self._cells = (xy_used, self.terrain.is_safe(xy_used, self.margin_m), leg_ids, rank[used], chosen_used)
+            safe = _usable(self.terrain, self.margin_m, leg_ids, xy_used, self.check)
+            self._cells = (xy_used, safe, leg_ids, rank[used], chosen_used)
         return self._cells
 
     @property
@@ -379,6 +406,12 @@ class ContactNetPlanner:
     safe (``terrain.is_safe`` with ``margin_m``, default half the foot radius like the oracle). Inference
     is a numpy forward pass (``NumpyContactNet``), no torch on the hot path.
 
+    On terrain with tops at several heights a candidate must also pass the height checks of
+    ``contactnet.footholds`` (reach from the predicted hip, a swing the robot can clear, room for the foot
+    ball and the shin), and heights are measured from the feet's support (``contactnet.ground``): the CoM
+    height the network sees, and the one predicted for steps 2 and 3, follow the tops under the feet. On a
+    single-height terrain none of this runs and the plan is today's.
+
     ``model``: a ``contactnet.network.LoadedModel`` of this gait.
     """
 
@@ -394,6 +427,8 @@ class ContactNetPlanner:
         self.model = model
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
+        self.footholds = FootholdChecker(robot)
+        self.hip_xy_base = np.array(robot.hip_pos_base[:, :2], dtype=float)
         self.last_candidates: CandidateRanking | None = None
 
     def reset(self) -> None:
@@ -422,25 +457,72 @@ class ContactNetPlanner:
         cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
         cmd_world = to_world @ cmd_xy
         shift = cmd_world * gait.step_duration_s
-        ground_z = float(ctx.terrain.ground_z(com[:2]))
+        terrain = ctx.terrain
+        heights = self.footholds.applies(terrain)
+        tops = terrain.ground_z(feet_xy)  # (4,) the support (contactnet.ground)
+        ground_z = sum(tops.tolist()) / len(tops)
+        if heights:  # each leg's hip (flexion joint) at touchdown, from the base at the start of the step
+            hips_touchdown = self.hip_xy_base @ to_world.T + cmd_world * touchdown_times_s(gait)[0]
         steps = []
         for j in range(gait.steps_per_plan):
             u = network_input_one(feet_xy, com, vel, cmd_xy, ctx.yaw_rad, ground_z)
             order = self._order(self.model.scores(u), j)
             cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
-            step = first_safe_step(gait, order, cells, feet_xy, ctx.terrain, self.margin_m)
+            check = None
+            if heights:
+                check = self._height_check(terrain, feet_xy.copy(), base_xy + hips_touchdown, tops.copy(),
+                                           ctx.yaw_rad)
+                if j == 0:
+                    order = self._swing_cornered_legs_first(order, cells, terrain, feet_xy, tops, base_xy,
+                                                            to_world, cmd_world, ctx.yaw_rad)
+            step = first_safe_step(gait, order, cells, feet_xy, terrain, self.margin_m, check)
             if j == 0:
-                self.last_candidates = CandidateRanking(gait, order, cells, ctx.terrain, self.margin_m,
-                                                        step.action_index)
+                self.last_candidates = CandidateRanking(gait, order, cells, terrain, self.margin_m,
+                                                        step.action_index, check)
             steps.append(step)
             # The state a step later, as contactnet.cost.predicted_state predicts it.
             feet_xy[list(step.legs)] = step.footholds_xy_world
+            if heights:
+                tops[list(step.legs)] = terrain.ground_z(step.footholds_xy_world)
+                ground_z = sum(tops.tolist()) / len(tops)
             com[0:2] += shift
             com[2] = ground_z + ctx.com_height_ref_m
             base_xy += shift
             vel = np.array([cmd_world[0], cmd_world[1], 0.0])
         self._advance()
         return steps
+
+    def _swing_cornered_legs_first(self, order: np.ndarray, cells: np.ndarray, terrain: Terrain,
+                                   feet_xy: np.ndarray, tops: np.ndarray, base_xy: np.ndarray, to_world: np.ndarray,
+                                   cmd_world: np.ndarray, yaw_rad: float) -> np.ndarray:
+        """The ranking with the actions that move a *cornered* leg forward first (each part in its own order):
+        a leg whose shank, knee or thigh would reach the terrain if it stood where it is for
+        ``CORNERED_LOOKAHEAD_STEPS`` more steps of the commanded motion (a hind foot behind a higher top, the
+        body moving on over it). The network knows nothing of heights and may keep such a leg down until it
+        touches. Actions that put a cornered leg further back are not promoted (that would corner it more)."""
+        lookahead_s = CORNERED_LOOKAHEAD_STEPS * self.gait.step_duration_s
+        ahead = base_xy + self.hip_xy_base @ to_world.T + cmd_world * lookahead_s
+        clear = self.footholds.stance_clear(terrain, feet_xy, tops, ahead, yaw_rad)
+        if clear.all():
+            return order
+        action_legs, action_cells = self.gait.action_cells
+        legs = action_legs[order]  # (K, legs per step)
+        forward = to_world[:, 0]
+        progress = (cells[legs, action_cells[order]] - feet_xy[legs]) @ forward  # (K, legs per step)
+        urgent = (~clear[legs] & (progress >= -CORNERED_BACKSTEP_M)).any(axis=1)
+        return np.concatenate([order[urgent], order[~urgent]])
+
+    def _height_check(self, terrain: Terrain, feet_xy: np.ndarray, hips_xy_world: np.ndarray, tops_z: np.ndarray,
+                      yaw_rad: float) -> LandingCheck:
+        """The height checks of landing points from one (measured or predicted) state: each leg lifts off
+        where it stands (``feet_xy`` (4, 2), on the tops ``tops_z`` (4,)), its hip at touchdown is at
+        ``hips_xy_world`` (4, 2)."""
+
+        def check(legs: np.ndarray, landing_xy: np.ndarray) -> np.ndarray:
+            return self.footholds.usable(terrain, legs, landing_xy, feet_xy[legs], hips_xy_world[legs], tops_z,
+                                         yaw_rad)
+
+        return check
 
 
 class FixedGaitPlanner(ContactNetPlanner):

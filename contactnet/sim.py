@@ -375,6 +375,15 @@ class Simulator:
             force[slot] += np.multiply(point[10], point[11]) + np.multiply(point[12], point[13])
         return contact, force
 
+    def foot_contact(self) -> np.ndarray:
+        """(4,) bool: which feet touch the terrain now (one contact query, no state read)."""
+        contact = np.zeros(4, dtype=bool)
+        for point in self._contact_points():
+            slot = self._foot_slot.get(point[3])
+            if slot is not None:
+                contact[slot] = True
+        return contact
+
     def foot_positions_world(self) -> np.ndarray:
         """(4, 3) true foot-ball centres from PyBullet."""
         states = self.client.getLinkStates(self.robot_id, self.foot_links, computeForwardKinematics=1)

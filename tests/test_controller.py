@@ -122,3 +122,40 @@ def test_holds_the_robot_up_and_recovers_from_a_push(robot):
         assert sim.fall_reason() is None
         assert max_pitch < 0.15
         np.testing.assert_allclose(controller.last_com[:2], target.com_pos[:2], atol=0.01)
+
+
+def test_swing_over_an_obstacle_rises_above_it_and_leaves_vertically(swing):
+    """Terrain with heights: the apex clears ``clear_z_m`` by ``height_m``; with vertical fractions the foot
+    neither leaves nor lands with horizontal motion; ``height_at_progress`` is the trajectory's own height."""
+    tall = dataclasses.replace(swing, clear_z_m=0.12, liftoff_fraction=0.2, touchdown_fraction=0.2)
+    assert tall.apex_z == pytest.approx(0.17)
+    assert tall.sample(0.5 * (tall.t0_s + tall.t1_s))[0][2] == pytest.approx(0.17)
+    for t in np.linspace(tall.t0_s, tall.t0_s + 0.2 * 0.16, 5):
+        pos, vel, _ = tall.sample(t)
+        np.testing.assert_allclose(pos[:2], tall.start_world[:2], atol=1e-12)
+        np.testing.assert_allclose(vel[:2], 0.0, atol=1e-12)
+    for t in np.linspace(tall.t1_s - 0.2 * 0.16, tall.t1_s, 5):
+        np.testing.assert_allclose(tall.sample(t)[0][:2], tall.end_world[:2], atol=1e-12)
+    length = np.linalg.norm(tall.end_world[:2] - tall.start_world[:2])
+    for t in np.linspace(1.04, 1.12, 9):
+        pos = tall.sample(t)[0]
+        progress = np.linalg.norm(pos[:2] - tall.start_world[:2]) / length
+        assert tall.height_at_progress(np.array([progress]))[0] == pytest.approx(pos[2], abs=1e-9)
+    # Velocity is still the derivative of position.
+    dt = 1e-6
+    for t in np.linspace(1.001, 1.159, 13):
+        np.testing.assert_allclose((tall.sample(t + dt)[0] - tall.sample(t - dt)[0]) / (2 * dt), tall.sample(t)[1],
+                                   atol=1e-4)
+    # Different fractions at the two ends: still continuous, still its own height at each progress.
+    lopsided = dataclasses.replace(swing, liftoff_fraction=0.0, touchdown_fraction=0.3)
+    np.testing.assert_allclose(lopsided.sample(lopsided.t1_s - 0.25 * 0.16)[0][:2], lopsided.end_world[:2], atol=1e-12)
+    assert abs(lopsided.sample(lopsided.t0_s + 0.05 * 0.16)[1][0]) > 0  # moves forward right after lift-off
+    for t in np.linspace(1.04, 1.10, 5):
+        pos = lopsided.sample(t)[0]
+        progress = np.linalg.norm(pos[:2] - lopsided.start_world[:2]) / length
+        assert lopsided.height_at_progress(np.array([progress]))[0] == pytest.approx(pos[2], abs=1e-9)
+    # Without an obstacle or vertical fractions it is today's swing, to the bit.
+    plain = dataclasses.replace(swing, clear_z_m=None)
+    for t in np.linspace(1.0, 1.16, 7):
+        for a, b in zip(plain.sample(t), swing.sample(t), strict=True):
+            np.testing.assert_array_equal(a, b)

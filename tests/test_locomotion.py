@@ -21,7 +21,7 @@ from contactnet.trajopt import TrajoptSolution
 REPO = Path(__file__).resolve().parent.parent
 SIMULATE_KEYS = {
     "success", "fell", "reached_x", "sim_time_s", "wall_time_s", "steps", "gait_sequence",
-    "planner_ms", "trajopt_ms", "rank_chosen", "unsafe_landings",
+    "planner_ms", "trajopt_ms", "rank_chosen", "unsafe_landings", "max_height_change_m",
 }
 
 
@@ -126,6 +126,7 @@ def test_simulate_json_contract():
     assert report["sim_time_s"] == pytest.approx(1.0)
     assert report["fell"] is False and report["success"] is False  # flat's goal is 8 m away
     assert report["steps"] == 4 and report["gait_sequence"][0] == ["FL", "HR"]
+    assert report["max_height_change_m"] == 0.0  # flat
     for key in ("planner_ms", "trajopt_ms"):
         assert set(report[key]) == {"mean", "median", "p99", "max"}
         assert 0 < report[key]["median"] <= report[key]["max"]

@@ -158,3 +158,13 @@ def test_the_non_foot_contact_sentence_says_where_and_why():
     assert describe_body_contacts([body, other, shin]) == (
         "non-foot contact: base_link on top of the terrain at x 0.10, y 0.00 m; FL_LOWER_LEG on top of the terrain "
         "at x 0.30, y 0.10 m; FR_LOWER_LEG on an edge at x 0.25, y -0.14 m (the FL and FR feet stepped into gaps)")
+
+
+def test_foot_contact_is_the_state_s(flat_sim):
+    """The one-query contact reading the locomotion loop uses at touchdown agrees with the full state's."""
+    stand(flat_sim, 0.2)
+    np.testing.assert_array_equal(flat_sim.foot_contact(), flat_sim.state().foot_contact)
+    assert flat_sim.foot_contact().all()  # standing
+    flat_sim.reset(base_height_m=0.5)  # in the air (contacts are those of the last step)
+    flat_sim.step(np.zeros(12))
+    assert not flat_sim.foot_contact().any()

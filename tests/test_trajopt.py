@@ -396,3 +396,28 @@ def test_reference_start_pulls_the_com_back_to_its_path(optimizers, desc: RobotD
     np.testing.assert_allclose(ends["auto"], ends["nlp-ipopt"], atol=3e-3)
     batch = optimizers[("qp-ipm", 24)].solve_batch([base, shifted])
     np.testing.assert_allclose(batch[1].x[:, 0:3], ends["qp-ipm"], atol=1e-6)
+
+
+def test_height_and_pitch_references_per_node(optimizers, desc: RobotDescription) -> None:
+    """Terrain with heights: the CoM height and pitch references may change node by node. A constant array
+    is the scalar bit for bit; a rising height and a nose-up pitch pull the solution up and nose up."""
+    base = example_problem(desc, WALK, (0.05, 0.0), x0=moving_state())
+    n = 24
+    constant = dataclasses.replace(base, com_height_ref_m=np.full(n + 1, base.com_height_ref_m),
+                                   pitch_ref_rad=np.zeros(n + 1))
+    ref = T.reference_states(constant, n, DT)
+    np.testing.assert_array_equal(ref, T.reference_states(base, n, DT))
+    np.testing.assert_array_equal(ProblemBatch.of([constant], n).reference_states(DT)[0], ref)
+    climbing = dataclasses.replace(base, com_height_ref_m=base.com_height_ref_m + np.linspace(0.0, 0.05, n + 1),
+                                   pitch_ref_rad=np.full(n + 1, -0.12))
+    ref = T.reference_states(climbing, n, DT)
+    assert ref[-1, 2] == pytest.approx(base.com_height_ref_m + 0.05) and np.allclose(ref[:, 7], -0.12)
+    for solver in ("auto", "qp-ipm"):
+        opt = optimizers[(solver, n)]
+        plain, same, up = (opt.solve(p, warm_start=False) for p in (base, constant, climbing))
+        assert plain.success and same.success and up.success
+        np.testing.assert_array_equal(same.x, plain.x)
+        assert up.x[-1, 2] > plain.x[-1, 2] + 0.03  # follows the rising reference
+        assert up.x[-1, 7] < -0.08  # nose up (negative pitch)
+    with pytest.raises(ValueError, match="com_height_ref_m"):
+        ProblemBatch.of([dataclasses.replace(base, com_height_ref_m=np.zeros(n))], n)

@@ -148,6 +148,7 @@ class RobotDescription:
     fall_base_height_m: float
     controller_gains: tuple[tuple[str, Any], ...] = ()
     leg_names: tuple[str, ...] = LEG_NAMES
+    knee_pos_base: np.ndarray | None = None  #: (4, 3) knee joints in the nominal stance (None: not known)
 
     @property
     def base_height_standing_m(self) -> float:
@@ -337,6 +338,7 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
     at_origin = q.copy()
     feet_base = frames(at_origin, spec.foot_frames)
     hips_base = frames(at_origin, spec.hip_frames)
+    knees_base = frames(at_origin, spec.joint_names[2::3])
     com_base = np.asarray(pin.centerOfMass(model, data, at_origin)).copy()
     q[2] = -feet_base[:, 2].min() + spec.foot_radius_m
     pin.ccrba(model, data, q, np.zeros(model.nv))
@@ -368,4 +370,5 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         kin_threshold_m=float(spec.kin_threshold_m),
         fall_base_height_m=float(spec.fall_base_height_m),
         controller_gains=spec.controller_gains,
+        knee_pos_base=_frozen(knees_base),
     )

@@ -1,7 +1,8 @@
 """One optimization problem, its solution, a batch of problems, and the objective.
 
 Cost (sum of squares, no 1/2): tracking over the nodes 1..N of the CoM reference (the user velocity
-integrated from the current CoM xy, nominal height), level orientation at the reference yaw, zero angular
+integrated from the current CoM xy; its height one number, or one per node when the ground under the
+feet changes height along the horizon), level orientation at the reference yaw, zero angular
 velocity, and of the reference forces (weight shared by the stance legs, vertical; zero in swing). The
 returned ``cost`` is this value at the optimum (``trajectory_cost`` recomputes it).
 
@@ -30,12 +31,17 @@ class TrajoptProblem:
     contact: np.ndarray  #: (N, 4) bool, True = the leg is in stance at node k
     foot_pos_world: np.ndarray  #: (N, 4, 3) foot positions (meaningful where in stance)
     com_vel_ref_xy: np.ndarray  #: (2,) user velocity, world frame
-    com_height_ref_m: float
+    #: World z of the CoM reference: one number for the whole horizon, or (N+1,) one per node (node 0 is
+    #: the current state and is not tracked), e.g. the height of the feet's support plus the nominal height.
+    com_height_ref_m: float | np.ndarray
     yaw_ref_rad: float = 0.0
     #: (2,) where the CoM xy reference starts (world); None: at the current CoM xy. A caller that
     #: keeps a reference path (e.g. the commanded velocity integrated over time) passes it here so
     #: that a push that moved the robot is also undone, not only stopped.
     com_xy_ref_start: np.ndarray | None = None
+    #: Base pitch reference (rad, positive nose down): one number, or (N+1,) one per node; 0 keeps the body
+    #: level. On stairs it follows the slope from the hind to the front feet.
+    pitch_ref_rad: float | np.ndarray = 0.0
 
     def ref_xy_start(self) -> np.ndarray:
         return np.asarray(self.x0 if self.com_xy_ref_start is None else self.com_xy_ref_start, dtype=float)[0:2]
@@ -64,6 +70,9 @@ def _check_shapes(problem: TrajoptProblem, n_nodes: int) -> None:
         "foot_pos_world": (np.shape(problem.foot_pos_world), (n_nodes, N_LEGS, 3)),
         "com_vel_ref_xy": (np.shape(problem.com_vel_ref_xy), (2,)),
     }
+    for name in ("com_height_ref_m", "pitch_ref_rad"):
+        if np.ndim(getattr(problem, name)) != 0:
+            shapes[name] = (np.shape(getattr(problem, name)), (n_nodes + 1,))
     for name, (got, want) in shapes.items():
         if got != want:
             raise ValueError(f"TrajoptProblem.{name} has shape {got}, expected {want}")
@@ -103,15 +112,16 @@ def reference_states(problem: TrajoptProblem, n_nodes: int, dt_s: float) -> np.n
     """Reference state trajectory (N+1, 12).
 
     CoM xy integrates the user velocity from the reference start (default: the current CoM xy), CoM
-    z is the nominal height, the velocity is the user velocity, the orientation is level at the
-    reference yaw, no angular velocity.
+    z is the problem's height reference (per node when it is an array), the velocity is the user
+    velocity, the orientation is at the reference yaw and pitch (level by default), no angular velocity.
     """
     v = np.asarray(problem.com_vel_ref_xy, dtype=float)
     t = dt_s * np.arange(n_nodes + 1)
     ref = np.zeros((n_nodes + 1, NX))
     ref[:, 0:2] = problem.ref_xy_start() + t[:, None] * v
-    ref[:, 2] = problem.com_height_ref_m
+    ref[:, 2] = np.broadcast_to(np.asarray(problem.com_height_ref_m, dtype=float), (n_nodes + 1,))
     ref[:, 3:5] = v
+    ref[:, 7] = np.broadcast_to(np.asarray(problem.pitch_ref_rad, dtype=float), (n_nodes + 1,))
     ref[:, 8] = problem.yaw_ref_rad
     return ref
 
@@ -147,8 +157,9 @@ class ProblemBatch:
     feet: np.ndarray  #: (B, N, 4, 3)
     ref_xy: np.ndarray  #: (B, 2) start of the CoM xy reference
     vel: np.ndarray  #: (B, 2)
-    height: np.ndarray  #: (B,)
+    height: np.ndarray  #: (B, N+1) CoM height reference of every node
     yaw: np.ndarray  #: (B,)
+    pitch: np.ndarray  #: (B, N+1) pitch reference of every node
 
     @classmethod
     def of(cls, problems: Sequence[TrajoptProblem], n_nodes: int) -> ProblemBatch:
@@ -163,8 +174,11 @@ class ProblemBatch:
             feet=np.where(contact[..., None], feet, 0.0),  # swing-foot positions are irrelevant (may be NaN)
             ref_xy=np.array([p.ref_xy_start() for p in problems], dtype=float).reshape(-1, 2),
             vel=np.array([p.com_vel_ref_xy for p in problems], dtype=float).reshape(-1, 2),
-            height=np.array([p.com_height_ref_m for p in problems], dtype=float),
+            height=np.array([np.broadcast_to(np.asarray(p.com_height_ref_m, dtype=float), (n_nodes + 1,))
+                             for p in problems]).reshape(-1, n_nodes + 1),
             yaw=np.array([p.yaw_ref_rad for p in problems], dtype=float),
+            pitch=np.array([np.broadcast_to(np.asarray(p.pitch_ref_rad, dtype=float), (n_nodes + 1,))
+                            for p in problems]).reshape(-1, n_nodes + 1),
         )
 
     def __len__(self) -> int:
@@ -175,7 +189,7 @@ class ProblemBatch:
 
     def finite(self) -> np.ndarray:
         """(B,) True where every number is finite."""
-        scalars = np.isfinite(np.c_[self.x0, self.ref_xy, self.vel, self.height, self.yaw]).all(axis=1)
+        scalars = np.isfinite(np.c_[self.x0, self.ref_xy, self.vel, self.height, self.yaw, self.pitch]).all(axis=1)
         return np.isfinite(self.feet).all(axis=(1, 2, 3)) & scalars
 
     def rotations(self) -> np.ndarray:
@@ -197,6 +211,7 @@ class ProblemBatch:
             vel=(self.vel[:, None] @ rot[:, 0:2, 0:2])[:, 0],
             height=self.height,
             yaw=np.zeros(len(self)),
+            pitch=self.pitch,
         )
 
     def reference_states(self, dt_s: float) -> np.ndarray:
@@ -205,8 +220,9 @@ class ProblemBatch:
         t = dt_s * np.arange(n + 1)
         ref = np.zeros((len(self), n + 1, NX))
         ref[..., 0:2] = self.ref_xy[:, None] + t[:, None] * self.vel[:, None]
-        ref[..., 2] = self.height[:, None]
+        ref[..., 2] = self.height
         ref[..., 3:5] = self.vel[:, None]
+        ref[..., 7] = self.pitch
         ref[..., 8] = self.yaw[:, None]
         return ref
 

@@ -1,0 +1,231 @@
+"""Issue 13, items 2 and 3 (planning side): footholds and swings on terrain with heights.
+
+The height checks of candidate footholds (``contactnet.footholds``), the swing over the tops on its way
+(``contactnet.swing``), the support height and body pitch (``contactnet.ground``), and the ContactNet
+planner using them on the shipped stairs while a flat terrain keeps today's plan."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from contactnet.bench.planner import planning_contexts
+from contactnet.controller import SwingTrajectory
+from contactnet.footholds import FootholdChecker, HeightChecks, path_top_z
+from contactnet.gait import TROT, WALK
+from contactnet.ground import PITCH_SHARE, body_pitch, front_to_hind_m, support_height
+from contactnet.planner import ContactNetPlanner, PlanningContext
+from contactnet.swing import STEP_FRACTION, swing_over_terrain
+from contactnet.terrain import Terrain, flat, random_field, resolve
+
+FL, FR, HL, HR = range(4)
+
+
+@pytest.fixture(scope="module")
+def stairs() -> Terrain:
+    return resolve("stairs")  # risers of 5 cm at x 0.25, 0.45, 0.65 (up), 1.05, 1.25, 1.45 (down)
+
+
+@pytest.fixture(scope="module")
+def checker(robot) -> FootholdChecker:
+    return FootholdChecker(robot.description)
+
+
+def evaluate(checker, terrain, leg, landing_x, liftoff_x, hip_x, tops, y=0.1):
+    """The checks of one landing at (landing_x, y) for ``leg`` lifting off at (liftoff_x, y), the feet on ``tops``."""
+    result = checker.evaluate(terrain, np.array([leg]), np.array([[landing_x, y]]), np.array([[liftoff_x, y]]),
+                              np.array([[hip_x, y]]), np.asarray(tops, dtype=float), 0.0)
+    return {name: bool(value[0]) for name, value in result.items()}
+
+
+def test_only_terrain_with_heights_is_checked(checker, stairs):
+    assert not checker.applies(flat()) and not checker.applies(random_field(80, 0))
+    assert not checker.applies(resolve("stepping_stones")) and checker.applies(stairs)
+    assert checker.applies(resolve("raised_stones"))
+
+
+def test_leg_geometry_comes_from_the_robot(checker, robot):
+    legs = checker.legs
+    # Thigh and shank in the leg's plane: together about the straight leg (which includes a small sideways offset).
+    assert np.all(legs.thigh_m + legs.shank_m <= robot.description.leg_reach_m)
+    np.testing.assert_allclose(legs.thigh_m + legs.shank_m, robot.description.leg_reach_m, atol=0.01)
+    # Solo12: front knees point backward, hind knees forward.
+    np.testing.assert_array_equal(legs.knee_side, [-1, -1, 1, 1])
+    # Level body: every hip at the CoM height plus the nominal hip-above-CoM offset.
+    hips = legs.hip_heights(0.3, 0.0)
+    assert np.allclose(hips, hips[0]) and hips[0] == pytest.approx(0.3 + robot.description.hip_pos_base[0, 2]
+                                                                   - robot.description.com_base_standing[2])
+    front, hind = legs.hip_heights(0.3, -0.1)[[FL, HL]]  # nose up: the front hips higher
+    assert front > hind
+    # Over the tops of the feet: the nominal CoM height over their mean, pitched with them.
+    np.testing.assert_allclose(legs.hips_over_tops(np.zeros(4)), legs.hip_heights(robot.description.com_height_nominal_m,
+                                                                                   0.0))
+    up = legs.hips_over_tops(np.array([0.1, 0.1, 0.0, 0.0]))  # front feet 10 cm up: the CoM 5 cm, pitched half-way
+    expected = [0.05 + PITCH_SHARE * 0.05, 0.05 - PITCH_SHARE * 0.05]
+    np.testing.assert_allclose(up[[FL, HL]] - legs.hips_over_tops(np.zeros(4))[[FL, HL]], expected, atol=3e-3)
+
+
+def test_a_hind_foot_keeps_its_shin_off_the_riser_ahead(checker, stairs):
+    """A hind leg's knee points forward: its shin slants over the ground ahead of the foot. Right behind the
+    first riser (x 0.25, 5 cm) the shin would rest on its edge (the fall of issue 13 before this work)."""
+    tops = [0.05, 0.0, 0.0, 0.0]  # one front foot already up
+    near = evaluate(checker, stairs, HL, 0.22, 0.15, 0.20, tops)
+    far = evaluate(checker, stairs, HL, 0.12, 0.05, 0.12, tops)
+    assert near["top"] and near["reach"] and near["step"] and not near["leg"]
+    assert all(far.values()), far
+    # A front leg's knee points backward: the same spot is fine for its shin (nothing higher behind it).
+    assert evaluate(checker, stairs, FL, 0.22, 0.15, 0.17, tops)["leg"]
+
+
+def test_a_front_foot_stepping_down_lands_clear_of_the_edge_behind(checker, stairs):
+    """Going down (edge at x 1.05 from 0.15 to 0.10): the front shin slants back over the edge, so the front
+    foot lands well past it."""
+    tops = [0.15, 0.15, 0.15, 0.15]
+    assert not evaluate(checker, stairs, FL, 1.07, 1.00, 1.03, tops)["leg"]
+    assert all(evaluate(checker, stairs, FL, 1.14, 1.04, 1.12, tops).values())
+
+
+def test_the_ball_the_step_height_and_the_reach(checker, stairs):
+    tops = np.zeros(4)
+    # The ball's side against the riser: 1.2 cm from the wall of the next tread, on the lower one.
+    assert not evaluate(checker, stairs, FL, 0.238, 0.15, 0.2, tops)["ball"]
+    # Three risers in one step: more than the swing can clear.
+    assert not evaluate(checker, stairs, FL, 0.70, 0.20, 0.45, tops)["step"]
+    assert evaluate(checker, stairs, FL, 0.34, 0.20, 0.30, tops)["step"]
+    # Far beyond the leg's reach from the hip.
+    assert not evaluate(checker, stairs, FL, 0.45, 0.20, 0.15, tops)["reach"]
+    # No top at all (off the stairs' side).
+    assert not evaluate(checker, stairs, FL, 0.34, 0.20, 0.30, tops, y=0.3)["top"]
+
+
+def test_path_top_is_the_highest_top_on_the_way(stairs):
+    tops = path_top_z(stairs, np.array([[0.1, 0.0], [0.1, 0.0]]), np.array([[0.5, 0.0], [0.2, 0.0]]))
+    np.testing.assert_allclose(tops, [0.1, 0.0])
+
+
+def test_support_height_and_pitch(robot, stairs):
+    feet = np.array([[0.35, 0.1], [0.35, -0.1], [0.0, 0.1], [0.0, -0.1]])  # front feet one riser up
+    assert support_height(stairs, feet) == pytest.approx(0.025)
+    assert support_height(flat(), feet) == 0.0
+    length = front_to_hind_m(robot.description.foot_nominal_base)
+    assert length == pytest.approx(2 * robot.description.foot_nominal_base[0, 0])
+    assert body_pitch(np.array([0.05, 0.05, 0.0, 0.0]), length) < 0  # nose up
+    assert body_pitch(np.zeros(4), length) == 0.0
+
+
+def test_swing_up_a_riser_clears_its_edge(stairs):
+    r = 0.016
+    start, end = np.array([0.15, 0.1, r]), np.array([0.33, 0.1, 0.05 + r])
+    swing = swing_over_terrain(stairs, start, end, 1.0, 1.16, 0.05, r)
+    assert swing.apex_z == pytest.approx(0.05 + r + 0.05)
+    assert swing.liftoff_fraction >= STEP_FRACTION and swing.touchdown_fraction == 0
+    for t in np.linspace(1.0, 1.16, 161):  # the ball never dips into the upper tread before landing
+        pos = swing.sample(t)[0]
+        if pos[0] >= 0.25 - r:
+            assert pos[2] >= 0.05 + r - 1e-9
+    # Level path: exactly today's swing.
+    level = swing_over_terrain(stairs, np.array([0.36, 0.1, 0.05 + r]), np.array([0.42, 0.1, 0.05 + r]), 1.0, 1.16,
+                               0.05, r)
+    plain = SwingTrajectory(start_world=level.start_world, end_world=level.end_world, t0_s=1.0, t1_s=1.16)
+    assert level.liftoff_fraction == level.touchdown_fraction == 0.0
+    for t in np.linspace(1.0, 1.16, 9):
+        np.testing.assert_array_equal(level.sample(t)[0], plain.sample(t)[0])
+    # Close to the riser (2.5 cm, the least the planner allows), a long step rises longer before it moves.
+    close = swing_over_terrain(stairs, np.array([0.225, 0.1, r]), np.array([0.42, 0.1, 0.05 + r]), 1.0, 1.16, 0.05, r)
+    assert close.liftoff_fraction >= STEP_FRACTION and close.touchdown_fraction == 0
+    for t in np.linspace(1.0, 1.16, 161):  # over the edge with the clearance, never into the upper tread
+        pos = close.sample(t)[0]
+        if abs(pos[0] - 0.25) <= r:
+            assert pos[2] >= 0.05 + r + 0.015 - 1e-9
+        elif pos[0] > 0.25:
+            assert pos[2] >= 0.05 + r - 1e-9
+    # Stepping down past an edge: the foot lands near-vertically, and leaves without waiting.
+    down = swing_over_terrain(stairs, np.array([1.00, 0.1, 0.15 + r]), np.array([1.14, 0.1, 0.10 + r]), 1.0, 1.16,
+                              0.05, r)
+    assert down.touchdown_fraction >= STEP_FRACTION and down.liftoff_fraction == 0
+    # Over a taller top between two lower ones the apex rises above it.
+    over = swing_over_terrain(stairs, np.array([0.40, 0.1, 0.05 + r]), np.array([0.60, 0.1, 0.10 + r]), 1.0, 1.16,
+                              0.05, r)
+    assert over.apex_z >= 0.10 + r + 0.05 - 1e-12
+
+
+class _Ranked:
+    """A stand-in model: every action scored by a fixed random permutation (checks do not need a trained net)."""
+
+    def __init__(self, gait, seed: int) -> None:
+        self.gait, self.n_actions, self.path = gait.name, gait.n_actions, "<ranked>"
+        self._scores = np.random.default_rng(seed).permutation(gait.n_actions).astype(float)
+
+    def scores(self, u):
+        return self._scores
+
+
+def _stairs_context(robot, gait, terrain, x0: float) -> PlanningContext:
+    """Standing on the stairs with the base at x0 (feet at their nominal places, on whatever top is there)."""
+    desc = robot.description
+    feet = desc.foot_nominal_base.copy()
+    feet[:, 0] += x0
+    feet[:, 2] = terrain.ground_z(feet[:, :2]) + desc.foot_radius_m
+    return PlanningContext(
+        com_pos_world=np.array([x0, 0.0, support_height(terrain, feet[:, :2]) + desc.com_height_nominal_m]),
+        com_vel_world=np.array([0.05, 0.0, 0.0]), yaw_rad=0.0, foot_pos_world=feet,
+        hip_ref_xy_base=desc.foot_nominal_base[:, :2], base_xy_world=np.array([x0, 0.0]),
+        vel_cmd_xy=np.array([0.05, 0.0]), terrain=terrain, gait=gait, com_height_ref_m=desc.com_height_nominal_m)
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_planner_on_stairs_takes_only_usable_footholds(robot, checker, stairs, gait):
+    """Whatever the ranking, every foothold the planner takes on the stairs passes the height checks, and the
+    candidate view marks the cells that fail them as unsafe."""
+    rejected = 0
+    for seed in range(4):
+        planner = ContactNetPlanner(gait, robot.description, _Ranked(gait, seed))
+        for x0 in (0.0, 0.08, 0.30, 0.55, 0.95, 1.10):
+            ctx = _stairs_context(robot, gait, stairs, x0)
+            step = planner.plan(ctx)[0]
+            if step.action_index is None:
+                continue
+            legs = np.array(step.legs)
+            hips_xy = ctx.base_xy_world + robot.description.hip_pos_base[legs, :2] + 0.05 * 0.28 * np.array([1.0, 0])
+            tops = stairs.ground_z(ctx.foot_pos_world[:, :2])
+            assert checker.usable(stairs, legs, step.footholds_xy_world, ctx.foot_pos_world[legs, :2], hips_xy, tops,
+                                  0.0).all()
+            view = planner.last_candidates
+            safe_only = stairs.is_safe(view.xy_world, planner.margin_m)
+            assert not (view.safe & ~safe_only).any()  # the view's safe cells are safe ...
+            rejected += int((safe_only & ~view.safe).sum())  # ... and some safe cells fail the height checks
+    assert rejected > 0
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_single_height_terrain_plans_as_before(robot, gait):
+    """A terrain with one level takes the flat-ground path: the same plan as with every height check off."""
+    terrain = random_field(100, 0)
+    model = _Ranked(gait, 1)
+    planner = ContactNetPlanner(gait, robot.description, model)
+    unchecked = ContactNetPlanner(gait, robot.description, model)
+    unchecked.footholds = FootholdChecker(robot.description, HeightChecks(max_step_m=-1.0))  # would reject all
+    for ctx in planning_contexts(gait, terrain, robot.description, 20, seed=3):
+        a, b = planner.plan(ctx), unchecked.plan(ctx)
+        for x, y in zip(a, b, strict=True):
+            assert x.legs == y.legs and x.action_index == y.action_index
+            np.testing.assert_array_equal(x.footholds_xy_world, y.footholds_xy_world)
+
+
+def test_a_cornered_hind_leg_swings_first(robot, checker, stairs):
+    """A hind foot 4 cm behind the first riser with the body moving on over it: its shin would reach the edge,
+    so it is *cornered*, and whatever the network prefers the walk swings that leg next."""
+    ctx = _stairs_context(robot, WALK, stairs, 0.40)  # front feet on the second tread, hind ones on the ground
+    feet = ctx.foot_pos_world.copy()
+    feet[HL, 0], feet[HR, 0] = 0.21, 0.30  # HL 4 cm behind the first riser, HR up on the first tread
+    tops = stairs.ground_z(feet[:, :2])
+    feet[:, 2] = tops + robot.description.foot_radius_m
+    hips_ahead = ctx.base_xy_world + robot.description.hip_pos_base[:, :2] + np.array([0.03, 0.0])
+    clear = checker.stance_clear(stairs, feet[:, :2], tops, hips_ahead, 0.0)
+    np.testing.assert_array_equal(clear, [True, True, False, True])
+    cornered = PlanningContext(**{**ctx.__dict__, "foot_pos_world": feet})
+    swung = set()
+    for seed in range(6):
+        step = ContactNetPlanner(WALK, robot.description, _Ranked(WALK, seed)).plan(cornered)[0]
+        swung.add(step.legs)
+    assert swung == {(HL,)}
