@@ -16,6 +16,15 @@ def wait_for(predicate, timeout: float = 20.0, what: str = "condition", poll_s: 
     raise AssertionError(f"timed out waiting for {what}")
 
 
+def default_sigint() -> None:
+    """``preexec_fn`` of a subprocess a test will Ctrl-C: SIGINT back to its default. A shell starts background
+    jobs (e.g. ``make test &``) with SIGINT ignored, the children inherit that, and Python then installs no
+    KeyboardInterrupt handler, so the signal the test sends would do nothing."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def save_random_models(folder) -> None:
     """walk.pt and trot.pt with random weights, so the web tests do not depend on the shipped models:
     the ContactNet planner then ranks candidates at random, and still takes the first safe one."""

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import default_sigint
 
 from contactnet.cli import EXIT_USER_ERROR, main
 from contactnet.datagen import DatagenConfig, DatasetDirError, generate, shard_name
@@ -113,12 +114,11 @@ def test_config_validation():
 
 def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
     out = tmp_path / "walk"
-    # 20 episodes: enough that a starved test process (a loaded machine) cannot miss the run before Ctrl-C
-    command = [sys.executable, "-m", "contactnet", "datagen", "--gait", "walk", "--episodes", "20",
+    command = [sys.executable, "-m", "contactnet", "datagen", "--gait", "walk", "--episodes", "6",
                "--instances-per-episode", "3", "--episodes-per-shard", "1", "--workers", "1", "--seed", "3",
                "--out", str(out), "--quiet"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               start_new_session=True)
+                               start_new_session=True, preexec_fn=default_sigint)
     manifest_path = out / "manifest.json"
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline:
@@ -131,13 +131,13 @@ def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
     assert process.returncode == 130, err
     assert "resume" in err and "Traceback" not in err
     manifest = json.loads(manifest_path.read_text())
-    assert 1 <= manifest["episodes"] < 20 and not manifest["complete"]
+    assert 1 <= manifest["episodes"] < 6 and not manifest["complete"]
     assert all((out / name).is_file() for name in manifest["shards"])
     finished = {name: (out / name).stat().st_mtime_ns for name in manifest["shards"]}
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr
     manifest = json.loads(manifest_path.read_text())
-    assert manifest["complete"] and manifest["episodes"] == 20
+    assert manifest["complete"] and manifest["episodes"] == 6
     assert {name: (out / name).stat().st_mtime_ns for name in finished} == finished
 
 

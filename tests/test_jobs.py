@@ -10,6 +10,7 @@ import sys
 import time
 
 import pytest
+from helpers import default_sigint
 
 from contactnet.jobs import ENGINES, Job, run_jobs
 
@@ -59,7 +60,7 @@ except KeyboardInterrupt:
 @pytest.mark.skipif(sys.platform == "win32", reason="process groups and SIGINT")
 def test_ctrl_c_stops_the_pool_at_once_without_worker_tracebacks():
     process = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True, start_new_session=True)
+                               text=True, start_new_session=True, preexec_fn=default_sigint)
     lines = []
     deadline = time.monotonic() + 60
     while len(lines) < 2 and time.monotonic() < deadline:
