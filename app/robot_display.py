@@ -212,6 +212,7 @@ class CompareGhosts:
     Nodes are made the first time compare mode is on and hidden (not removed) when it is off."""
 
     label_height_m = 0.28
+    label_stack_m = 0.06  #: each robot's label this much above the previous one's: robots side by side stay readable
 
     def __init__(self, server: viser.ViserServer, robot: Robot, display: DisplayUrdf):
         self.server = server
@@ -223,7 +224,7 @@ class CompareGhosts:
         self._on = False
 
     def _label(self, index: int, text: str, base: np.ndarray) -> None:
-        position = np.asarray(base, dtype=float) + np.array([0.0, 0.0, self.label_height_m])
+        position = np.asarray(base, dtype=float) + np.array([0.0, 0.0, self.label_height_m + index * self.label_stack_m])
         if index == len(self.labels):
             self.labels.append(
                 self.server.scene.add_label(f"/compare/label_{index}", text, position=position, anchor="bottom-center")

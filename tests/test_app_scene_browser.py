@@ -138,11 +138,13 @@ def test_an_orbit_keeps_following_and_recenter_restores_the_view(live, page):
 def test_compare_mode_draws_the_other_robot(live, page):
     app = live
     app.terrains.load("stepping_stones")
-    app.session.call(SetCompare(("heuristic", "fixed")))
+    app.session.call(SetCompare(("contactnet", "fixed")))
     app.session.call(SetPaused(False))
     ghosts = app.viewer.scene.ghosts
     wait_for(lambda: ghosts.ghosts and ghosts.ghosts[0].visible, timeout=30, what="the ghost robot")
-    wait_for(lambda: app.session.view.snapshot.t_s > 3.0, timeout=60, what="3 s of walking")
+    # the ghost's clock (the main robot stops where it ends, a fall; the other walks on); random-weight models
+    # may fall early, and the loop then restarts both: a second of walking is what every run gets
+    wait_for(lambda: app.session.view.compare[0].snapshot.t_s > 1.0, timeout=60, what="a second of walking")
     page.get_by_text("fixed:").first.wait_for(timeout=30_000)  # its label in the 3D view
     time.sleep(1.5)
     page.screenshot(path=str(ARTIFACTS / "viser_compare.png"))
