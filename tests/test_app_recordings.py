@@ -224,8 +224,10 @@ def test_the_recording_in_progress_cannot_be_changed(client, app, folder):
             client.patch("/api/recordings/other.viser", json={"name": name}),
         ):
             assert response.status_code == 409 and "being recorded" in response.json()["detail"]
+        # a stop before the first frame is refused ("nothing recorded"): on a loaded machine that takes a while
+        wait_for(lambda: app.recorder.status()["frames"] >= 1, what="a frame recorded")
     finally:
-        client.post("/api/recordings/stop")
+        assert client.post("/api/recordings/stop").status_code == 200
     assert client.patch(f"/api/recordings/{name}", json={"title": "x"}).status_code == 200
 
 
