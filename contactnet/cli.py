@@ -267,13 +267,14 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_experiment(args: argparse.Namespace) -> int:
-    from contactnet.experiment import format_summary, run_experiment, trials_of
+    from contactnet.experiment import DEFAULT_HEIGHT_M, format_summary, run_experiment, trials_of
 
     model_dir = args.model_dir
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
     trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
-                       model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot)
+                       model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot,
+                       height_m=DEFAULT_HEIGHT_M if args.height is None else args.height)
     if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
         robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
@@ -380,18 +381,24 @@ def build_parser() -> argparse.ArgumentParser:
     train.set_defaults(func=cmd_train)
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
-    experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random"])
+    experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random", "stairs",
+                                             "raised_stones", "random_heights"])
     experiment.add_argument("--trials", type=_positive_int("--trials", 10**5),
-                            help="seeds per setting (default: 20 on random, 1 on the others)")
+                            help="seeds per setting (default: 20 on random and random_heights, 5 on raised_stones, "
+                                 "1 on the others)")
     experiment.add_argument("--workers", type=_positive_int("--workers", 256))
     experiment.add_argument("--out", required=True)
     experiment.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
     experiment.add_argument("--gaits", type=_choices("--gaits", registry.gait_names()), default=None,
-                            help="comma-separated (default: walk; walk,trot on random)")
+                            help="comma-separated (default: walk; walk,trot on random and the terrains with "
+                                 "heights)")
     experiment.add_argument("--planners", type=_choices("--planners", registry.planner_names()), default=None,
-                            help="comma-separated (default: contactnet,fixed,heuristic)")
+                            help="comma-separated (default: contactnet,fixed,heuristic; contactnet,fixed on the "
+                                 "terrains with heights)")
     experiment.add_argument("--removed", type=_number_list("--removed", 0, 300, int), default=(80,),
-                            help="squares removed on random, comma-separated (default 80)")
+                            help="squares removed on random and random_heights, comma-separated (default 80)")
+    experiment.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
+                            help=HEIGHT_HELP)
     experiment.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                             help="joint-velocity noise variance")
     experiment.add_argument("--widths-cm", type=_number_list("--widths-cm", 1.0, 20.0), default=None,

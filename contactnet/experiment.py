@@ -9,6 +9,14 @@
 - ``random``: the 1.5 x 0.5 m field of 300 squares with ``removed`` squares missing, one terrain per
   seed (Fig. 5, Table I); walk and trot.
 
+Beyond the paper (terrain with heights; walk and trot):
+
+- ``stairs``: up 3 steps and down 3 (5 cm risers, 20 cm treads).
+- ``raised_stones``: the stepping stones with tops spread over +-6 cm; seed 0 is the shipped file, every
+  other seed another spread of heights (and noise seed), 5 seeds by default.
+- ``random_heights``: the random field with each square's top at a random height within +-``height_m``
+  (default 3 cm), ``removed`` squares missing, one terrain per seed, 20 seeds by default.
+
 Every trial is one `Locomotion` run (the same loop as `contactnet simulate`) until the goal, a fall or a
 time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Trials run in worker
 processes (``contactnet.jobs``); each finished trial is appended to ``DIR/trials.jsonl`` at once, so an
@@ -42,15 +50,22 @@ from contactnet.jobs import Job, code_identity, differences, digest, run_jobs
 from contactnet.robots import DEFAULT_ROBOT
 
 HEADER_FORMAT = "contactnet-experiment-v1"
-EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random")
+EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights")
 DEFAULT_PLANNERS = {
     "stepping_stones": ("contactnet", "fixed", "heuristic"),
     "narrow_stones": ("contactnet", "fixed", "heuristic"),
     "narrow_map": ("contactnet", "fixed"),
     "random": ("contactnet", "fixed", "heuristic"),
+    "stairs": ("contactnet", "fixed"),
+    "raised_stones": ("contactnet", "fixed"),
+    "random_heights": ("contactnet", "fixed"),
 }
 DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "narrow_map": ("walk",),
-                 "random": ("walk", "trot")}
+                 "random": ("walk", "trot"), "stairs": ("walk", "trot"), "raised_stones": ("walk", "trot"),
+                 "random_heights": ("walk", "trot")}
+DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5}  # 1 elsewhere
+FIELDS = ("random", "random_heights")  # one generated terrain per (removed, seed)
+DEFAULT_HEIGHT_M = 0.03  # random_heights: each top within +-3 cm
 # The narrow_map grid: bar width 3-7 cm (the candidate spacing is 5 cm), last gap 12-24 cm.
 NARROW_MAP_WIDTHS_CM = (3.0, 4.0, 5.0, 6.0, 7.0)
 NARROW_MAP_GAPS_CM = (12.0, 15.0, 18.0, 21.0, 24.0)
@@ -76,32 +91,38 @@ class Trial:
     bar_width_m: float | None = None  # narrow_map: all three bars this wide
     last_gap_m: float | None = None  # narrow_map: the gap before the last bar
     robot: str = DEFAULT_ROBOT  # contactnet.registry name
+    height_m: float | None = None  # random_heights: each square's top within +-height_m
 
     @property
     def key(self) -> str:
-        """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12 (older logs resume)."""
+        """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12 and the height only on
+        random_heights (older logs resume)."""
         removed = "" if self.removed is None else f"/{self.removed}"
+        height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
-        return f"{self.terrain}{removed}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}{robot}"
+        return (f"{self.terrain}{removed}{height}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
+                f"{robot}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
               planners: tuple[str, ...] | None = None, removed: tuple[int, ...] = (80,), noise: float = 0.0,
               vx: float = 0.05, model_dir: str | None = None,
               widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
-              robot: str = DEFAULT_ROBOT) -> list[Trial]:
+              robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
-    on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 20 seeds on ``random``)."""
+    on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
+    ``random`` and ``random_heights``, whose tops spread over +-``height_m``)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
     planners = planners or DEFAULT_PLANNERS[name]
-    n = trials or (20 if name == "random" else 1)
+    n = trials or DEFAULT_TRIALS.get(name, 1)
     out = []
     for gait in gaits:
         for planner in planners:
-            if name == "random":
-                out += [Trial(name, "random", k, seed, gait, planner, vx, noise, model_dir, robot=robot)
+            if name in FIELDS:
+                height = height_m if name == "random_heights" else None
+                out += [Trial(name, name, k, seed, gait, planner, vx, noise, model_dir, robot=robot, height_m=height)
                         for k in removed for seed in range(n)]
             elif name == "narrow_map":
                 from contactnet.terrain import narrow_stones
@@ -124,7 +145,7 @@ def run_trial(trial: Trial) -> dict:
     from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
     from contactnet.sim import SimConfig
 
-    terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m)
+    terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m)
     gait = gait_by_name(trial.gait)
     robot = load_robot(trial.robot)
     model = None if trial.model_dir is None else model_path(trial.robot, trial.gait, Path(trial.model_dir))
@@ -138,12 +159,13 @@ def run_trial(trial: Trial) -> dict:
     return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary}
 
 
-def _terrain(name: str, removed: int | None, seed: int, bar_width_m: float | None, last_gap_m: float | None):
+def _terrain(name: str, removed: int | None, seed: int, bar_width_m: float | None, last_gap_m: float | None,
+             height_m: float | None = None):
     from contactnet.terrain import narrow_stones, resolve
 
     if bar_width_m is not None or last_gap_m is not None:
         return narrow_stones(bar_width_m, last_gap_m)
-    return resolve(name, removed=removed, seed=seed)
+    return resolve(name, removed=removed, seed=seed, height_m=height_m)
 
 
 @functools.lru_cache(maxsize=64)
@@ -175,7 +197,8 @@ def trial_inputs(trial: Trial) -> dict:
         model = _model_identity(str(path), stamp)
     settings = asdict(trial)
     del settings["model_dir"]  # where the model lies does not matter, its content does
-    terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m)
+    terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
+                              trial.height_m)
     return {"trial": settings, "terrain": terrain, "gait": digest(repr(gait_by_name(trial.gait))),
             "model": model, "code": code_identity()}
 
@@ -287,15 +310,16 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
     groups: dict[tuple, list[dict]] = {}
     for r in records:
         t = r["trial"]
-        group = (t["gait"], t["planner"], t["removed"], t["noise"], t.get("bar_width_m"), t.get("last_gap_m"))
+        group = (t["gait"], t["planner"], t["removed"], t["noise"], t.get("bar_width_m"), t.get("last_gap_m"),
+                 t.get("height_m"))
         groups.setdefault(group, []).append(r)
     rows = []
-    for (gait, planner, removed, noise, width_m, gap_m), rs in sorted(groups.items(),
+    for (gait, planner, removed, noise, width_m, gap_m, height_m), rs in sorted(groups.items(),
                                                                      key=lambda kv: tuple(map(str, kv[0]))):
         ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
         rows.append({
             "gait": gait, "planner": planner, "removed": removed, "noise": noise,
-            "bar_width_m": width_m, "last_gap_m": gap_m, "trials": len(rs),
+            "bar_width_m": width_m, "last_gap_m": gap_m, "height_m": height_m, "trials": len(rs),
             "successes": sum(r["success"] for r in rs),
             "success_rate": sum(r["success"] for r in rs) / len(rs),
             "falls": sum(r["fell"] for r in rs),
@@ -305,6 +329,7 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
             "rank_chosen_mean": float(np.mean(ranks)) if ranks else 0.0,
             "rank_chosen_max": max((r["rank_chosen"]["max"] for r in rs), default=0),
             "unsafe_landings": sum(r["unsafe_landings"] for r in rs),
+            "max_height_change_m": max((r.get("max_height_change_m", 0.0) for r in rs), default=0.0),
             "failed_seeds": [r["trial"]["seed"] for r in rs if not r["success"]],
         })
     return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
@@ -367,6 +392,8 @@ def format_summary(summary: dict) -> str:
 
     rows = summary["rows"]
     scene = ("bar_width_m", "last_gap_m") if any(r.get("bar_width_m") is not None for r in rows) else ("removed",)
+    scene += ("height_m",) if any(r.get("height_m") is not None for r in rows) else ()
     keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "falls",
             "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
+    keep += ("max_height_change_m",) if any(r.get("max_height_change_m") for r in rows) else ()
     return format_table([{k: r.get(k) for k in keep} for r in rows])

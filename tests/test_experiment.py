@@ -41,6 +41,28 @@ def test_the_robot_is_in_the_key_only_when_it_is_not_solo12():
     assert random[0].key == "random/50/seed0/walk/fixed/noise0"
 
 
+def test_the_terrains_with_heights_have_their_experiments():
+    stairs = trials_of("stairs", planners=("contactnet",))
+    assert [(t.terrain, t.gait, t.seed, t.height_m) for t in stairs] == [("stairs", "walk", 0, None),
+                                                                       ("stairs", "trot", 0, None)]
+    raised = trials_of("raised_stones", gaits=("walk",), planners=("contactnet",), noise=0.01)
+    assert [t.seed for t in raised] == [0, 1, 2, 3, 4] and {t.noise for t in raised} == {0.01}
+    assert raised[1].key == "raised_stones/seed1/walk/contactnet/noise0.01"
+    fields = trials_of("random_heights", planners=("contactnet",), height_m=0.04)
+    assert len(fields) == 2 * 20 and {(t.removed, t.height_m) for t in fields} == {(80, 0.04)}
+    assert fields[0].key == "random_heights/80/h0.04/seed0/walk/contactnet/noise0"
+    # every trial's terrain is the one its seed names, with heights (seed 0 of raised_stones: the shipped file)
+    from contactnet.experiment import _terrain
+    from contactnet.terrain import resolve
+
+    field = _terrain("random_heights", 80, 3, None, None, 0.04)
+    assert field.to_dict() == resolve("random_heights", removed=80, seed=3, height_m=0.04).to_dict()
+    tops = {region["z"] for region in field.regions if "z" in region}
+    assert len(tops) > 10 and max(abs(z - field.surface_z) for z in tops) <= 0.04 + 1e-9
+    assert _terrain("raised_stones", None, 0, None, None).to_dict() == resolve("raised_stones").to_dict()
+    assert _terrain("raised_stones", None, 1, None, None).to_dict() != resolve("raised_stones").to_dict()
+
+
 def test_narrow_map_trials_cover_the_grid():
     trials = trials_of("narrow_map", widths_cm=(4.0, 5.5), gaps_cm=(18.0,), noise=0.01, trials=2)
     assert len(trials) == 2 * 1 * 2 * 2  # widths x gaps x (contactnet, fixed) x seeds
