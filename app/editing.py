@@ -56,6 +56,11 @@ class TerrainService:
         return self._view().terrain_dict
 
     @property
+    def terrain(self) -> Terrain:
+        """The session's current Terrain (the validated form of `current`)."""
+        return self._view().terrain
+
+    @property
     def can_undo(self) -> bool:
         return self._view().terrain_can_undo
 

@@ -19,12 +19,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+import shapely
 import trimesh
 import viser
 
 from app.robot_display import CompareGhosts, RobotDisplay
 from app.view import CandidateView, LiveView
 from contactnet.robots import Robot
+from contactnet.terrain import Terrain
 
 DISK_RADIUS_M = 0.017
 DISK_HEIGHT_M = 0.004
@@ -143,11 +145,31 @@ def _segments(points: np.ndarray) -> np.ndarray:
     return np.stack([points[:-1], points[1:]], axis=1)
 
 
-def _on_ground(points: np.ndarray, z: float) -> np.ndarray:
-    """CoM positions projected on the ground (inside the body a CoM path is hidden by the robot)."""
-    projected = np.array(points, dtype=np.float32)
-    projected[:, 2] = z
+def _on_ground(points: np.ndarray, terrain: Terrain, lift_m: float) -> np.ndarray:
+    """CoM positions projected on the ground, ``lift_m`` above it (inside the body a CoM path is hidden by the
+    robot): above the top under each point on a terrain with heights, else above ``surface_z`` (as before
+    heights existed)."""
+    projected = np.array(points, dtype=np.float32).reshape(-1, 3)
+    if _has_heights(terrain) and len(projected):
+        projected[:, 2] = terrain.ground_z(projected[:, :2].astype(np.float64)) + lift_m
+    else:
+        projected[:, 2] = terrain.surface_z + lift_m
     return projected
+
+
+def _has_heights(terrain: Terrain) -> bool:
+    """Does any top differ from ``surface_z`` (where the flat drawing would be hidden or float)?"""
+    return len(terrain.levels) > 1 or terrain.levels[0][0] != terrain.surface_z
+
+
+def goal_line_z(terrain: Terrain) -> float:
+    """World z of the goal line: the highest top it crosses (``surface_z`` where it crosses none)."""
+    minx, miny, maxx, maxy = terrain.bounds
+    line = shapely.LineString([(terrain.goal_x, miny - 0.05), (terrain.goal_x, maxy + 0.05)])
+    for top_z, geometry in terrain.levels:  # highest first
+        if shapely.intersects(geometry, line):
+            return float(top_z)
+    return float(terrain.surface_z)
 
 
 def arrow_segments(tail: np.ndarray, tip: np.ndarray, head_fraction: float = 0.25) -> np.ndarray:
@@ -306,8 +328,8 @@ class LiveScene:
             com_plan = snap.com_plan
             if self._com_plan_last is None or not np.array_equal(com_plan, self._com_plan_last):
                 self._com_plan_last = com_plan
-                self.planned_com.points = _segments(_on_ground(com_plan, view.terrain.surface_z + 0.004))
-            self._draw_com_path(view.com_path, view.terrain.surface_z + 0.003)
+                self.planned_com.points = _segments(_on_ground(com_plan, view.terrain, 0.004))
+            self._draw_com_path(view.com_path, view.terrain)
             self.ghosts.update(view)
 
     # ---- pieces ------------------------------------------------------------------------------------
@@ -318,6 +340,7 @@ class LiveScene:
         mesh = terrain.mesh(thickness=TERRAIN_DISPLAY_THICKNESS_M)
         scene = self.server.scene
         z = terrain.surface_z
+        goal_z = goal_line_z(terrain) + 0.002
         minx, miny, maxx, maxy = terrain.bounds
         nodes = [
             scene.add_mesh_simple(
@@ -331,7 +354,7 @@ class LiveScene:
             scene.add_line_segments(
                 "/terrain/goal",
                 np.array(
-                    [[[terrain.goal_x, miny - 0.05, z + 0.002], [terrain.goal_x, maxy + 0.05, z + 0.002]]]
+                    [[[terrain.goal_x, miny - 0.05, goal_z], [terrain.goal_x, maxy + 0.05, goal_z]]]
                 ),
                 GOAL_COLOR,
                 thickness=0.008,
@@ -427,7 +450,7 @@ class LiveScene:
         else:
             self.push.points = np.tile(HIDDEN_POS, (3, 2, 1))
 
-    def _draw_com_path(self, path: np.ndarray, z: float) -> None:
+    def _draw_com_path(self, path: np.ndarray, terrain: Terrain) -> None:
         n = len(path)
         first = path[0] if n else None
         restart = n < self._com_drawn or (
@@ -444,7 +467,7 @@ class LiveScene:
         last_chunk = (n - 2) // COM_CHUNK
         first_dirty = max(0, (self._com_drawn - 2) // COM_CHUNK) if self._com_drawn >= 2 else 0
         for c in range(first_dirty, last_chunk + 1):
-            segment = _segments(_on_ground(path[c * COM_CHUNK : min(n, (c + 1) * COM_CHUNK + 1)], z))
+            segment = _segments(_on_ground(path[c * COM_CHUNK : min(n, (c + 1) * COM_CHUNK + 1)], terrain, 0.003))
             if c < len(self._com_chunks):
                 self._com_chunks[c].points = segment
             else:

@@ -1,9 +1,12 @@
 """The "Terrain editor" folder and the 3D interaction that edits the session's terrain.
 
-A click tool (punch or fill a hole, add a stone, select one), undo, redo, delete, save and upload.
-viser 1.1's `scene.on_click` gives a ray; we intersect it with the plane z = surface_z on the server.
-Selected stones get transform controls (move in x, y and turn about z); releasing them moves the
-stone. Every change goes through the `TerrainService` (and from there to the live session).
+A click tool (punch or fill a hole, add a stone, select one, raise or lower a grid cell by the "Cell step"),
+undo, redo, delete, save and upload. viser 1.1's `scene.on_click` gives a ray; the server finds where it
+meets the terrain's tops (`app/terrain_pick.py`: on a terrain with heights, the raised stone the user
+sees, not the plane z = surface_z behind it). Selected stones get transform controls (move in x, y and
+turn about z; releasing them moves the stone) and the "Stone height (cm)" slider and typed field (the
+top relative to surface_z; the two stay in sync, each change is one edit). Every change goes through the
+`TerrainService` (and from there to the live session).
 
 Every click says what it did (the info line), and a click that changes nothing says why in a toast
 ("no stone here: click on a stone or a grid cell"). Saving over an existing terrain (the user's own
@@ -16,35 +19,27 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
 import viser
 
 from app import editor
 from app.editing import TerrainService
 from app.editor import EditError
 from app.terrain_files import validate_upload
+from app.terrain_pick import ray_hit_xy, ray_to_plane
 from app.view import LiveView
 from contactnet.terrain import TerrainError
+from contactnet.terrain.height_edits import cell_square, raise_cell, region_top_z, set_region_height
 
 log = logging.getLogger("contactnet.app.panels.terrain_editor")
 
-TOOLS = ("off", "punch hole", "fill hole", "add rect", "add circle", "add star", "select stone")
-
-
-def ray_to_plane(origin, direction, z: float) -> tuple[float, float] | None:
-    """XY where the ray origin + s * direction (s > 0) meets the plane at height z, or None."""
-    origin, direction = np.asarray(origin, float), np.asarray(direction, float)
-    if not (np.all(np.isfinite(origin)) and np.all(np.isfinite(direction))) or abs(direction[2]) < 1e-9:
-        return None
-    s = (z - origin[2]) / direction[2]
-    if s <= 0:
-        return None
-    point = origin + s * direction
-    return float(point[0]), float(point[1])
-
+TOOLS = ("off", "punch hole", "fill hole", "add rect", "add circle", "add star", "select stone", "raise cell",
+         "lower cell")
+HEIGHT_RANGE_CM = 20.0  # the slider's range around surface_z (the typed field goes to the schema's bound)
+__all__ = ["TOOLS", "EditorPanel", "ray_hit_xy", "ray_to_plane"]
 
 
 class EditorPanel:
@@ -58,6 +53,8 @@ class EditorPanel:
         gui = server.gui
         self._pending_save: str | None = None  # the name an "Overwrite NAME?" press would write
         self._label: str | None = None
+        self._height_lock = threading.Lock()  # one stone height change at a time (callbacks run in a pool)
+        self._height_thread: int | None = None  # the thread applying a height change (keeps the selection)
         with gui.add_folder("Terrain editor", order=order, expand_by_default=False):
             self.tool = gui.add_dropdown(
                 "Click tool", TOOLS, initial_value="off",
@@ -65,7 +62,19 @@ class EditorPanel:
             )
             self.info = gui.add_markdown("Pick a tool, then click the terrain.")
             self.history_buttons = gui.add_button_group("Edits", ("Undo", "Redo"))
+            self.cell_step = gui.add_number(
+                "Cell step (cm)", initial_value=1.0, min=0.1, max=20.0, step=0.1, visible=False,
+                hint="How much a click with 'raise cell' or 'lower cell' moves a grid cell's top",
+            )
             self.delete_button = gui.add_button("Delete selected stone", icon=viser.Icon.TRASH, disabled=True)
+            self.height_slider = gui.add_slider(
+                "Stone height (cm)", min=-HEIGHT_RANGE_CM, max=HEIGHT_RANGE_CM, step=0.5, initial_value=0.0,
+                visible=False, hint="The selected stone's top, above (+) or below (-) the terrain's surface_z",
+            )
+            self.height_number = gui.add_number(
+                "Typed height (cm)", initial_value=0.0, step=0.1, visible=False,
+                hint="The selected stone's top relative to surface_z, typed (within 50 cm)",
+            )
             self.name = gui.add_text("Save as", initial_value="my_terrain", hint="letters, digits, _ and -")
             self.save_button = gui.add_button("Save terrain", icon=viser.Icon.DEVICE_FLOPPY)
             self.cancel_button = gui.add_button("Cancel", icon=viser.Icon.X, visible=False)
@@ -73,6 +82,8 @@ class EditorPanel:
                 "Upload terrain JSON", icon=viser.Icon.UPLOAD, mime_type="application/json"
             )
         self.history_buttons.on_click(self._on_history)
+        self.height_slider.on_update(lambda event: self._on_height(self.height_slider, event))
+        self.height_number.on_update(lambda event: self._on_height(self.height_number, event))
         self.delete_button.on_click(self._on_delete)
         self.save_button.on_click(self._on_save)
         self.cancel_button.on_click(lambda event: self._end_confirm() or self._say("Not saved."))
@@ -117,10 +128,21 @@ class EditorPanel:
             self._gizmo.remove()
             self._gizmo = None
         self.delete_button.disabled = True
+        self.height_slider.visible = False
+        self.height_number.visible = False
 
     def _changed(self) -> None:
-        """The service changed the terrain (an edit, undo, redo, load)."""
-        self._clear_selection()
+        """The service changed the terrain (an edit, undo, redo, load); a height change keeps the selection."""
+        if self._height_thread != threading.get_ident():
+            self._clear_selection()
+
+    def _surface_z(self) -> float:
+        return float(self.terrains.current.get("surface_z", 0.0))
+
+    def _show_height(self, value_cm: float) -> None:
+        """Both height widgets to ``value_cm`` (their callbacks see no client and apply nothing)."""
+        self.height_number.value = round(value_cm, 2)
+        self.height_slider.value = min(HEIGHT_RANGE_CM, max(-HEIGHT_RANGE_CM, round(value_cm, 2)))
 
     # ---- callbacks --------------------------------------------------------------------------------
     def _on_tool(self, event) -> None:
@@ -130,8 +152,11 @@ class EditorPanel:
             "off": "Clicks on the terrain do nothing.",
             "punch hole": "Click on a stone or a grid cell to cut a 5 cm square out of it.",
             "fill hole": "Click in a hole to fill it (a removed grid cell comes back, else a 5 cm square is added).",
-            "select stone": "Click on a stone to select it, then drag the gizmo or delete it.",
+            "select stone": "Click on a stone to select it, then drag the gizmo, set its height or delete it.",
+            "raise cell": "Click on a grid cell (or a 5 cm square) to raise its top by the cell step.",
+            "lower cell": "Click on a grid cell (or a 5 cm square) to lower its top by the cell step.",
         }
+        self.cell_step.visible = self.tool.value in ("raise cell", "lower cell")
         self._say(hints.get(self.tool.value, f"Click where the new {self.tool.value[4:]} should go."))
 
     def _on_click(self, event: viser.SceneClickEvent) -> None:
@@ -139,8 +164,7 @@ class EditorPanel:
         if tool == "off":
             return
         client = event.client
-        z = float(self.terrains.current.get("surface_z", 0.0))
-        xy = ray_to_plane(event.ray_origin, event.ray_direction, z)
+        xy = ray_hit_xy(self.terrains.terrain, event.ray_origin, event.ray_direction)
         if xy is None:
             self._miss(client, "That click does not reach the ground: click on the terrain.")
             return
@@ -165,6 +189,25 @@ class EditorPanel:
                 self._miss(client, f"No stone here {at}: click on a stone to select it.")
             else:
                 self._select(index)
+        elif tool in ("raise cell", "lower cell"):
+            self._on_cell(client, xy, tool == "raise cell")
+
+    def _on_cell(self, client, xy: tuple[float, float], up: bool) -> None:
+        """Raise or lower the grid cell under xy by the cell step; say where it went."""
+        step_cm = float(self.cell_step.value)
+        delta_m = (step_cm if up else -step_cm) / 100.0
+        title = "Raise cell" if up else "Lower cell"
+        found = self._run(client, title, lambda: cell_square(self.terrains.current, xy))
+        if found is None:
+            return
+        index, (x0, y0, x1, y1) = found
+        z_cm = 100.0 * (region_top_z(self.terrains.current, index) + delta_m - self._surface_z())
+        centre = f"({(x0 + x1) / 2:.2f}, {(y0 + y1) / 2:.2f})"
+        changed = self._run(client, title, lambda: self.terrains.edit(raise_cell, xy, delta_m))
+        if changed:
+            self._say(f"Cell {centre} {'raised' if up else 'lowered'} to {z_cm:+.1f} cm · {self._summary()}")
+        elif changed is not None:
+            self._miss(client, f"Cell {centre} unchanged: the cell step is 0.")
 
     def _miss(self, client, text: str) -> None:
         """A click that changed nothing: say why, in the panel and in a toast."""
@@ -175,9 +218,11 @@ class EditorPanel:
         self._clear_selection()
         if index is None:
             return
-        region = self.terrains.current["regions"][index]
+        data = self.terrains.current
+        region = data["regions"][index]
         (x, y), yaw = editor.region_pose(region)
-        z = float(self.terrains.current.get("surface_z", 0.0)) + 0.01
+        top_cm = 100.0 * (region_top_z(data, index) - self._surface_z())
+        z = region_top_z(data, index) + 0.01
         self._selected = index
         self._gizmo = self.server.scene.add_transform_controls(
             "/editor/gizmo",
@@ -191,7 +236,38 @@ class EditorPanel:
         )
         self._gizmo.on_update(self._on_moved)
         self.delete_button.disabled = False
-        self._say(f"Selected region {index} ({region['shape']}): drag the gizmo, or delete it.")
+        self._show_height(top_cm)
+        self.height_slider.visible = True
+        self.height_number.visible = True
+        self._say(f"Selected region {index} ({region['shape']}, top {top_cm:+.1f} cm): drag the gizmo, set its "
+                  "height, or delete it.")
+
+    def _on_height(self, source: viser.GuiInputHandle, event) -> None:
+        """The slider or the typed field changed (in a browser): put the selected stone's top there."""
+        if event.client is None:  # set by the server (`_show_height`): nothing to apply
+            return
+        with self._height_lock:
+            index = self._selected
+            if index is None:
+                return
+            value_cm = round(float(source.value), 2)  # the newest value: a stale callback applies nothing new
+            self._show_height(value_cm)
+            z_m = self._surface_z() + value_cm / 100.0
+            self._height_thread = threading.get_ident()
+            try:
+                changed = self._run(event.client, "Stone height",
+                                    lambda: self.terrains.edit(set_region_height, index, z_m))
+            finally:
+                self._height_thread = None
+            data = self.terrains.current
+            if changed is None:  # refused (said so): the widgets show the stone's height again
+                self._show_height(100.0 * (region_top_z(data, index) - self._surface_z()))
+                return
+            if self._gizmo is not None:
+                self._gizmo.position = (*self._gizmo.position[:2], region_top_z(data, index) + 0.01)
+            if changed:
+                shape = data["regions"][index]["shape"]
+                self._say(f"Region {index} ({shape}) top set to {value_cm:+.1f} cm · {self._summary()}")
 
     def _on_moved(self, event) -> None:
         gizmo, index = self._gizmo, self._selected

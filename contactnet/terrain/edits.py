@@ -18,6 +18,9 @@ it. We keep each region's kind where we can:
 Filling a square first restores removed cells of a grid it falls in, else adds a 5 x 5 cm rect.
 Squares snap to the 5 cm world lattice (or to the cells of the grid region under the click), so
 repeated punches tile without slivers.
+
+Edits of the tops' heights (a stone's ``z``, a grid cell raised or lowered) are in
+:mod:`contactnet.terrain.height_edits`.
 """
 
 from __future__ import annotations
