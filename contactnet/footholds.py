@@ -5,8 +5,11 @@ With heights a foot can also be blocked by the terrain around it, so a candidate
 being safe:
 
 1. **reach**: the foot-ball centre on that top lies within the leg's 3D reach (``leg_reach_m`` less a
-   margin) of the hip predicted at touchdown. Hips ride at the nominal CoM height over the feet's
-   support, the body pitched with the feet (``contactnet.ground``), the landing leg on its candidate;
+   margin) of the hip predicted at touchdown, and at most ``max_lean_m`` sideways from the leg's plane
+   (where its foot stands in the nominal stance): a leg leaning further sweeps its shin over the tops
+   beside the foot, which the checks below (made in the leg's plane, leaning with it) do not see well.
+   Hips ride at the nominal CoM height over the feet's support, the body pitched with the feet
+   (``contactnet.ground``), the landing leg on its candidate;
 2. **swing**: the step from the lift-off top to the landing top, and any terrain along the straight path
    between them above the higher of the two, is at most ``max_step_m`` (what the swing can clear);
 3. **foot ball**: no higher top within a ring just outside the ball (its side would hit a riser);
@@ -19,6 +22,10 @@ being safe:
    further than at touchdown, back at its nominal height above the foot (the other legs have followed). The
    shank's axis must pass ``shin_clearance_m`` above the terrain, the knee ``knee_clearance_m`` (also
    ``knee_reach_m`` beyond it: the joint's housing), the thigh's axis ``thigh_clearance_m``.
+
+Before the checks, a candidate on a small top (a 5 cm square of ``random_heights``: its largest disk at most
+``small_top_inradius_m``) moves to that top's centre (``FootholdChecker.centred``), where its ball is farthest
+from the risers around it; bigger tops (stair treads, stones) keep the candidate grid as it is.
 
 The checks sample ``Terrain.height_at`` (a raster lookup) at a fixed number of points per candidate, so
 they cost the same whatever the number of holes. A terrain with one level (every top at the same height)
@@ -60,6 +67,8 @@ class HeightChecks:
     thigh_clearance_m: float = 0.03  # the thigh's axis (from the knee up) passes this high above the terrain
     thigh_samples: int = 2  # points along the thigh, beyond the knee
     path_samples: int = 8  # points along the swing path
+    max_lean_m: float = 0.03  # the foot at most this far sideways from its leg's plane (nominal stance)
+    small_top_inradius_m: float = 0.04  # candidates on a top this small (its largest disk) go to its centre
     fallback_shin_elevation_rad: float = math.radians(35.0)  # shin elevation when the knee is not known
 
 
@@ -75,6 +84,7 @@ class LegGeometry:
     foot_radius_m: float
     hip_from_com_base: np.ndarray  # (4, 3) hips relative to the CoM in the nominal stance
     hip_above_foot_m: np.ndarray  # (4,) hip height above the foot-ball centre in the nominal stance
+    plane_left_m: np.ndarray  # (4,) the leg's plane (where its foot stands, nominal stance) left of its hip
     com_height_m: float  # nominal CoM height above the ground
     front_to_hind_m: float  # from the hind to the front feet along x, nominal stance
 
@@ -93,7 +103,7 @@ class LegGeometry:
             side = np.sign(knees[:, 0] - 0.5 * (hips[:, 0] + feet[:, 0]))
         return cls(hips, thigh, shank, side, float(robot.leg_reach_m), float(robot.foot_radius_m),
                    hips - np.asarray(robot.com_base_standing, dtype=float), hips[:, 2] - feet[:, 2],
-                   float(robot.com_height_nominal_m), front_to_hind_m(feet))
+                   feet[:, 1] - hips[:, 1], float(robot.com_height_nominal_m), front_to_hind_m(feet))
 
     def hip_heights(self, com_z_world: float | np.ndarray, pitch_rad: float | np.ndarray) -> np.ndarray:
         """(..., 4) world z of the hips with the CoM at ``com_z_world`` and the body pitched by ``pitch_rad``
@@ -140,6 +150,17 @@ class FootholdChecker:
         ring = np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)
         ring_radius = self.legs.foot_radius_m + checks.ball_clearance_m
         self._ring = np.column_stack([np.cos(ring), np.sin(ring)]) * ring_radius
+
+    def centred(self, terrain: Terrain, points_xy_world: np.ndarray) -> np.ndarray:
+        """(N, 2) the candidate footholds (N, 2) with those on a small top (inradius at most
+        ``small_top_inradius_m``: a stepping square, not a stair tread) moved to that top's centre, where the
+        foot ball is farthest from its risers; the others unchanged."""
+        points = np.array(points_xy_world, dtype=float).reshape(-1, 2)
+        parts = terrain.top_parts()
+        part = parts.part_at(points)
+        small = (part >= 0) & (parts.inradius_m[part] <= self.checks.small_top_inradius_m)
+        points[small] = parts.centres_xy[part[small]]
+        return points
 
     @staticmethod
     def applies(terrain: Terrain) -> bool:
@@ -202,13 +223,15 @@ class FootholdChecker:
         nominal = geo.hip_above_foot_m[legs]
         rise = np.clip(hip_z - foot_z, 1e-6, nominal)
         late = side >= 0
-        d, allowed_z = self._leg_outline(
+        both_rise = np.concatenate([rise, np.where(late, nominal, rise)])
+        d, allowed_z, up = self._leg_outline(
             np.concatenate([legs, legs]), np.concatenate([foot_z, foot_z]),
-            np.concatenate([lever, np.where(late, toward_knee + checks.stance_travel_m, lever)]),
-            np.concatenate([rise, np.where(late, nominal, rise)]))
-        d = np.concatenate([d[:m], d[m:]], axis=1)
-        allowed_z = np.concatenate([allowed_z[:m], allowed_z[m:]], axis=1)
-        shin_both = self._outline_points(landing, d, side, forward, left)
+            np.concatenate([lever, np.where(late, toward_knee + checks.stance_travel_m, lever)]), both_rise)
+        # The leg leans sideways from the foot toward its plane: its points shift along ``left`` with their height.
+        toward_plane = (hip_xy - landing) @ left + geo.plane_left_m[legs]
+        lean = np.tile(toward_plane, 2)[:, None] * up / both_rise[:, None]
+        d, allowed_z, lean = (np.concatenate([a[:m], a[m:]], axis=1) for a in (d, allowed_z, lean))
+        shin_both = self._outline_points(landing, d, lean, side, forward, left)
         path = segment_samples(liftoff, landing, checks.path_samples)  # (M, P, 2)
         ring = landing[:, None] + self._ring  # (M, 8, 2)
         points = np.concatenate([liftoff, path.reshape(-1, 2), ring.reshape(-1, 2), shin_both.reshape(-1, 2)])
@@ -222,7 +245,7 @@ class FootholdChecker:
         result = {"top": np.isfinite(top)}
         # 1. reach from the hip predicted at touchdown.
         reach = np.sqrt(np.sum((hip_xy - landing) ** 2, axis=1) + (hip_z - foot_z) ** 2)
-        result["reach"] = reach <= geo.reach_m - checks.reach_margin_m
+        result["reach"] = (reach <= geo.reach_m - checks.reach_margin_m) & (np.abs(toward_plane) <= checks.max_lean_m)
         # 2. swing: the step and any obstacle on the way.
         start_top = np.where(np.isfinite(start_z), start_z, terrain.surface_z)
         higher_end = np.maximum(start_top, top)
@@ -251,29 +274,33 @@ class FootholdChecker:
         foot_z = tops + geo.foot_radius_m
         rise = np.clip(geo.hips_over_tops(tops) - foot_z, 1e-6, geo.hip_above_foot_m)
         lever = np.where(side != 0, side * ahead, np.abs(ahead))
-        d, allowed_z = self._leg_outline(legs, foot_z, lever, rise)
-        points = self._outline_points(feet, d, side, forward, left)
+        d, allowed_z, up = self._leg_outline(legs, foot_z, lever, rise)
+        toward_plane = (np.asarray(hip_xy_world, dtype=float).reshape(4, 2) - feet) @ left + geo.plane_left_m
+        lean = toward_plane[:, None] * up / rise[:, None]
+        points = self._outline_points(feet, d, lean, side, forward, left)
         heights = terrain.height_at(points.reshape(-1, 2), outside=-np.inf).reshape(4, d.shape[1], -1)
         return np.all(heights <= allowed_z[:, :, None], axis=(1, 2)) | ~np.isfinite(tops)
 
-    def _outline_points(self, feet: np.ndarray, d: np.ndarray, side: np.ndarray, forward: np.ndarray,
-                        left: np.ndarray) -> np.ndarray:
-        """(M, S, L, 2) the points under a leg outline: ``d`` (M, S) from the feet (M, 2) toward the knee side,
-        on three lines (the axis and ``shin_half_width_m`` to each side), both sides for an unknown knee."""
+    def _outline_points(self, feet: np.ndarray, d: np.ndarray, lean: np.ndarray, side: np.ndarray,
+                        forward: np.ndarray, left: np.ndarray) -> np.ndarray:
+        """(M, S, L, 2) the points under a leg outline: ``d`` (M, S) from the feet (M, 2) toward the knee side and
+        ``lean`` (M, S) along ``left``, on three lines (the axis and ``shin_half_width_m`` to each side), both
+        sides for an unknown knee."""
         directions = np.where(side[:, None] != 0, side[:, None], 1.0)[:, :, None] * forward  # (M, 1, 2)
         offsets = np.array([0.0, self.checks.shin_half_width_m, -self.checks.shin_half_width_m])
         points = (feet[:, None, None] + d[:, :, None, None] * directions[:, :, None]
-                  + offsets[None, None, :, None] * left)  # (M, S, 3, 2)
+                  + (lean[:, :, None] + offsets[None, None, :])[..., None] * left)  # (M, S, 3, 2)
         if np.any(side == 0):  # unknown knee: the other side too
             points = np.concatenate([points, 2.0 * feet[:, None, None] - points], axis=2)
         return points
 
     def _leg_outline(self, legs: np.ndarray, foot_z: np.ndarray, lever: np.ndarray,
-                     rise: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                     rise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The lower outline of legs in one pose each: the hip ``lever`` (M,) past the foot toward the knee and
         ``rise`` (M,) above the foot-ball centre at ``foot_z`` (M,). Returns horizontal distances from the foot
-        toward the knee side (M, S) and the heights the terrain must stay below there: the shank's axis less
-        its clearance, the knee's housing, then the thigh's axis less its clearance."""
+        toward the knee side (M, S), the heights the terrain must stay below there (the shank's axis less
+        its clearance, the knee's housing, then the thigh's axis less its clearance) and the leg's own heights
+        there above the foot-ball centre (M, S)."""
         checks, geo = self.checks, self.legs
         side = geo.knee_side[legs]
         thigh, shank = geo.thigh_m[legs], geo.shank_m[legs]
@@ -292,7 +319,11 @@ class FootholdChecker:
         z_thigh = (knee_z[:, None] + self._thigh_fractions * (foot_z + rise - knee_z)[:, None]
                    - checks.thigh_clearance_m)
         distances = np.concatenate([d_shank, d_knee, d_thigh], axis=1)
-        return distances, np.concatenate([z_shank, z_knee, z_thigh], axis=1)
+        clearance = np.concatenate([np.full(d_shank.shape[1], checks.shin_clearance_m),
+                                    np.full(d_knee.shape[1], checks.knee_clearance_m),
+                                    np.full(d_thigh.shape[1], checks.thigh_clearance_m)])
+        allowed = np.concatenate([z_shank, z_knee, z_thigh], axis=1)
+        return distances, allowed, allowed + clearance - foot_z[:, None]
 
 
 __all__ = ["FootholdChecker", "HeightChecks", "LegGeometry", "path_top_z", "segment_samples"]

@@ -470,6 +470,7 @@ class ContactNetPlanner:
             cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
             check = None
             if heights:
+                cells = self.footholds.centred(terrain, cells.reshape(-1, 2)).reshape(cells.shape)
                 check = self._height_check(terrain, feet_xy.copy(), base_xy + hips_touchdown, tops.copy(),
                                            ctx.yaw_rad)
                 if j == 0:

@@ -31,10 +31,12 @@ def checker(robot) -> FootholdChecker:
     return FootholdChecker(robot.description)
 
 
-def evaluate(checker, terrain, leg, landing_x, liftoff_x, hip_x, tops, y=0.1):
-    """The checks of one landing at (landing_x, y) for ``leg`` lifting off at (liftoff_x, y), the feet on ``tops``."""
+def evaluate(checker, terrain, leg, landing_x, liftoff_x, hip_x, tops, y=0.1, sideways=0.0):
+    """The checks of one landing at (landing_x, y) for ``leg`` lifting off at (liftoff_x, y), the feet on ``tops``;
+    the foot ``sideways`` (m, +y) of its leg's plane (the hip where that puts it)."""
+    hip_y = y - sideways - checker.legs.plane_left_m[leg]
     result = checker.evaluate(terrain, np.array([leg]), np.array([[landing_x, y]]), np.array([[liftoff_x, y]]),
-                              np.array([[hip_x, y]]), np.asarray(tops, dtype=float), 0.0)
+                              np.array([[hip_x, hip_y]]), np.asarray(tops, dtype=float), 0.0)
     return {name: bool(value[0]) for name, value in result.items()}
 
 
@@ -96,6 +98,55 @@ def test_the_ball_the_step_height_and_the_reach(checker, stairs):
     assert not evaluate(checker, stairs, FL, 0.45, 0.20, 0.15, tops)["reach"]
     # No top at all (off the stairs' side).
     assert not evaluate(checker, stairs, FL, 0.34, 0.20, 0.30, tops, y=0.3)["top"]
+
+
+def test_a_foot_far_sideways_from_its_leg_plane_is_out_of_reach(checker, stairs, robot):
+    """The leg's plane is where its foot stands in the nominal stance (Solo12: 4.55 cm outside the hip joint).
+    A foot far to the side of it leans the whole leg, whose shin then sweeps the tops beside the foot: refused."""
+    description = robot.description
+    np.testing.assert_allclose(checker.legs.plane_left_m,
+                               description.foot_nominal_base[:, 1] - description.hip_pos_base[:, 1])
+    tops = np.zeros(4)
+    limit = checker.checks.max_lean_m
+    for leg in (FL, HR):
+        assert evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=0.8 * limit)["reach"]
+        assert evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=-0.8 * limit)["reach"]
+        assert not evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=1.5 * limit)["reach"]
+        assert not evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=-1.5 * limit)["reach"]
+
+
+def test_candidates_on_a_small_top_go_to_its_centre(checker, stairs):
+    field = resolve("random_heights", removed=80, seed=3)
+    parts = field.top_parts()
+    squares = parts.inradius_m < 0.04
+    np.testing.assert_allclose(parts.inradius_m[squares], 0.025, atol=1e-3)  # the 5 cm squares
+    rng = np.random.default_rng(0)
+    points = rng.uniform([0.3, -0.24], [1.7, 0.24], (400, 2))
+    moved = checker.centred(field, points)
+    part = parts.part_at(points)
+    on_square = (part >= 0) & squares[np.maximum(part, 0)]
+    assert on_square.sum() > 200 and (part == -1).sum() > 20  # squares and holes both sampled
+    # On a square (or squares at one height side by side): its centre, 2.5 cm from every edge, on the same top;
+    # elsewhere unchanged.
+    np.testing.assert_allclose(moved[on_square], parts.centres_xy[part[on_square]])
+    assert field.is_safe(moved[on_square], 0.024).all()
+    np.testing.assert_allclose(field.height_at(moved[on_square]), field.height_at(points[on_square]))
+    np.testing.assert_array_equal(moved[~on_square], points[~on_square])
+    # Stair treads are big: nothing moves.
+    tread_points = np.array([[0.3, 0.0], [0.34, 0.1], [0.9, -0.05]])
+    np.testing.assert_array_equal(checker.centred(stairs, tread_points), tread_points)
+
+
+def test_top_parts_take_the_highest_top_where_they_meet():
+    terrain = Terrain.from_dict({"name": "t", "start": [0, 0], "goal_x": 0.5, "regions": [
+        {"shape": "rect", "center": [0.0, 0.0], "size": [0.4, 0.4]},
+        {"shape": "rect", "center": [0.1, 0.0], "size": [0.04, 0.04], "z": 0.03}]})
+    parts = terrain.top_parts()
+    points = np.array([[0.1, 0.0], [-0.1, 0.0], [0.5, 0.5], [np.nan, 0.0]])
+    part = parts.part_at(points)
+    assert parts.tops_z[part[0]] == 0.03 and parts.tops_z[part[1]] == 0.0 and list(part[2:]) == [-1, -1]
+    np.testing.assert_allclose(parts.centres_xy[part[0]], [0.1, 0.0], atol=1e-3)
+    assert parts.inradius_m[part[0]] == pytest.approx(0.02, abs=1e-3)
 
 
 def test_path_top_is_the_highest_top_on_the_way(stairs):

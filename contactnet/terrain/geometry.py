@@ -50,6 +50,7 @@ from contactnet.terrain.schema import (
     thaw,
     write_terrain_json,
 )
+from contactnet.terrain.top_parts import TopParts
 from contactnet.terrain.union import UNION_GRID_SIZE_M, region_pieces, steppable_union
 
 __all__ = ["CIRCLE_MAX_ERROR_M", "CIRCLE_MIN_SEGMENTS", "UNION_GRID_SIZE_M", "Terrain", "region_geometry",
@@ -90,6 +91,7 @@ class Terrain:
     levels: tuple[Level, ...] = field(init=False, repr=False)
     _locators: dict[float, PointLocator] = field(init=False, repr=False)
     _heights: list[Any] = field(init=False, repr=False)  # [] or, with several levels, [pieces, tops z, locator?]
+    _top_parts: TopParts | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self) -> None:
         src = self.source
@@ -214,6 +216,13 @@ class Terrain:
         :meth:`height_at` to know whether there is a top at all. Same shapes as :meth:`height_at`.
         """
         return self.height_at(points_xy, outside=self.surface_z)
+
+    def top_parts(self) -> TopParts:
+        """The top parts (``contactnet.terrain.top_parts``): each connected piece of each level, with its centre
+        and inradius. Built on the first call and cached."""
+        if self._top_parts is None:  # a race builds it twice, harmlessly
+            object.__setattr__(self, "_top_parts", TopParts.of(self.levels))
+        return self._top_parts
 
     def _height_locator(self) -> HeightLocator:
         if len(self._heights) == 2:  # built once; a race builds it twice, harmlessly

@@ -1,0 +1,57 @@
+"""The tops of a terrain with heights as separate pieces, each with the point of it farthest from its edges.
+
+A *top part* is one polygon of one level (``contactnet.terrain.levels``): a connected piece of the steppable
+set whose top is flat at one height, e.g. one square of ``random_heights`` or one stair tread. Its *centre*
+is its pole of inaccessibility (``shapely.maximum_inscribed_circle``) and its *inradius* the distance from there to its
+edges: the largest disk that fits on it. A foot is safest at the centre of a small top (``FootholdChecker``
+moves candidates there).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from contactnet.terrain.levels import Level
+
+INSCRIBED_TOLERANCE_M = 0.001
+
+
+@dataclass(frozen=True)
+class TopParts:
+    """The top parts of a terrain: polygons (P,), their tops z (P,), centres (P, 2) and inradii (P,), metres."""
+
+    polygons: np.ndarray
+    tops_z: np.ndarray
+    centres_xy: np.ndarray
+    inradius_m: np.ndarray
+    tree: shapely.STRtree
+
+    @classmethod
+    def of(cls, levels: tuple[Level, ...]) -> TopParts:
+        polygons, level = shapely.get_parts(np.array([g for _, g in levels], dtype=object), return_index=True)
+        tops = np.array([z for z, _ in levels], dtype=float)[level]
+        circles = shapely.maximum_inscribed_circle(polygons, tolerance=INSCRIBED_TOLERANCE_M)  # centre -> edge
+        centres = shapely.get_coordinates(shapely.get_point(circles, 0)).reshape(-1, 2)
+        inradius = shapely.length(circles)
+        shapely.prepare(polygons)
+        return cls(polygons, tops, centres, np.asarray(inradius, dtype=float), shapely.STRtree(polygons))
+
+    def part_at(self, points_xy: np.ndarray) -> np.ndarray:
+        """(N,) int: the part under each point (N, 2), the highest where parts meet; -1 over holes."""
+        points = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+        result = np.full(len(points), -1, dtype=np.intp)
+        finite = np.isfinite(points).all(axis=1).nonzero()[0]
+        if not finite.size:
+            return result
+        point, part = self.tree.query(shapely.points(points[finite]), predicate="intersects")
+        best = np.full(len(finite), -np.inf)
+        np.maximum.at(best, point, self.tops_z[part])
+        top = self.tops_z[part] == best[point]
+        result[finite[point[top]]] = part[top]
+        return result
+
+
+__all__ = ["TopParts"]
