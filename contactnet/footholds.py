@@ -27,8 +27,9 @@ Before the checks, a candidate on a small top (a 5 cm square of ``random_heights
 ``small_top_inradius_m``) moves to that top's centre (``FootholdChecker.centred``), where its ball is farthest
 from the risers around it; bigger tops (stair treads, stones) keep the candidate grid as it is.
 
-The checks sample ``Terrain.height_at`` (a raster lookup) at a fixed number of points per candidate, so
-they cost the same whatever the number of holes. A terrain with one level (every top at the same height)
+The checks sample ``Terrain.height_bound`` (a raster lookup, exact away from the tops' outlines and a few mm
+conservative next to them) at a fixed number of points per candidate, so they cost the same whatever the
+number of holes. A terrain with one level (every top at the same height)
 needs none of them: ``FootholdChecker.applies`` is False and planners take their flat-ground path.
 
 Geometry: each leg is a thigh and a shank in its sagittal (x-z) plane, lengths and the side its knee bends
@@ -183,7 +184,8 @@ class FootholdChecker:
         tops under the four feet now (the hips' heights at touchdown follow them, with the landing leg's
         top replaced by its candidate's: ``LegGeometry.hips_over_tops``). Points with no top under them are
         not usable."""
-        checks = self.evaluate(terrain, legs, landing_xy_world, liftoff_xy_world, hip_xy_world, tops_z, yaw_rad)
+        checks = self.evaluate(terrain, legs, landing_xy_world, liftoff_xy_world, hip_xy_world, tops_z, yaw_rad,
+                               reachable_only=True)
         return checks["top"] & checks["reach"] & checks["step"] & checks["ball"] & checks["leg"]
 
     def evaluate(
@@ -195,28 +197,52 @@ class FootholdChecker:
         hip_xy_world: np.ndarray,
         tops_z: np.ndarray,
         yaw_rad: float,
+        reachable_only: bool = False,
     ) -> dict[str, np.ndarray]:
         """Each check of ``usable`` on its own, (M,) bool each: "top" (a top under the point), "reach",
-        "step" (the swing), "ball", "leg" (shin and thigh)."""
+        "step" (the swing), "ball", "leg" (shin and thigh). ``reachable_only``: the terrain checks ("step",
+        "ball", "leg") run only for the points with a top and in reach, and are False for the others (what
+        ``usable`` needs, for a third of the work on the trot's grid)."""
         checks, geo = self.checks, self.legs
         legs = np.asarray(legs, dtype=np.intp)
         landing = np.asarray(landing_xy_world, dtype=float).reshape(-1, 2)
-        liftoff = np.asarray(liftoff_xy_world, dtype=float).reshape(-1, 2)
         m = len(landing)
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-        forward = np.array([c, s])
-        left = np.array([-s, c])
+        forward, left = np.array([c, s]), np.array([-s, c])
+        tops_z = np.asarray(tops_z, dtype=float).reshape(4)
 
-        # The points to look up at once (after the landing tops): lift-off, swing path, ball ring, leg outline.
         top = terrain.height_at(landing)
         foot_z = top + geo.foot_radius_m
-        after = np.repeat(np.asarray(tops_z, dtype=float).reshape(1, 4), m, axis=0)
+        after = np.repeat(tops_z.reshape(1, 4), m, axis=0)
         after[np.arange(m), legs] = top
         hip_z = np.take_along_axis(geo.hips_over_tops(after), legs[:, None], axis=1)[:, 0]
+        hip_xy = np.asarray(hip_xy_world, dtype=float).reshape(-1, 2)
+        toward_plane = (hip_xy - landing) @ left + geo.plane_left_m[legs]  # the foot's offset from its leg's plane
+        result = {"top": np.isfinite(top)}
+        # 1. reach from the hip predicted at touchdown, the leg leaning at most max_lean_m.
+        reach = np.sqrt(np.sum((hip_xy - landing) ** 2, axis=1) + (hip_z - foot_z) ** 2)
+        result["reach"] = (reach <= geo.reach_m - checks.reach_margin_m) & (np.abs(toward_plane) <= checks.max_lean_m)
+        rows = (result["top"] & result["reach"]).nonzero()[0] if reachable_only else np.arange(m)
+        clear = self._clearance(terrain, legs[rows], landing[rows],
+                                np.asarray(liftoff_xy_world, dtype=float).reshape(-1, 2)[rows], hip_xy[rows],
+                                top[rows], hip_z[rows], toward_plane[rows], tops_z, forward, left)
+        for name, value in clear.items():
+            result[name] = np.zeros(m, dtype=bool)
+            result[name][rows] = value
+        return result
+
+    def _clearance(self, terrain: Terrain, legs: np.ndarray, landing: np.ndarray, liftoff: np.ndarray,
+                   hip_xy: np.ndarray, top: np.ndarray, hip_z: np.ndarray, toward_plane: np.ndarray,
+                   tops_z: np.ndarray, forward: np.ndarray, left: np.ndarray) -> dict[str, np.ndarray]:
+        """The terrain checks "step", "ball" and "leg" of landings (M,) (see ``evaluate``)."""
+        checks, geo = self.checks, self.legs
+        m = len(landing)
+        if not m:
+            return {name: np.zeros(0, dtype=bool) for name in ("step", "ball", "leg")}
+        foot_z = top + geo.foot_radius_m
         # 4. the leg's shallowest poses (see the module doc): at touchdown, and late in the stance for a leg
         # whose knee points forward (toward where the body goes), with its hip at the nominal height then.
         side = geo.knee_side[legs]
-        hip_xy = np.asarray(hip_xy_world, dtype=float).reshape(-1, 2)
         ahead = (hip_xy - landing) @ forward  # (M,) how far the hip is ahead of the foot at touchdown
         toward_knee = np.where(side != 0, side * ahead, np.abs(ahead))
         lever = np.maximum(toward_knee + checks.shin_lever_margin_m, checks.min_shin_lever_m)
@@ -228,34 +254,28 @@ class FootholdChecker:
             np.concatenate([legs, legs]), np.concatenate([foot_z, foot_z]),
             np.concatenate([lever, np.where(late, toward_knee + checks.stance_travel_m, lever)]), both_rise)
         # The leg leans sideways from the foot toward its plane: its points shift along ``left`` with their height.
-        toward_plane = (hip_xy - landing) @ left + geo.plane_left_m[legs]
         lean = np.tile(toward_plane, 2)[:, None] * up / both_rise[:, None]
         d, allowed_z, lean = (np.concatenate([a[:m], a[m:]], axis=1) for a in (d, allowed_z, lean))
         shin_both = self._outline_points(landing, d, lean, side, forward, left)
+        # The points to look up at once: swing path and leg outline (an upper bound of the tops is enough there),
+        # then the ball ring (exact: on a small top it lies a few mm inside the top's edges).
         path = segment_samples(liftoff, landing, checks.path_samples)  # (M, P, 2)
-        ring = landing[:, None] + self._ring  # (M, 8, 2)
-        points = np.concatenate([liftoff, path.reshape(-1, 2), ring.reshape(-1, 2), shin_both.reshape(-1, 2)])
-        heights = terrain.height_at(points, outside=-np.inf)
-        start_z = heights[:m]
-        path_z = heights[m: m + m * checks.path_samples].reshape(m, -1)
-        offset = m + m * checks.path_samples
-        ring_z = heights[offset: offset + 8 * m].reshape(m, 8)
-        leg_z = heights[offset + 8 * m:].reshape(m, d.shape[1], -1)
-
-        result = {"top": np.isfinite(top)}
-        # 1. reach from the hip predicted at touchdown.
-        reach = np.sqrt(np.sum((hip_xy - landing) ** 2, axis=1) + (hip_z - foot_z) ** 2)
-        result["reach"] = (reach <= geo.reach_m - checks.reach_margin_m) & (np.abs(toward_plane) <= checks.max_lean_m)
+        points = np.concatenate([path.reshape(-1, 2), shin_both.reshape(-1, 2)])
+        heights = terrain.height_bound(points, outside=-np.inf)
+        path_z = heights[: m * checks.path_samples].reshape(m, -1)
+        leg_z = heights[m * checks.path_samples:].reshape(m, d.shape[1], -1)
+        ring_z = terrain.height_at((landing[:, None] + self._ring).reshape(-1, 2), outside=-np.inf).reshape(m, -1)
         # 2. swing: the step and any obstacle on the way.
-        start_top = np.where(np.isfinite(start_z), start_z, terrain.surface_z)
+        start_top = tops_z[legs]  # each leg lifts off from where it stands
         higher_end = np.maximum(start_top, top)
-        result["step"] = ((np.abs(top - start_top) <= checks.max_step_m)
-                          & (path_z.max(axis=1, initial=-np.inf) - higher_end <= checks.max_step_m))
-        # 3. the ball's side.
-        result["ball"] = ring_z.max(axis=1) <= top + checks.ball_tolerance_m
-        # 4. the shin and the thigh above the terrain.
-        result["leg"] = np.all(leg_z <= allowed_z[:, :, None], axis=(1, 2))
-        return result
+        return {
+            "step": ((np.abs(top - start_top) <= checks.max_step_m)
+                     & (path_z.max(axis=1, initial=-np.inf) - higher_end <= checks.max_step_m)),
+            # 3. the ball's side.
+            "ball": ring_z.max(axis=1, initial=-np.inf) <= top + checks.ball_tolerance_m,
+            # 4. the shin and the thigh above the terrain.
+            "leg": np.all(leg_z <= allowed_z[:, :, None], axis=(1, 2)),
+        }
 
     def stance_clear(self, terrain: Terrain, feet_xy_world: np.ndarray, tops_z: np.ndarray,
                      hip_xy_world: np.ndarray, yaw_rad: float) -> np.ndarray:
@@ -278,7 +298,7 @@ class FootholdChecker:
         toward_plane = (np.asarray(hip_xy_world, dtype=float).reshape(4, 2) - feet) @ left + geo.plane_left_m
         lean = toward_plane[:, None] * up / rise[:, None]
         points = self._outline_points(feet, d, lean, side, forward, left)
-        heights = terrain.height_at(points.reshape(-1, 2), outside=-np.inf).reshape(4, d.shape[1], -1)
+        heights = terrain.height_bound(points.reshape(-1, 2), outside=-np.inf).reshape(4, d.shape[1], -1)
         return np.all(heights <= allowed_z[:, :, None], axis=(1, 2)) | ~np.isfinite(tops)
 
     def _outline_points(self, feet: np.ndarray, d: np.ndarray, lean: np.ndarray, side: np.ndarray,

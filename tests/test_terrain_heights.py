@@ -567,3 +567,24 @@ def test_many_heights_validate_and_answer() -> None:
         np.testing.assert_array_equal(heights, reference_heights(terrain, points_xy))
         safe = terrain.is_safe(np.column_stack([points_xy[:, 0] + 0.045, points_xy[:, 1]]), 0.008)
         assert not safe.any() if regions is strips else safe.sum() >= 1
+
+
+@pytest.mark.parametrize("name", ["random_heights", "stairs", "raised_stones"])
+def test_height_bound_is_an_upper_bound_exact_away_from_the_outlines(name):
+    """``height_bound`` (the footholds' obstacle lookups): never below ``height_at``, the same away from the tops'
+    outlines, and different only within a raster cell (a few mm) of one."""
+    terrain = T.resolve(name, removed=80, seed=1) if name == "random_heights" else T.resolve(name)
+    minx, miny, maxx, maxy = terrain.bounds
+    points = np.random.default_rng(5).uniform([minx - 0.05, miny - 0.05], [maxx + 0.05, maxy + 0.05], (20_000, 2))
+    exact = terrain.height_at(points, outside=-np.inf)
+    bound = terrain.height_bound(points, outside=-np.inf)
+    assert np.all(bound >= exact)
+    outlines = shapely.union_all([shapely.boundary(geometry) for _, geometry in terrain.levels])
+    distance = shapely.distance(outlines, shapely.points(points))
+    far = distance > 0.01
+    assert far.sum() > 10_000
+    np.testing.assert_array_equal(bound[far], exact[far])
+    near = (bound != exact).nonzero()[0]
+    assert len(near) and np.all(distance[near] < 0.005)
+    one_level = T.resolve("stepping_stones")  # one level: the same as height_at
+    np.testing.assert_array_equal(one_level.height_bound(points), one_level.height_at(points))

@@ -1,4 +1,5 @@
-"""`contactnet bench planner`: one planning call of ContactNet and the fixed gait, with and without holes."""
+"""`contactnet bench planner`: one planning call of ContactNet and the fixed gait, with and without holes, on the
+paper's random field and on the same field with heights (``random_heights``, tops within +-3 cm)."""
 
 from __future__ import annotations
 
@@ -8,10 +9,20 @@ from contactnet.bench.timing import pin_single_core, time_calls
 from contactnet.registry import DEFAULT_ROBOT, load_robot, make_planner, model_path
 from contactnet.robots import RobotDescription
 
+#: The terrains of the benchmark, in the order of the table: the paper's flat random field first (the rows this
+#: benchmark always had), then the same field with each square's top within +-3 cm.
+TERRAINS = ("random", "random_heights")
+HOLES = (0, 100)
+
 
 def planning_contexts(gait, terrain, robot: RobotDescription, n: int, seed: int = 0) -> list:  # noqa: ANN001
-    """``n`` walking states spread over the random field (x in 0.3..1.7 m), perturbed feet, random commands."""
+    """``n`` walking states spread over the random field (x in 0.3..1.7 m), perturbed feet, random commands.
+
+    Each foot stands on the top under it (``Terrain.ground_z``: the nominal ground over a hole) and the CoM at
+    the nominal height over the feet's support (``contactnet.ground.support_height``), as the locomotion loop
+    holds it; on a flat terrain both are ``surface_z``."""
     from contactnet.frames import rotate_xy
+    from contactnet.ground import support_height
     from contactnet.planner import PlanningContext
 
     hip_ref_xy_base = robot.foot_nominal_base[:, :2]
@@ -25,8 +36,9 @@ def planning_contexts(gait, terrain, robot: RobotDescription, n: int, seed: int 
         feet[:, 2] = terrain.ground_z(feet[:, :2]) + robot.foot_radius_m
         cmd = rng.uniform(-0.1, 0.1, 2)
         vel = np.array([*rotate_xy(cmd, yaw), 0.0]) + rng.normal(0.0, 0.02, 3)
+        com_z = support_height(terrain, feet[:, :2]) + robot.com_height_nominal_m
         contexts.append(PlanningContext(
-            com_pos_world=np.array([base[0], base[1], terrain.ground_z(base) + robot.com_height_nominal_m]), com_vel_world=vel,
+            com_pos_world=np.array([base[0], base[1], com_z]), com_vel_world=vel,
             yaw_rad=yaw, foot_pos_world=feet, hip_ref_xy_base=np.asarray(hip_ref_xy_base, dtype=float),
             base_xy_world=base, vel_cmd_xy=cmd, terrain=terrain, gait=gait,
             rpy=np.array([0.0, 0.0, yaw]), com_height_ref_m=robot.com_height_nominal_m,
@@ -35,57 +47,67 @@ def planning_contexts(gait, terrain, robot: RobotDescription, n: int, seed: int 
 
 
 def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool = False,
-                  robot_name: str = DEFAULT_ROBOT) -> list[dict]:
+                  robot_name: str = DEFAULT_ROBOT, terrains: tuple[str, ...] = TERRAINS) -> list[dict]:
     """One planning call (3 network evaluations + safety checks) of ContactNet and the fixed gait, on the
     paper's random field with 0 and with 100 of its 300 squares removed; the ratio of the medians says
     whether planning time grows with terrain complexity. The network's forward pass alone is the
-    reference in the same run. Uses the shipped models (random weights when a model is missing, said so
+    reference in the same run. Then the same on ``random_heights`` (the field with each square's top within
+    +-3 cm), where the planner adds the height checks (``contactnet.footholds``); its ``vs_0_holes`` is against
+    ``random_heights`` with 0 removed. Uses the shipped models (random weights when a model is missing, said so
     in the ``model`` column). Planning is single-threaded; ``single_core`` also pins the process to CPU 0,
     which on this 2-core machine makes it slower whenever anything else runs there, so it is off."""
     from contactnet.gait import TROT, WALK
     from contactnet.network_input import network_input_of_context
-    from contactnet.terrain import random_field
+    from contactnet.terrain import random_field, resolve
 
     robot = load_robot(robot_name)
     description = robot.description
     restore = pin_single_core() if single_core else None
     rows = []
     try:
-        for gait in (WALK, TROT):
-            path = model_path(robot_name, gait.name)
-            model = path if path.exists() else _random_model_file(gait, robot_name)
-            for name in ("contactnet", "fixed"):
-                medians = {}
-                for holes in (0, 100):
-                    terrain = random_field(holes, 0)
-                    contexts = planning_contexts(gait, terrain, description, n_contexts)
-                    planner = make_planner(name, gait, robot, model=model)
-                    it = iter(range(10**9))
-                    ranks: list[int] = []
-
-                    def call(planner=planner, contexts=contexts, it=it, ranks=ranks) -> None:
-                        steps = planner.plan(contexts[next(it) % len(contexts)])
-                        if steps[0].rank is not None:
-                            ranks.append(steps[0].rank)
-
-                    times = np.asarray(time_calls(call, repeats)) * 1e6
-                    medians[holes] = float(np.median(times))
-                    rows.append({
-                        "gait": gait.name, "planner": name, "holes": holes,
-                        "median_us": medians[holes], "p99_us": float(np.percentile(times, 99)),
-                        "vs_0_holes": medians[holes] / medians[0],
-                        "mean_rank": float(np.mean(ranks)) if ranks else None,
-                        "model": "shipped" if path.exists() else "random weights",
-                    })
-            net = planner.model  # the float32 network the planner calls
-            u = network_input_of_context(planning_contexts(gait, random_field(0, 0), description, 1)[0])
-            times = np.asarray(time_calls(lambda net=net, u=u: net.scores(u), repeats)) * 1e6
-            rows.append({"gait": gait.name, "planner": "network forward pass only (reference)", "holes": None,
-                         "median_us": float(np.median(times)), "p99_us": float(np.percentile(times, 99))})
+        for terrain_name in terrains:
+            for gait in (WALK, TROT):
+                path = model_path(robot_name, gait.name)
+                model = path if path.exists() else _random_model_file(gait, robot_name)
+                for name in ("contactnet", "fixed"):
+                    medians: dict[int, float] = {}
+                    for holes in HOLES:
+                        terrain = resolve(terrain_name, removed=holes, seed=0)
+                        contexts = planning_contexts(gait, terrain, description, n_contexts)
+                        planner = make_planner(name, gait, robot, model=model)
+                        times, ranks = _time_plans(planner, contexts, repeats)
+                        medians[holes] = float(np.median(times))
+                        rows.append({
+                            "gait": gait.name, "planner": name, "terrain": terrain_name, "holes": holes,
+                            "median_us": medians[holes], "p99_us": float(np.percentile(times, 99)),
+                            "vs_0_holes": medians[holes] / medians[HOLES[0]],
+                            "mean_rank": float(np.mean(ranks)) if ranks else None,
+                            "model": "shipped" if path.exists() else "random weights",
+                        })
+                if terrain_name == TERRAINS[0]:
+                    net = planner.model  # the float32 network the planner calls
+                    u = network_input_of_context(planning_contexts(gait, random_field(0, 0), description, 1)[0])
+                    times = np.asarray(time_calls(lambda net=net, u=u: net.scores(u), repeats)) * 1e6
+                    rows.append({"gait": gait.name, "planner": "network forward pass only (reference)",
+                                 "holes": None, "median_us": float(np.median(times)),
+                                 "p99_us": float(np.percentile(times, 99))})
     finally:
         if restore is not None:
             restore()
     return rows
+
+
+def _time_plans(planner, contexts: list, repeats: int) -> tuple[np.ndarray, list[int]]:  # noqa: ANN001
+    """Wall times (us) of ``repeats`` ``plan`` calls cycling through ``contexts``, and the rank of each first step."""
+    it = iter(range(10**9))
+    ranks: list[int] = []
+
+    def call() -> None:
+        steps = planner.plan(contexts[next(it) % len(contexts)])
+        if steps[0].rank is not None:
+            ranks.append(steps[0].rank)
+
+    return np.asarray(time_calls(call, repeats)) * 1e6, ranks
 
 
 def _random_model_file(gait, robot_name: str) -> str:  # noqa: ANN001

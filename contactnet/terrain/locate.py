@@ -153,6 +153,7 @@ class HeightLocator:
     strides: np.ndarray  # (2,) intp
     codes: np.ndarray  # (n * n,) int32: 0 no top, k + 1 the k-th of the distinct tops, -1 BOUNDARY
     code_z: np.ndarray  # (distinct tops + 1,) float: NaN, then the distinct tops ascending
+    upper_codes: np.ndarray  # (n * n,) int32: ``codes`` with each BOUNDARY cell's highest top touching it
 
     @classmethod
     def build(cls, geometries: np.ndarray, tops_z: np.ndarray, target_cells: int = RASTER_TARGET_CELLS,
@@ -171,8 +172,18 @@ class HeightLocator:
         side = max(frame.n_cols, frame.n_rows)
         codes = np.zeros((side, side), dtype=np.int32)
         codes[: frame.n_rows, : frame.n_cols] = np.where(boundary, -1, component_code[labels])
+        # Upper bounds: each BOUNDARY cell gets the highest top of the regions its padded box touches.
+        rows, cols = np.nonzero(boundary)
+        x0 = (frame.first[0] + cols) * frame.cell_m - pad_m
+        y0 = (frame.first[1] + rows) * frame.cell_m - pad_m
+        width = frame.cell_m + 2.0 * pad_m
+        cell, region = tree.query(shapely.box(x0, y0, x0 + width, y0 + width), predicate="intersects")
+        highest = np.full(len(rows), -np.inf)
+        np.maximum.at(highest, cell, tops_z[region])
+        upper = codes.copy()
+        upper[rows, cols] = np.where(np.isfinite(highest), np.searchsorted(code_z[1:], highest) + 1, 0)
         return cls(geometries, tops_z, tree, frame.inv_cell, frame.first.astype(float), side - 0.5,
-                   np.array([1, side], dtype=np.intp), codes.ravel(), code_z)
+                   np.array([1, side], dtype=np.intp), codes.ravel(), code_z, upper.ravel())
 
     def heights(self, points_xy_world: np.ndarray, outside: float = np.nan) -> np.ndarray:
         """Float (N,): the highest top covering each point of (N, 2) (boundaries count), ``outside`` for none."""
@@ -187,6 +198,19 @@ class HeightLocator:
         if on_boundary.size:
             result[on_boundary] = _highest_top(self.tree, self.geometries, self.tops_z,
                                                points_xy_world.take(on_boundary, axis=0))
+        if not math.isnan(outside):
+            result[np.isnan(result)] = outside
+        return result
+
+
+    def upper_heights(self, points_xy_world: np.ndarray, outside: float = np.nan) -> np.ndarray:
+        """Float (N,): an upper bound of ``heights``, from the raster alone (no shapely): exact away from
+        outlines; next to one (a BOUNDARY cell, ``1 / inv_cell`` wide) the highest top touching the cell."""
+        cell = points_xy_world * self.inv_cell
+        cell -= self.first_cell
+        np.fmax(cell, 0.0, out=cell)
+        np.fmin(cell, self.clamp_hi, out=cell)
+        result = self.code_z.take(self.upper_codes.take(cell.astype(np.intp) @ self.strides))
         if not math.isnan(outside):
             result[np.isnan(result)] = outside
         return result

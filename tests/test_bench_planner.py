@@ -1,0 +1,52 @@
+"""`contactnet bench planner` (``contactnet.bench.planner``): its rows on the flat random field and on the field
+with heights, and the planning states it times. Times are not asserted (speed is the benchmark's output)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from contactnet.bench import format_table
+from contactnet.bench.planner import bench_planner, planning_contexts
+from contactnet.gait import WALK
+from contactnet.ground import support_height
+from contactnet.terrain import resolve
+
+
+def test_rows_flat_field_first_then_heights():
+    """The flat random field's rows keep their order (with the network reference after each gait); the rows on
+    ``random_heights`` follow, for both gaits and planners, 0 and 100 squares removed, each ratio against 0."""
+    rows = bench_planner(repeats=3, n_contexts=3)
+    flat = [(r["gait"], r["planner"], r["holes"]) for r in rows[:10]]
+    reference = "network forward pass only (reference)"
+    assert flat == [(g, p, h) for g in ("walk", "trot")
+                    for p, h in (*((p, h) for p in ("contactnet", "fixed") for h in (0, 100)), (reference, None))]
+    assert {r.get("terrain") for r in rows[:10]} == {"random", None}
+    heights = rows[10:]
+    assert [(r["terrain"], r["gait"], r["planner"], r["holes"]) for r in heights] == [
+        ("random_heights", g, p, h) for g in ("walk", "trot") for p in ("contactnet", "fixed") for h in (0, 100)]
+    for zero, hundred in zip(heights[::2], heights[1::2], strict=True):
+        assert zero["vs_0_holes"] == 1.0
+        assert hundred["vs_0_holes"] == hundred["median_us"] / zero["median_us"]
+        assert zero["median_us"] > 0 and hundred["mean_rank"] is not None
+    table = format_table(rows).splitlines()
+    assert table[0].split()[:4] == ["gait", "planner", "terrain", "holes"]
+    assert len(table) == 2 + len(rows) == 20
+
+
+def test_contexts_stand_on_the_tops(robot):
+    """On ``random_heights`` each foot stands on the top under it and the CoM at the nominal height over the
+    feet's support; on the flat field everything is at the ground (z = 0)."""
+    robot = robot.description
+    terrain = resolve("random_heights", removed=100, seed=0)
+    contexts = planning_contexts(WALK, terrain, robot, 30, seed=4)
+    raised = 0
+    for ctx in contexts:
+        feet = ctx.foot_pos_world
+        np.testing.assert_allclose(feet[:, 2], terrain.ground_z(feet[:, :2]) + robot.foot_radius_m)
+        expected = support_height(terrain, feet[:, :2]) + robot.com_height_nominal_m
+        assert abs(ctx.com_pos_world[2] - expected) < 1e-12
+        raised += int(np.any(np.abs(feet[:, 2] - robot.foot_radius_m) > 1e-3))
+    assert raised >= 20  # most states have a foot on a raised or lowered square
+    for ctx in planning_contexts(WALK, resolve("random", removed=100, seed=0), robot, 10, seed=4):
+        np.testing.assert_allclose(ctx.foot_pos_world[:, 2], robot.foot_radius_m)
+        assert abs(ctx.com_pos_world[2] - robot.com_height_nominal_m) < 1e-12
