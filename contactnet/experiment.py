@@ -12,8 +12,9 @@
 Beyond the paper (terrain with heights; walk and trot):
 
 - ``stairs``: up 3 steps and down 3 (5 cm risers, 20 cm treads).
-- ``raised_stones``: the stepping stones with tops spread over +-6 cm; seed 0 is the shipped file, every
-  other seed another spread of heights (and noise seed), 5 seeds by default.
+- ``raised_stones``: the shipped stepping stones with tops spread over +-6 cm, 5 seeds by default (the seed is
+  the noise's: with ``--noise`` each seed is another run on the same stones; ``simulate --seed`` builds other
+  spreads of heights).
 - ``random_heights``: the random field with each square's top at a random height within +-``height_m``
   (default 3 cm), ``removed`` squares missing, one terrain per seed, 20 seeds by default.
 
@@ -165,7 +166,8 @@ def _terrain(name: str, removed: int | None, seed: int, bar_width_m: float | Non
 
     if bar_width_m is not None or last_gap_m is not None:
         return narrow_stones(bar_width_m, last_gap_m)
-    return resolve(name, removed=removed, seed=seed, height_m=height_m)
+    # The seed draws the fields' terrains; on the scenes it seeds only the noise (the shipped terrain every time).
+    return resolve(name, removed=removed, seed=seed if name in FIELDS else 0, height_m=height_m)
 
 
 @functools.lru_cache(maxsize=64)

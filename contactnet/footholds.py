@@ -68,7 +68,8 @@ class HeightChecks:
     thigh_clearance_m: float = 0.03  # the thigh's axis (from the knee up) passes this high above the terrain
     thigh_samples: int = 2  # points along the thigh, beyond the knee
     path_samples: int = 8  # points along the swing path
-    max_lean_m: float = 0.03  # the foot at most this far sideways from its leg's plane (nominal stance)
+    max_lean_m: float = 0.03  # a foot further sideways from its leg's plane (nominal stance) ...
+    side_reach_m: float = 0.06  # ... needs the ground this far beside it, toward the plane, no higher than its top
     small_top_inradius_m: float = 0.04  # candidates on a top this small (its largest disk) go to its centre
     fallback_shin_elevation_rad: float = math.radians(35.0)  # shin elevation when the knee is not known
 
@@ -148,6 +149,7 @@ class FootholdChecker:
         self._shin_fractions = (np.arange(1, k + 1) / k)[None, :]  # along the shank's horizontal extent
         self._thigh_fractions = (np.arange(1, checks.thigh_samples + 1) / (checks.thigh_samples + 1))[None, :]
         self._knee_fractions = np.array([[0.0, 0.5, 1.0]])
+        self._side_offsets = np.linspace(0.0, checks.side_reach_m, 5)[1:]
         ring = np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)
         ring_radius = self.legs.foot_radius_m + checks.ball_clearance_m
         self._ring = np.column_stack([np.cos(ring), np.sin(ring)]) * ring_radius
@@ -221,7 +223,16 @@ class FootholdChecker:
         result = {"top": np.isfinite(top)}
         # 1. reach from the hip predicted at touchdown, the leg leaning at most max_lean_m.
         reach = np.sqrt(np.sum((hip_xy - landing) ** 2, axis=1) + (hip_z - foot_z) ** 2)
-        result["reach"] = (reach <= geo.reach_m - checks.reach_margin_m) & (np.abs(toward_plane) <= checks.max_lean_m)
+        result["reach"] = reach <= geo.reach_m - checks.reach_margin_m
+        leaning = (np.abs(toward_plane) > checks.max_lean_m).nonzero()[0]
+        if leaning.size:  # a leaning leg sweeps its shin over the ground beside the foot: that must be no higher,
+            beside = (landing[leaning, None] + np.sign(toward_plane[leaning])[:, None, None]
+                      * self._side_offsets[None, :, None] * left)
+            side_z = terrain.height_bound(beside.reshape(-1, 2), outside=-np.inf).reshape(len(leaning), -1)
+            parts = terrain.top_parts()  # ... and the foot not on a small top (the shin would pass over its edge)
+            part = parts.part_at(landing[leaning])
+            small = (part >= 0) & (parts.inradius_m[part] <= checks.small_top_inradius_m)
+            result["reach"][leaning] &= (side_z.max(axis=1) <= top[leaning] + checks.ball_tolerance_m) & ~small
         rows = (result["top"] & result["reach"]).nonzero()[0] if reachable_only else np.arange(m)
         clear = self._clearance(terrain, legs[rows], landing[rows],
                                 np.asarray(liftoff_xy_world, dtype=float).reshape(-1, 2)[rows], hip_xy[rows],
@@ -254,7 +265,8 @@ class FootholdChecker:
             np.concatenate([legs, legs]), np.concatenate([foot_z, foot_z]),
             np.concatenate([lever, np.where(late, toward_knee + checks.stance_travel_m, lever)]), both_rise)
         # The leg leans sideways from the foot toward its plane: its points shift along ``left`` with their height.
-        lean = np.tile(toward_plane, 2)[:, None] * up / both_rise[:, None]
+        # (By at most max_lean_m: a leg leaning further has had the ground beside its foot checked instead.)
+        lean = np.clip(np.tile(toward_plane, 2), -checks.max_lean_m, checks.max_lean_m)[:, None] * up / both_rise[:, None]
         d, allowed_z, lean = (np.concatenate([a[:m], a[m:]], axis=1) for a in (d, allowed_z, lean))
         shin_both = self._outline_points(landing, d, lean, side, forward, left)
         # The points to look up at once: swing path and leg outline (an upper bound of the tops is enough there),

@@ -100,19 +100,35 @@ def test_the_ball_the_step_height_and_the_reach(checker, stairs):
     assert not evaluate(checker, stairs, FL, 0.34, 0.20, 0.30, tops, y=0.3)["top"]
 
 
-def test_a_foot_far_sideways_from_its_leg_plane_is_out_of_reach(checker, stairs, robot):
+def test_a_foot_far_sideways_from_its_leg_plane(checker, stairs, robot):
     """The leg's plane is where its foot stands in the nominal stance (Solo12: 4.55 cm outside the hip joint).
-    A foot far to the side of it leans the whole leg, whose shin then sweeps the tops beside the foot: refused."""
+    Within ``max_lean_m`` of it a foot is checked as usual. Further, the leaning leg sweeps its shin over the
+    ground beside the foot: allowed only where that ground is no higher than the foot's top, and never on a
+    small top (a 5 cm square: the shin passes over its edge)."""
     description = robot.description
     np.testing.assert_allclose(checker.legs.plane_left_m,
                                description.foot_nominal_base[:, 1] - description.hip_pos_base[:, 1])
     tops = np.zeros(4)
     limit = checker.checks.max_lean_m
     for leg in (FL, HR):
-        assert evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=0.8 * limit)["reach"]
-        assert evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=-0.8 * limit)["reach"]
-        assert not evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=1.5 * limit)["reach"]
-        assert not evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=-1.5 * limit)["reach"]
+        for sideways in (0.8 * limit, -0.8 * limit, 2.0 * limit, -2.0 * limit):  # a tread: flat beside the foot
+            assert evaluate(checker, stairs, leg, 0.34, 0.20, 0.30, tops, sideways=sideways)["reach"], sideways
+    # A stone 4 cm up beside the foot, on the side toward the leg's plane (+y for a left leg).
+    beside = Terrain.from_dict({"name": "beside", "start": [0, 0], "goal_x": 0.5, "regions": [
+        {"shape": "rect", "center": [0.0, 0.0], "size": [1.0, 1.0]},
+        {"shape": "rect", "center": [0.3, 0.16], "size": [0.1, 0.04], "z": 0.04}]})
+    assert evaluate(checker, beside, FL, 0.3, 0.2, 0.28, tops, y=0.1, sideways=-0.8 * limit)["reach"]
+    assert not evaluate(checker, beside, FL, 0.3, 0.2, 0.28, tops, y=0.1, sideways=-2.0 * limit)["reach"]
+    assert evaluate(checker, beside, FL, 0.3, 0.2, 0.28, tops, y=0.1, sideways=2.0 * limit)["reach"]  # the other way
+    # On a small top: within the limit only.
+    field = resolve("random_heights", removed=0, seed=0)
+    square = field.top_parts().centres_xy[np.argmin(np.abs(field.top_parts().centres_xy - [0.6, 0.1]).sum(axis=1))]
+    z = float(field.height_at(square))
+    on_square = dict(y=square[1], tops=[z, z, z, z])
+    assert evaluate(checker, field, FL, square[0], square[0] - 0.1, square[0] - 0.02, sideways=0.8 * limit,
+                    **on_square)["reach"]
+    assert not evaluate(checker, field, FL, square[0], square[0] - 0.1, square[0] - 0.02, sideways=2.0 * limit,
+                        **on_square)["reach"]
 
 
 def test_candidates_on_a_small_top_go_to_its_centre(checker, stairs):
