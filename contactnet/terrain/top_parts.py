@@ -1,10 +1,10 @@
 """The tops of a terrain with heights as separate pieces, each with the point of it farthest from its edges.
 
 A *top part* is one polygon of one level (``contactnet.terrain.levels``): a connected piece of the steppable
-set whose top is flat at one height, e.g. one square of ``random_heights`` or one stair tread. Its *centre*
-is its pole of inaccessibility (``shapely.maximum_inscribed_circle``) and its *inradius* the distance from there to its
-edges: the largest disk that fits on it. A foot is safest at the centre of a small top (``FootholdChecker``
-moves candidates there).
+set whose top is flat at one height, e.g. one square of ``random_heights`` or one stair tread. Its *centre* is
+its pole of inaccessibility (``shapely.maximum_inscribed_circle``) and its *inradius* the distance from there
+to its edges: the largest disk that fits on it. A foot is safest at the centre of a small top
+(``FootholdChecker.centred`` moves candidates there).
 """
 
 from __future__ import annotations
