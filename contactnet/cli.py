@@ -274,7 +274,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         raise UserError(f"--model-dir {model_dir}: not a directory")
     trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
                        model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot,
-                       height_m=DEFAULT_HEIGHT_M if args.height is None else args.height)
+                       height_m=DEFAULT_HEIGHT_M if args.height is None else args.height, forces_n=args.force)
     if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
         robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
@@ -382,7 +382,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
     experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random", "stairs",
-                                             "raised_stones", "random_heights"])
+                                             "raised_stones", "random_heights", "push"])
     experiment.add_argument("--trials", type=_positive_int("--trials", 10**5),
                             help="seeds per setting (default: 20 on random and random_heights, 5 on raised_stones, "
                                  "1 on the others)")
@@ -399,6 +399,9 @@ def build_parser() -> argparse.ArgumentParser:
                             help="squares removed on random and random_heights, comma-separated (default 80)")
     experiment.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                             help=HEIGHT_HELP)
+    experiment.add_argument("--force", type=_number_list("--force", 0.1, 200.0), default=(5.0,), metavar="N,...",
+                            help="push: push forces in newtons, comma-separated (default 5); each along +-x and +-y "
+                                 "for 1 s at --trials times")
     experiment.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                             help="joint-velocity noise variance")
     experiment.add_argument("--widths-cm", type=_number_list("--widths-cm", 1.0, 20.0), default=None,

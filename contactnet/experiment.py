@@ -18,6 +18,13 @@ Beyond the paper (terrain with heights; walk and trot):
 - ``random_heights``: the random field with each square's top at a random height within +-``height_m``
   (default 3 cm), ``removed`` squares missing, one terrain per seed, 20 seeds by default.
 
+Beyond the paper's figures, its push experiment (Sec. IV), measured:
+
+- ``push``: walk and trot at vx = 0.05 m/s on ``push_field`` (10 x 10 cm holes); each trial pushes the base once,
+  for ``PUSH_DURATION_S`` along +x, -x, +y or -y with a force of ``forces_n`` newtons (default 5 N), at one of
+  ``trials`` times (``push_times_s``: from 4 s every 1.5 s; 10 by default, so 40 trials per gait and force). A
+  trial runs ``PUSH_SETTLE_S`` past the push's end; success = no fall by then.
+
 Every trial is one `Locomotion` run (the same loop as `contactnet simulate`) until the goal, a fall or a
 time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Trials run in worker
 processes (``contactnet.jobs``); each finished trial is appended to ``DIR/trials.jsonl`` at once, so an
@@ -39,6 +46,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import sys
 import time
 from dataclasses import asdict, dataclass
@@ -51,7 +59,8 @@ from contactnet.jobs import Job, code_identity, differences, digest, run_jobs
 from contactnet.robots import DEFAULT_ROBOT
 
 HEADER_FORMAT = "contactnet-experiment-v1"
-EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights")
+EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights",
+               "push")
 DEFAULT_PLANNERS = {
     "stepping_stones": ("contactnet", "fixed", "heuristic"),
     "narrow_stones": ("contactnet", "fixed", "heuristic"),
@@ -60,13 +69,23 @@ DEFAULT_PLANNERS = {
     "stairs": ("contactnet", "fixed"),
     "raised_stones": ("contactnet", "fixed"),
     "random_heights": ("contactnet", "fixed"),
+    "push": ("contactnet",),
 }
 DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "narrow_map": ("walk",),
                  "random": ("walk", "trot"), "stairs": ("walk", "trot"), "raised_stones": ("walk", "trot"),
-                 "random_heights": ("walk", "trot")}
-DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5}  # 1 elsewhere
+                 "random_heights": ("walk", "trot"), "push": ("walk", "trot")}
+DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5, "push": 10}  # 1 elsewhere
 FIELDS = ("random", "random_heights")  # one generated terrain per (removed, seed)
 DEFAULT_HEIGHT_M = 0.03  # random_heights: each top within +-3 cm
+PUSH_DURATION_S = 1.0
+PUSH_SETTLE_S = 4.0  # a push trial runs this long after the push ends
+PUSH_DIRECTIONS = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))  # +x, -x, +y, -y (world)
+
+
+def push_times_s(n: int) -> list[float]:
+    """The push experiment's ``n`` push start times (s): from 4 s (the robot walks over holes from about 6 s)
+    every 1.5 s."""
+    return [4.0 + 1.5 * k for k in range(n)]
 # The narrow_map grid: bar width 3-7 cm (the candidate spacing is 5 cm), last gap 12-24 cm.
 NARROW_MAP_WIDTHS_CM = (3.0, 4.0, 5.0, 6.0, 7.0)
 NARROW_MAP_GAPS_CM = (12.0, 15.0, 18.0, 21.0, 24.0)
@@ -93,6 +112,8 @@ class Trial:
     last_gap_m: float | None = None  # narrow_map: the gap before the last bar
     robot: str = DEFAULT_ROBOT  # contactnet.registry name
     height_m: float | None = None  # random_heights: each square's top within +-height_m
+    push_t0_s: float | None = None  # push: when the push starts ...
+    push_force_xy: tuple[float, float] | None = None  # ... and its force (N, world), for PUSH_DURATION_S
 
     @property
     def key(self) -> str:
@@ -101,7 +122,10 @@ class Trial:
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
-        return (f"{self.terrain}{removed}{height}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
+        push = ""
+        if self.push_force_xy is not None:
+            push = f"/push{self.push_force_xy[0]:g},{self.push_force_xy[1]:g}@{self.push_t0_s:g}"
+        return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
                 f"{robot}")
 
 
@@ -109,10 +133,12 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               planners: tuple[str, ...] | None = None, removed: tuple[int, ...] = (80,), noise: float = 0.0,
               vx: float = 0.05, model_dir: str | None = None,
               widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
-              robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M) -> list[Trial]:
+              robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
+              forces_n: tuple[float, ...] = (5.0,)) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
-    ``random`` and ``random_heights``, whose tops spread over +-``height_m``)."""
+    ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 push times x 4
+    directions per force of ``forces_n``)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
@@ -125,6 +151,10 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                 height = height_m if name == "random_heights" else None
                 out += [Trial(name, name, k, seed, gait, planner, vx, noise, model_dir, robot=robot, height_m=height)
                         for k in removed for seed in range(n)]
+            elif name == "push":
+                out += [Trial(name, "push_field", None, k, gait, planner, vx, noise, model_dir, robot=robot,
+                              push_t0_s=t0, push_force_xy=(force * dx + 0.0, force * dy + 0.0))
+                        for force in forces_n for dx, dy in PUSH_DIRECTIONS for k, t0 in enumerate(push_times_s(n))]
             elif name == "narrow_map":
                 from contactnet.terrain import narrow_stones
 
@@ -155,7 +185,14 @@ def run_trial(trial: Trial) -> dict:
     limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
     config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed)
     with Locomotion(robot, terrain, gait, planner, config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
+        if trial.push_force_xy is not None:  # success: no fall until the push has settled
+            from contactnet.sim import Push
+
+            loco.push(Push(trial.push_t0_s, PUSH_DURATION_S, (*trial.push_force_xy, 0.0)))
+            limit_s = trial.push_t0_s + PUSH_DURATION_S + PUSH_SETTLE_S
         summary = loco.run(limit_s)
+    if trial.push_force_xy is not None:
+        summary["success"] = not summary["fell"]
     summary.pop("gait_sequence", None)  # long; the table does not need it
     return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary}
 
@@ -312,16 +349,17 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
     groups: dict[tuple, list[dict]] = {}
     for r in records:
         t = r["trial"]
+        force = t.get("push_force_xy")
         group = (t["gait"], t["planner"], t["removed"], t["noise"], t.get("bar_width_m"), t.get("last_gap_m"),
-                 t.get("height_m"))
+                 t.get("height_m"), None if force is None else round(math.hypot(*force), 6))
         groups.setdefault(group, []).append(r)
     rows = []
-    for (gait, planner, removed, noise, width_m, gap_m, height_m), rs in sorted(groups.items(),
+    for (gait, planner, removed, noise, width_m, gap_m, height_m, push_n), rs in sorted(groups.items(),
                                                                      key=lambda kv: tuple(map(str, kv[0]))):
         ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
         rows.append({
             "gait": gait, "planner": planner, "removed": removed, "noise": noise,
-            "bar_width_m": width_m, "last_gap_m": gap_m, "height_m": height_m, "trials": len(rs),
+            "bar_width_m": width_m, "last_gap_m": gap_m, "height_m": height_m, "push_n": push_n, "trials": len(rs),
             "successes": sum(r["success"] for r in rs),
             "success_rate": sum(r["success"] for r in rs) / len(rs),
             "falls": sum(r["fell"] for r in rs),
@@ -333,6 +371,7 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
             "unsafe_landings": sum(r["unsafe_landings"] for r in rs),
             "max_height_change_m": max((r.get("max_height_change_m", 0.0) for r in rs), default=0.0),
             "failed_seeds": [r["trial"]["seed"] for r in rs if not r["success"]],
+            **({"failed_pushes": [r["key"].split("/")[1] for r in rs if not r["success"]]} if push_n is not None else {}),
         })
     return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
 
@@ -348,7 +387,7 @@ def plot_success(summary: dict, path: Path) -> None:
         _plot_success_maps(rows, summary["experiment"], path, plt)
         return
     labels = [f"{r['gait']}\n{r['planner']}" + (f"\n{r['removed']} removed" if r["removed"] is not None else "")
-              for r in rows]
+              + (f"\npush {r['push_n']:g} N" if r.get("push_n") is not None else "") for r in rows]
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
     bars = ax.bar(range(len(rows)), [100 * r["success_rate"] for r in rows], color="#3b7dd8")
     for bar, r in zip(bars, rows, strict=True):
@@ -395,6 +434,7 @@ def format_summary(summary: dict) -> str:
     rows = summary["rows"]
     scene = ("bar_width_m", "last_gap_m") if any(r.get("bar_width_m") is not None for r in rows) else ("removed",)
     scene += ("height_m",) if any(r.get("height_m") is not None for r in rows) else ()
+    scene += ("push_n",) if any(r.get("push_n") is not None for r in rows) else ()
     keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "falls",
             "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
     keep += ("max_height_change_m",) if any(r.get("max_height_change_m") for r in rows) else ()

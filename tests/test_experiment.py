@@ -137,3 +137,32 @@ def test_a_real_trial_is_logged_summarized_and_not_rerun(tmp_path):
     assert again["rows"][0]["falls"] == 1
     lines = (tmp_path / "trials.jsonl").read_text().splitlines()
     assert json.loads(lines[-1])["key"] == trials[0].key
+
+
+def test_push_trials_cover_forces_directions_and_times():
+    from contactnet.experiment import PUSH_DIRECTIONS, push_times_s
+
+    trials = trials_of("push")
+    assert len(trials) == 2 * 4 * 10  # walk and trot, +-x and +-y, 10 push times, 5 N
+    assert {t.terrain for t in trials} == {"push_field"} and {t.planner for t in trials} == {"contactnet"}
+    assert {t.push_force_xy for t in trials} == {(5.0, 0.0), (-5.0, 0.0), (0.0, 5.0), (0.0, -5.0)}
+    assert sorted({t.push_t0_s for t in trials}) == push_times_s(10) and push_times_s(3) == [4.0, 5.5, 7.0]
+    assert len({t.key for t in trials}) == len(trials)
+    assert trials[0].key == "push_field/push5,0@4/seed0/walk/contactnet/noise0"
+    several = trials_of("push", trials=4, gaits=("trot",), forces_n=(5.0, 10.0))
+    assert len(several) == 2 * len(PUSH_DIRECTIONS) * 4 and {abs(sum(t.push_force_xy)) for t in several} == {5, 10}
+
+
+def test_a_push_trial_succeeds_when_the_robot_stands_the_push(tmp_path):
+    """Success on ``push`` is "no fall by PUSH_SETTLE_S after the push", not the goal (3 m away)."""
+    gentle = Trial("push", "push_field", None, 0, "walk", "contactnet", push_t0_s=0.2, push_force_xy=(0.5, 0.0))
+    hard = Trial("push", "push_field", None, 1, "walk", "contactnet", push_t0_s=0.2, push_force_xy=(0.0, 150.0))
+    summary = run_experiment("push", tmp_path, [gentle, hard], workers=1, progress=False)
+    records = {json.loads(line)["key"]: json.loads(line) for line in (tmp_path / "trials.jsonl").read_text().splitlines()}
+    assert records[gentle.key]["success"] and not records[gentle.key]["fell"]
+    assert records[gentle.key]["sim_time_s"] == pytest.approx(0.2 + 1.0 + 4.0, abs=0.01)
+    assert not records[hard.key]["success"] and records[hard.key]["fell"]
+    rows = {row["push_n"]: row for row in summary["rows"]}
+    assert rows[0.5]["successes"] == 1 and rows[150.0]["falls"] == 1
+    assert rows[150.0]["failed_pushes"] == ["push0,150@0.2"]
+    assert "push_n" in format_summary(summary)
