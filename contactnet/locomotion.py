@@ -31,6 +31,7 @@ from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
 from contactnet.ground import body_pitch, front_to_hind_m
 from contactnet.planner import PlannedStep, Planner, PlanningContext
+from contactnet.retarget import RetargetConfig, retarget
 from contactnet.robots.description import Robot
 from contactnet.sim import Push, SimConfig, SimState, Simulator
 from contactnet.swing import swing_over_terrain
@@ -54,6 +55,9 @@ class LocomotionConfig:
     # Re-solve the optimizer from the measured state every this many nodes between plans (2: every
     # 80 ms, 12.5 Hz); 0: only after each touchdown, as in the paper.
     reoptimize_every_nodes: int = 2
+    # At those re-solves a swing may get a new landing (contactnet.retarget); None: never, as in the paper (the
+    # default until retargeting is shown to help: issue 14).
+    retarget: RetargetConfig | None = None
     fall_check_every_ticks: int = 10
     # The CoM reference path integrates the commanded velocity and stays within this distance of
     # the measured CoM: after a push the optimizer brings the robot back toward its path (a little),
@@ -193,6 +197,7 @@ class Locomotion:
         self.planner_times_s: list[float] = []
         self.trajopt_times_s: list[float] = []
         self.trajopt_failures = 0
+        self.swing_retargets = 0
         self.fall_reason: str | None = None
         self.reached_goal = False
         self._state = self.sim.state()
@@ -265,6 +270,8 @@ class Locomotion:
         if phase == 0:
             self._plan_steps(state)
         elif self._reoptimize_ticks and phase % self._reoptimize_ticks == 0:
+            if self.config.retarget is not None and self.plan is not None and self.plan.steps:
+                self._retarget(state, self.plan)
             self._optimize(state, self.plan)
         target = self._target(self.sim.t_s)
         tau = self.controller.torques(state.q_pinocchio(), state.v_pinocchio(), target)
@@ -367,6 +374,25 @@ class Locomotion:
         previous = self.plan
         self.plan = plan
         self._optimize(state, plan, fallback=previous)
+
+    def _retarget(self, state: SimState, plan: _Plan) -> None:
+        """Give the swinging legs a new landing if the measured state calls for one (``contactnet.retarget``):
+        the swings, the first step and its footholds in the plan until those legs' next planned step."""
+        new = retarget(self.planner, self._context(state), plan.steps[0], plan.swings, self.sim.t_s,
+                       self.foot_radius_m, self.config.retarget)
+        if new is None:
+            return
+        step, swings = new
+        plan.swings.update(swings)
+        plan.steps[0] = step
+        gait = self.gait
+        for leg, swing in swings.items():
+            start = gait.n_stance_pre + gait.n_swing
+            later = [j for j, s in enumerate(plan.steps[1:], 1) if leg in s.legs]
+            end = later[0] * gait.nodes_per_step + gait.n_stance_pre + gait.n_swing if later else len(plan.foot_pos)
+            plan.foot_pos[start:end, leg] = swing.end_world - np.array([0.0, 0.0, self.foot_radius_m])
+            plan.tops_z[start:end, leg] = swing.end_world[2] - self.foot_radius_m
+        self.swing_retargets += 1
 
     def _close_height_change(self, feet_world: np.ndarray) -> None:
         """The last step's rise or drop: the tops under its legs now against those at lift-off."""
@@ -546,6 +572,7 @@ class Locomotion:
             "mean_velocity_xy": (displacement / sim_time).tolist() if sim_time > 0 else [0.0, 0.0],
             "max_abs_yaw_rad": self.max_abs_yaw_rad,
             "trajopt_failures": self.trajopt_failures,
+            "swing_retargets": self.swing_retargets,
             "max_height_change_m": max((r.height_change_m for r in self.records
                                         if not math.isnan(r.height_change_m)), default=0.0),
         }

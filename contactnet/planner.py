@@ -493,6 +493,29 @@ class ContactNetPlanner:
         self._advance()
         return steps
 
+    def replan_swing(self, ctx: PlanningContext, legs: tuple[int, ...]) -> PlannedStep | None:
+        """The best safe landing of the swing group ``legs`` from the state ``ctx`` (their feet where they lifted
+        off), the network's ranking restricted to that group's actions: a swing's new target after a disturbance
+        (``contactnet.retarget``). None when none of them is safe."""
+        gait, terrain = self.gait, ctx.terrain
+        c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
+        to_world = np.array([[c, -s], [s, c]])
+        feet_xy = np.array(ctx.foot_pos_world, dtype=float)[:, 0:2]
+        base_xy = np.array(ctx.base_xy_world, dtype=float)
+        tops = terrain.ground_z(feet_xy)
+        u = network_input_one(feet_xy, np.asarray(ctx.com_pos_world, dtype=float),
+                              np.asarray(ctx.com_vel_world, dtype=float), np.asarray(ctx.vel_cmd_xy, dtype=float),
+                              ctx.yaw_rad, sum(tops.tolist()) / len(tops))
+        first = gait.swing_groups.index(tuple(legs)) * gait.actions_per_group
+        order = first + np.argsort(-self.model.scores(u)[first: first + gait.actions_per_group], kind="stable")
+        cells = (base_xy + self.hip_ref_xy_base @ to_world.T)[:, None, :] + (gait.cell_offsets_xy @ to_world.T)[None]
+        check = None
+        if self.footholds.applies(terrain):
+            cells = self.footholds.centred(terrain, cells.reshape(-1, 2)).reshape(cells.shape)
+            check = self._height_check(terrain, feet_xy, base_xy + self.hip_xy_base @ to_world.T, tops, ctx.yaw_rad)
+        step = first_safe_step(gait, order, cells, feet_xy, terrain, self.margin_m, check)
+        return None if step.action_index is None else step
+
     def _swing_cornered_legs_first(self, order: np.ndarray, cells: np.ndarray, terrain: Terrain,
                                    feet_xy: np.ndarray, tops: np.ndarray, base_xy: np.ndarray, to_world: np.ndarray,
                                    cmd_world: np.ndarray, yaw_rad: float) -> np.ndarray:
