@@ -92,3 +92,16 @@ def chromium():
                 browser.close()
 
     return launched()
+
+
+def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
+    """A 1400 x 900 page of the viser client served at ``port`` (loopback), once it says "Connected"."""
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page.goto(f"http://127.0.0.1:{port}/")
+    page.get_by_text("Connected").wait_for(timeout=90_000)
+    return page
+
+
+def viser_client(app):  # noqa: ANN001, ANN201
+    """The first viser client connected to ``app``'s 3D view (waits for one)."""
+    return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, open_viser, save_random_models, viser_client, wait_for
 
 from app.commands import SetCompare, SetPaused, SetPlanner, SetVelocity
 from app.scene import describe_candidate
@@ -37,14 +37,9 @@ def live(tmp_path_factory):
 @pytest.fixture(scope="module")
 def page(live):
     with chromium() as browser:
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        page.goto(f"http://127.0.0.1:{live.viser_port}/")
-        page.get_by_text("Connected").wait_for(timeout=90_000)
+        page = open_viser(browser, live.viser_port)
         yield page
 
-
-def the_client(app):
-    return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]
 
 
 def screen_xy(camera, point_world: np.ndarray) -> tuple[float, float] | None:
@@ -68,7 +63,7 @@ def test_a_click_on_a_disk_names_it(live, page):
     wait_for(lambda: app.session.view.run.waiting_for_viewer is False, what="the session to start")
     wait_for(lambda: app.session.view.snapshot.steps >= 3, timeout=60, what="a few steps")
     app.session.call(SetPaused(True))
-    client = the_client(app)
+    client = viser_client(app)
     scene = app.viewer.scene
     wait_for(lambda: scene._drawn[0] is app.session.view.candidates, what="the disks drawn")
     time.sleep(2.0)  # the browser reports the camera it draws with
@@ -98,7 +93,7 @@ def test_an_orbit_keeps_following_and_recenter_restores_the_view(live, page):
     app.terrains.load("flat")
     app.session.call(SetPlanner("heuristic"))  # a steady walk (the test's ContactNet has random weights)
     app.session.call(SetPaused(True))
-    client = the_client(app)
+    client = viser_client(app)
     camera = app.viewer.panel.camera
     mode, recenter = camera.controls[client.client_id]
     recenter_offset = lambda: client.camera.position - client.camera.look_at  # noqa: E731

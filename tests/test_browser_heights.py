@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, open_viser, save_random_models, viser_client, wait_for
 
 from contactnet.terrain import Terrain
 
@@ -39,15 +39,10 @@ def live(tmp_path_factory):
 @pytest.fixture(scope="module")
 def page(live):
     with chromium() as browser:
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        page.goto(f"http://127.0.0.1:{live.viser_port}/")
-        page.get_by_text("Connected").wait_for(timeout=90_000)
+        page = open_viser(browser, live.viser_port)
         page.get_by_text("Terrain editor").first.click()  # the folder starts closed
         yield page
 
-
-def the_client(app):
-    return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]
 
 
 def screen_xy(camera, point_world, css_size: tuple[int, int]) -> tuple[float, float] | None:  # noqa: ANN001
@@ -67,7 +62,7 @@ def screen_xy(camera, point_world, css_size: tuple[int, int]) -> tuple[float, fl
 
 def settled_camera(app):
     """The camera the browser reports once it stopped moving (a follow or mode change glides)."""
-    camera = the_client(app).camera
+    camera = viser_client(app).camera
     seen = [np.r_[camera.position, camera.wxyz]]
 
     def still() -> bool:
@@ -92,7 +87,7 @@ def look_closely(page, app, at) -> None:  # noqa: ANN001
     (a pose we set reaches the browser late; clicks before that would go through the old camera)."""
     from app.camera import place_camera
 
-    client = the_client(app)
+    client = viser_client(app)
     app.viewer.panel.camera.set_mode(client, "free")
     at = np.asarray(at, dtype=float)
     position = at + np.array([-0.3, -0.4, 0.3])
@@ -147,7 +142,7 @@ def test_select_a_raised_stone_and_set_its_height(live, page):
     page.locator("label", has_text="Typed height (cm)").first.scroll_into_view_if_needed()
     look_closely(page, app, star + [0.1, 0.0, 0.0])
     page.screenshot(path=str(ARTIFACTS / "viser_stone_height.png"))
-    app.viewer.panel.camera.set_mode(the_client(app), "follow")
+    app.viewer.panel.camera.set_mode(viser_client(app), "follow")
 
     typed.fill("60")  # beyond the schema's bound (50 cm): refused, said, and the field shows the height again
     typed.press("Enter")
@@ -194,4 +189,4 @@ def test_raise_a_grid_cell_with_the_click_tool(live, page):
     assert len(app.terrains.current["regions"]) == n + 1
     time.sleep(2.0)  # the renderer draws the raised cell
     page.screenshot(path=str(ARTIFACTS / "viser_raised_cell.png"))
-    app.viewer.panel.camera.set_mode(the_client(app), "follow")
+    app.viewer.panel.camera.set_mode(viser_client(app), "follow")
