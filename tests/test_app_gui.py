@@ -203,6 +203,9 @@ def test_terrain_picker_files_and_random_field(app, browser):
     wait_for(lambda: (panel.removed.value, panel.seed.value) == (50, 7), what="N and seed")
     browser.click(panel.load_button)
     wait_for(lambda: state(app).terrain == "random (removed 50, seed 7)", what="the random field")
+    # The picker follows the session's terrain on the viewer's next refresh: let that happen before the next pick
+    # (else the refresh, coming after it, puts the picker back on "random").
+    wait_for(lambda: panel._label == "random (removed 50, seed 7)", what="the picker to see the load")
     cells = [r for r in app.session.view.terrain.to_dict()["regions"] if r["shape"] == "grid"]
     assert len(cells) == 1 and len(cells[0]["removed"]) == 50
     browser.set(panel.terrain_pick, "stepping_stones")
@@ -212,6 +215,7 @@ def test_terrain_picker_files_and_random_field(app, browser):
     notice = app.session.view.notices[-1]  # the restart is said, in a toast to every browser
     assert notice.text.startswith("Terrain stepping_stones loaded")
     wait_for(lambda: app.viewer.panel.toasts.shown_seq == notice.seq, what="the toast")
+    wait_for(lambda: panel._label == "stepping_stones", what="the picker to see the load")
     assert panel.terrain_pick.value == "stepping_stones"
     browser.set(panel.terrain_pick, "flat")
     browser.click(panel.load_button)
