@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import time
 
 
@@ -105,3 +106,30 @@ def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
 def viser_client(app):  # noqa: ANN001, ANN201
     """The first viser client connected to ``app``'s 3D view (waits for one)."""
     return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]
+
+
+def live_app(tmp_path_factory, **settings):  # noqa: ANN001, ANN201
+    """A ContactnetApp (the live session and its 3D view on a free loopback port) with shipped-format random
+    models and its own recordings folder; ``settings`` are ServeSettings fields. Close it when done."""
+    from app.recordings import free_port
+    from app.server import ContactnetApp
+    from app.settings import ServeSettings
+
+    models = tmp_path_factory.mktemp("models")
+    save_random_models(models)
+    return ContactnetApp(ServeSettings(viser_port=free_port(), recordings_dir=tmp_path_factory.mktemp("recordings"),
+                                       models_dir=models, **settings))
+
+
+@contextlib.contextmanager
+def served(app):  # noqa: ANN001, ANN201
+    """``app``'s HTTP API served on a free loopback port while in the block; yields the port."""
+    from app.recordings import free_port
+    from app.server import BackgroundServer
+
+    port = free_port()
+    web = BackgroundServer(app.api, "127.0.0.1", port)
+    try:
+        yield port
+    finally:
+        web.stop()

@@ -8,7 +8,7 @@ import shutil
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, served, wait_for
 
 pytestmark = browser_marks()
 
@@ -16,7 +16,7 @@ pytestmark = browser_marks()
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
     from app.recordings import free_port
-    from app.server import BackgroundServer, ContactnetApp
+    from app.server import ContactnetApp
     from app.settings import ServeSettings
     from contactnet.cli import main
 
@@ -26,10 +26,8 @@ def live(tmp_path_factory):
     shutil.copy(folder / "cli-run.viser", folder / "old.viser")  # as made before metadata: no sidecar
     app = ContactnetApp(ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, paused=True,
                                       viser_port=free_port(), recordings_dir=folder))
-    port = free_port()
-    web = BackgroundServer(app.api, "127.0.0.1", port)
-    yield app, f"http://127.0.0.1:{port}"
-    web.stop()
+    with served(app) as port:
+        yield app, f"http://127.0.0.1:{port}"
     app.close()
 
 

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, open_viser, save_random_models, viser_client, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, live_app, open_viser, viser_client, wait_for
 
 from app.commands import SetCompare, SetPaused, SetPlanner, SetVelocity
 from app.scene import describe_candidate
@@ -20,16 +20,7 @@ pytestmark = browser_marks()
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
-    from app.recordings import free_port
-    from app.server import ContactnetApp
-    from app.settings import ServeSettings
-
-    models = tmp_path_factory.mktemp("models")
-    save_random_models(models)
-    app = ContactnetApp(
-        ServeSettings(terrain="stepping_stones", planner="contactnet", vx_m_s=0.05, viser_port=free_port(),
-                      recordings_dir=tmp_path_factory.mktemp("recordings"), models_dir=models)
-    )
+    app = live_app(tmp_path_factory, terrain="stepping_stones", planner="contactnet", vx_m_s=0.05)
     yield app
     app.close()
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, served, wait_for
 
 from app.commands import SetPaused, SetPlanner, SetVelocity
 
@@ -17,7 +17,7 @@ pytestmark = browser_marks()
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
     from app.recordings import free_port
-    from app.server import BackgroundServer, ContactnetApp
+    from app.server import ContactnetApp
     from app.settings import ServeSettings
 
     models = tmp_path_factory.mktemp("models")
@@ -33,10 +33,8 @@ def live(tmp_path_factory):
             models_dir=models,
         )
     )
-    port = free_port()
-    web = BackgroundServer(app.api, "127.0.0.1", port)
-    yield app, f"http://127.0.0.1:{port}"
-    web.stop()
+    with served(app) as port:
+        yield app, f"http://127.0.0.1:{port}"
     app.close()
 
 

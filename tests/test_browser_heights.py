@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, open_viser, save_random_models, viser_client, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, live_app, open_viser, viser_client, wait_for
 
 from contactnet.terrain import Terrain
 
@@ -22,16 +22,7 @@ STONE = 4  # raised_stones: the 5-point star at (0.62, -0.095), top +4.3 cm
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
-    from app.recordings import free_port
-    from app.server import ContactnetApp
-    from app.settings import ServeSettings
-
-    models = tmp_path_factory.mktemp("models")
-    save_random_models(models)
-    app = ContactnetApp(
-        ServeSettings(terrain="raised_stones", planner="heuristic", vx_m_s=0.0, paused=True, viser_port=free_port(),
-                      recordings_dir=tmp_path_factory.mktemp("recordings"), models_dir=models)
-    )
+    app = live_app(tmp_path_factory, terrain="raised_stones", planner="heuristic", vx_m_s=0.0, paused=True)
     yield app
     app.close()
 

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import httpx
 import pytest
-from helpers import wait_for
+from helpers import served, wait_for
 
 from app.recordings import free_port, read_recording
-from app.server import BackgroundServer, ContactnetApp
+from app.server import ContactnetApp
 from app.settings import ServeSettings
 from contactnet.terrain import Terrain, terrains_dir
 
@@ -34,10 +34,8 @@ def live(tmp_path_factory):
         ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, wait_for_viewer=False, viser_port=free_port(),
                       terrains_dir=data / "terrains", recordings_dir=data / "recordings")
     )
-    port = free_port()
-    web = BackgroundServer(app.api, "127.0.0.1", port)
-    yield app, port
-    web.stop()
+    with served(app) as port:
+        yield app, port
     app.close()
 
 
