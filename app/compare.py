@@ -124,7 +124,7 @@ class CompareRobots:
             x_m=float(snap.q[0]),
             fell=loco.fall_reason is not None,
             success=done == "goal reached",
-            steps=len(loco.records),
+            steps=loco.steps_taken,
             rank_mean=rank_stats(loco)[0],
             done=done,
         )

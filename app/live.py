@@ -312,7 +312,7 @@ class LiveSession:
             RunSummary(
                 index=self._runs.runs + 1,
                 t_s=loco.t_s,
-                steps=len(loco.records),
+                steps=loco.steps_taken,
                 rank_mean=mean,
                 rank_max=worst,
                 success=self._done == "goal reached",

@@ -13,7 +13,15 @@ the single-rigid-body trajectory optimization with it, and score the result::
 * ``V_kin,k``: for each stance foot, a hinge with a jump on the horizontal distance between the foot
   and its hip reference, the hips moving with the CoM (constant hip-CoM offset over the horizon);
 * ``V_cent``: distance of the final CoM projection to the area centroid of the final support polygon;
-* ``V_area``: area of the final support polygon (convex hull of the four feet).
+* ``V_area``: area of the final support polygon (convex hull of the four feet);
+* ``V_swing``, ``V_short`` (the energy-like terms): how many legs swing, and for each swinging foot how much
+  less than ``short_swing_m`` it moves (a fraction of it: 1 for a foot put back where it was).
+
+Beside the N_a stepping actions the cost scores **standing** (``CostWeights.stand``, on by default): the
+choice ``gait.stand_index`` whose contact plan keeps all four feet down for the whole step horizon. It pays
+V_opt, V_stab (zero: the CoM over the four feet's polygon), V_kin (feet lagging behind the moving hips),
+V_cent and V_area like any action, and no energy term. With a zero command and a balanced state nothing
+needs to move and standing is cheapest; a swing that barely moves its foot ranks below standing.
 
 A node k is the interval [t_k, t_k+1] with the support of ``contact[k]``; its terms are evaluated at
 both ends (the optimized states x[k] and x[k+1]) and the worse end counts. Within an interval the CoM
@@ -80,7 +88,7 @@ from contactnet.trajopt import (
 GRID_LEAD_S = 0.0
 
 #: Columns of ``CostBreakdown.terms``.
-TERM_NAMES: tuple[str, ...] = ("opt", "stab", "kin", "cent", "area")
+TERM_NAMES: tuple[str, ...] = ("opt", "stab", "kin", "cent", "area", "swing", "short")
 
 
 @dataclass(frozen=True)
@@ -130,8 +138,9 @@ class CostState:
 class CostBreakdown:
     """V of every candidate action of one state, with its terms and trajectories."""
 
-    V: np.ndarray  #: (N_a,) weighted total; ``failure_cost`` where the optimization failed
-    terms: np.ndarray  #: (N_a, 5) unweighted sums, columns TERM_NAMES; NaN where it failed
+    V: np.ndarray  #: (C,) weighted total of every choice (N_a actions, then standing when the cost offers
+    #: it); ``failure_cost`` where the optimization failed
+    terms: np.ndarray  #: (C, 7) unweighted sums, columns TERM_NAMES; NaN where it failed
     success: np.ndarray  #: (N_a,) bool
     com_traj_world: np.ndarray  #: (N_a, N+1, 3) optimized CoM positions (NaN where it failed)
     footholds_xy_world: np.ndarray  #: (N_a, 4, 2) where each foot is after the step (swing legs landed)
@@ -212,12 +221,28 @@ class RankingCost:
     # ---- candidates ------------------------------------------------------------------------
     @property
     def n_actions(self) -> int:
+        """The stepping actions."""
         return self.gait.n_actions
+
+    @property
+    def n_choices(self) -> int:
+        """What the cost ranks: the stepping actions, then standing (``gait.stand_index``) when
+        ``CostWeights.stand``."""
+        return self.gait.n_choices if self.weights.stand else self.gait.n_actions
+
+    @cached_property
+    def _swing(self) -> np.ndarray:
+        """(C, 4) bool: the legs each choice swings (none for standing)."""
+        swing, _ = self.gait.action_table
+        if self.weights.stand:
+            swing = np.vstack([swing, np.zeros((1, 4), dtype=bool)])
+        swing.flags.writeable = False
+        return swing
 
     @cached_property
     def _contact(self) -> np.ndarray:
-        """(N_a, N, 4) bool contact plan of every action."""
-        swing, _ = self.gait.action_table
+        """(C, N, 4) bool contact plan of every choice."""
+        swing = self._swing
         swing_nodes = np.zeros(self.gait.nodes_per_step, dtype=bool)
         swing_nodes[self.gait.n_stance_pre : self.gait.n_stance_pre + self.gait.n_swing] = True
         contact = ~(swing[:, None, :] & swing_nodes[None, :, None])
@@ -238,25 +263,29 @@ class RankingCost:
         return self.hip_ref_world(state, base)
 
     def candidate_footholds(self, state: CostState) -> np.ndarray:
-        """(N_a, 4, 2) every foot's xy after each action: swing legs on their cell, the others where they are."""
-        return candidate_footholds_world(self.gait, self.grid_centres_world(state), state.yaw_rad,
+        """(C, 4, 2) every foot's xy after each choice: swing legs on their cell, the others where they are
+        (all of them for standing)."""
+        feet = candidate_footholds_world(self.gait, self.grid_centres_world(state), state.yaw_rad,
                                          state.foot_pos_world)
+        if self.weights.stand:
+            feet = np.concatenate([feet, np.asarray(state.foot_pos_world, dtype=float)[None, :, 0:2]])
+        return feet
 
     def _foot_plans(self, state: CostState) -> np.ndarray:
-        """(N_a, N, 4, 3) foot contact points of every action's plan (swing feet: landed from touchdown)."""
-        swing, _ = self.gait.action_table
+        """(C, N, 4, 3) foot contact points of every choice's plan (swing feet: landed from touchdown)."""
+        swing = self._swing
         n = self.gait.nodes_per_step
         touchdown = self.gait.n_stance_pre + self.gait.n_swing
         now = np.asarray(state.foot_pos_world, dtype=float)
-        landed = np.repeat(now[None], self.n_actions, axis=0)
+        landed = np.repeat(now[None], self.n_choices, axis=0)
         landed[..., 0:2] = self.candidate_footholds(state)
         landed[..., 2] = np.where(swing, state.ground_z, now[:, 2])
-        plans = np.repeat(now[None, None], self.n_actions, axis=0).repeat(n, axis=1)
+        plans = np.repeat(now[None, None], self.n_choices, axis=0).repeat(n, axis=1)
         plans[:, touchdown:] = landed[:, None]
         return plans
 
     def problems(self, state: CostState, foot_plans: np.ndarray | None = None) -> list[TrajoptProblem]:
-        """The optimizer problem of every action (one step horizon); ``foot_plans``: ``_foot_plans(state)``."""
+        """The optimizer problem of every choice (one step horizon); ``foot_plans``: ``_foot_plans(state)``."""
         x0 = state.x0()
         vel = np.asarray(state.vel_cmd_world, dtype=float)
         ref = None if state.com_xy_ref_start is None else np.asarray(state.com_xy_ref_start, dtype=float)
@@ -272,12 +301,12 @@ class RankingCost:
                 yaw_ref_rad=float(state.yaw_rad),
                 com_xy_ref_start=ref,
             )
-            for a in range(self.n_actions)
+            for a in range(self.n_choices)
         ]
 
     # ---- fast path -------------------------------------------------------------------------
     def evaluate(self, state: CostState, keep_solutions: bool = False) -> CostBreakdown:
-        """V of every action: one batched optimizer call, vectorized geometry."""
+        """V of every choice: one batched optimizer call, vectorized geometry."""
         t0 = time.perf_counter()
         plans = self._foot_plans(state)
         problems = self.problems(state, plans)
@@ -335,8 +364,8 @@ class RankingCost:
         return np.broadcast_to(shift, com_xy.shape)
 
     def geometric_terms(self, state: CostState, com_world: np.ndarray, feet_xy: np.ndarray) -> np.ndarray:
-        """(N_a, 4) unweighted V_stab, V_kin, V_cent, V_area from CoM trajectories (N_a, N+1, 3) and foot
-        plans (N_a, N, 4, 2), vectorized over actions and nodes."""
+        """(C, 6) unweighted V_stab, V_kin, V_cent, V_area, V_swing, V_short from CoM trajectories (C, N+1, 3)
+        and foot plans (C, N, 4, 2), vectorized over choices and nodes."""
         w = self.weights
         states, nodes, ends = self._checks
         contact = self._contact[:, nodes]  # (N_a, M, 4)
@@ -351,7 +380,11 @@ class RankingCost:
         kin = kin_penalty(dist, self.kin_threshold_m, w.kin_ramp_m).sum(axis=(1, 2))
         area, centroid = hull_area_centroid(feet_xy[:, -1])
         cent = np.linalg.norm(p[:, -1] - centroid, axis=-1)
-        return np.stack([stab, kin, cent, area], axis=1)
+        moved = np.hypot(*np.moveaxis(feet_xy[:, -1] - feet_xy[:, 0], -1, 0))  # (C, 4) how far each foot moves
+        swing = self._swing
+        n_swing = swing.sum(axis=1).astype(float)
+        short = np.where(swing, np.clip(1.0 - moved / w.short_swing_m, 0.0, 1.0), 0.0).sum(axis=1)
+        return np.stack([stab, kin, cent, area, n_swing, short], axis=1)
 
     def _finish(
         self,

@@ -11,8 +11,12 @@ import numpy as np
 class CostWeights:
     """Weights of the ranking cost and the shape of its kinematic term.
 
-    ``V = sum_k (opt V_opt + stab V_stab + kin V_kin) + cent V_cent - area V_area`` with the terms in SI
-    units (V_opt: the optimizer's cost; V_stab and V_cent in m; V_kin in violations; V_area in m^2).
+    ``V = sum_k (opt V_opt + stab V_stab + kin V_kin) + cent V_cent - area V_area + swing V_swing + short V_short``
+    with the terms in SI units (V_opt: the optimizer's cost; V_stab and V_cent in m; V_kin in violations;
+    V_area in m^2; V_swing: how many legs swing; V_short: for each swinging foot, how much less than
+    ``short_swing_m`` it moves, as a fraction of ``short_swing_m``). ``swing`` and ``short`` are the
+    energy-like terms of the stand choice (``contactnet.gait``, ``stand``): a swing costs effort, and a swing
+    that barely moves its foot costs more; standing costs neither.
     Walk: ``WALK_WEIGHTS`` (the defaults); trot: ``TROT_WEIGHTS``; each ``GaitSpec`` carries its own
     (``GaitSpec.cost_weights``). The kinematic threshold is the robot's (``RobotDescription.kin_threshold_m``).
 
@@ -79,19 +83,28 @@ class CostWeights:
     kin_hip_path: str = "reference"
     #: V of a candidate whose optimization failed (the same constant for all failures).
     failure_cost: float = 1e6
+    #: Whether standing (no leg swings for a step horizon) is one of the choices the cost ranks.
+    stand: bool = True
+    #: Effort per swinging leg, and the penalty of a swing that moves its foot by less than ``short_swing_m``
+    #: (full at zero displacement, none from ``short_swing_m`` on).
+    swing: float = 0.05
+    short: float = 0.5
+    short_swing_m: float = 0.03
 
     def __post_init__(self) -> None:
-        values = (self.opt, self.stab, self.kin, self.cent, self.area, self.failure_cost)
+        values = (self.opt, self.stab, self.kin, self.cent, self.area, self.failure_cost, self.swing, self.short)
         if not all(np.isfinite(v) and v >= 0.0 for v in values):
             raise ValueError(f"cost weights must be finite and >= 0, got {values}")
         if not self.kin_ramp_m > 0.0:
             raise ValueError("kin_ramp_m must be > 0")
+        if not self.short_swing_m > 0.0:
+            raise ValueError("short_swing_m must be > 0")
         if self.kin_hip_path not in ("reference", "optimized"):
             raise ValueError(f"kin_hip_path must be 'reference' or 'optimized', got {self.kin_hip_path!r}")
 
     def vector(self) -> np.ndarray:
         """Signed weights of the ``TERM_NAMES`` columns: V = terms @ vector()."""
-        return np.array([self.opt, self.stab, self.kin, self.cent, -self.area])
+        return np.array([self.opt, self.stab, self.kin, self.cent, -self.area, self.swing, self.short])
 
 
 #: Walk: the defaults of ``CostWeights``.

@@ -7,7 +7,8 @@ and y. Before each lift-off the oracle evaluates V for every candidate action an
 executed in the PyBullet loop (plan + optimize + track): one *instance*, recorded as (u_r, V).
 An episode ends after 30 instances or when the robot falls; a fall drops its last 3 instances.
 
-Output: a directory of shards (`shard-00000.npz`: `u` (n, 14), `V` (n, N_a), `episode` (n,)), each
+Output: a directory of shards (`shard-00000.npz`: `u` (n, 14), `V` (n, N_a + 1): the N_a stepping actions, then
+standing, `episode` (n,)), each
 holding `episodes_per_shard` consecutive episodes, and `manifest.json`. Every episode is seeded
 from (seed, episode index), so the dataset does not depend on how many workers made it. Shards and
 the manifest are written atomically (``contactnet.atomic``): an interrupted run (Ctrl-C, kill) loses at most
@@ -158,7 +159,7 @@ def run_episode(loco, recorder: RecordingPlanner, config: DatagenConfig, episode
         n = max(0, len(recorder.inputs) - config.drop_on_fall)
     return {
         "u": np.asarray(recorder.inputs[:n], dtype=np.float32).reshape(n, len(INPUT_NAMES)),
-        "V": np.asarray(recorder.costs[:n], dtype=np.float32).reshape(n, loco.gait.n_actions),
+        "V": np.asarray(recorder.costs[:n], dtype=np.float32).reshape(n, recorder.oracle.cost.n_choices),
         "fell": fell,
     }
 
@@ -214,7 +215,7 @@ def write_manifest(out_dir: Path, config: DatagenConfig, shards: dict[int, dict]
         "format": FORMAT,
         "gait": config.gait,
         "robot": config.robot,
-        "n_actions": gait.n_actions,
+        "n_actions": gait.n_choices if gait.cost_weights.stand else gait.n_actions,  # V's columns: the choices
         "input_names": list(INPUT_NAMES),
         "shards": [shard_name(s) for s in done],
         "episodes": sum(len(config.shard_episodes(s)) for s in done),

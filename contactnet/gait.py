@@ -11,6 +11,11 @@ Action indices (0 .. N_a - 1) map one-to-one to (swing group, one grid cell per 
 - trot: 2 diagonal pairs, 3 x 3 cells at 5 cm (10 x 10 cm) per leg: N_a = 2 * 9 * 9 = 162,
   index = pair * 81 + cell_of_first_leg * 9 + cell_of_second_leg.
 A grid cell is `cell = ix * n + iy`, ix counting along +x (back to front), iy along +y (right to left).
+
+Beside the stepping actions there is one more *choice*: **stand** (``GaitSpec.stand_index`` = N_a), no leg
+swings for the next step horizon, all four feet stay in stance. The ranking cost scores it like any action
+(``contactnet.cost``) and a network trained on those costs has N_a + 1 outputs (``GaitSpec.n_choices``); a
+model with N_a outputs (trained before the stand choice existed) never stands.
 """
 
 from __future__ import annotations
@@ -129,7 +134,18 @@ class GaitSpec:
 
     @property
     def n_actions(self) -> int:
+        """The stepping actions (swing groups x cells)."""
         return len(self.swing_groups) * self.actions_per_group
+
+    @property
+    def stand_index(self) -> int:
+        """The choice not to step: all four feet in stance for the next step horizon."""
+        return self.n_actions
+
+    @property
+    def n_choices(self) -> int:
+        """Stepping actions plus standing: the outputs of a network that can choose to stand."""
+        return self.n_actions + 1
 
     @cached_property
     def cell_offsets_xy(self) -> np.ndarray:

@@ -31,6 +31,7 @@ from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
 from contactnet.ground import body_pitch, front_to_hind_m
 from contactnet.planner import PlannedStep, Planner, PlanningContext
+from contactnet.records import StepRecord, summary_stats
 from contactnet.retarget import RetargetConfig, retarget
 from contactnet.robots.description import Robot
 from contactnet.sim import Push, SimConfig, SimState, Simulator
@@ -83,22 +84,6 @@ class LocomotionConfig:
 
 
 @dataclass
-class StepRecord:
-    """One executed step: what was planned and what it cost."""
-
-    t_s: float
-    legs: tuple[str, ...]
-    footholds_xy_world: np.ndarray
-    planner_s: float
-    rank: int | None
-    discarded: int
-    safe_landing: bool
-    # Largest rise or drop (m) of the tops under a swinging foot from lift-off to touchdown, measured at the
-    # next plan (NaN until then).
-    height_change_m: float = math.nan
-
-
-@dataclass
 class Snapshot:
     """Everything a viewer needs at one instant (world frame)."""
 
@@ -134,19 +119,6 @@ class _Plan:
     swings: dict[int, SwingTrajectory] = field(default_factory=dict)
     tops_z: np.ndarray | None = None  # (N, 4) the top under each foot at each node (contactnet.ground)
     touched: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))  # swung legs that touched down
-
-
-def summary_stats(values_s: list[float]) -> dict[str, float]:
-    """mean / median / p99 / max in milliseconds (zeros when empty)."""
-    if not values_s:
-        return {"mean": 0.0, "median": 0.0, "p99": 0.0, "max": 0.0}
-    ms = np.asarray(values_s) * 1e3
-    return {
-        "mean": float(ms.mean()),
-        "median": float(np.median(ms)),
-        "p99": float(np.percentile(ms, 99)),
-        "max": float(ms.max()),
-    }
 
 
 class Locomotion:
@@ -207,7 +179,8 @@ class Locomotion:
         self.com_xy_ref = com[:2].copy()
         self.max_abs_yaw_rad = 0.0
         self.wall_time_s = 0.0
-        self._liftoff_tops: tuple[tuple[int, ...], np.ndarray] | None = None  # the last step's legs and their tops
+        # The last step's legs, the tops under them and where they stood at lift-off.
+        self._liftoff_tops: tuple[tuple[int, ...], np.ndarray, np.ndarray] | None = None
         self._contact_tick = -1
         self._contact = np.zeros(4, dtype=bool)
 
@@ -354,7 +327,8 @@ class Locomotion:
             else:
                 swings[leg] = SwingTrajectory(start_world=start, end_world=end, t0_s=t0_s, t1_s=t1_s,
                                               height_m=self.config.swing_height_m)
-        self._liftoff_tops = (tuple(first.legs), tops[0, list(first.legs)].copy())
+        self._liftoff_tops = (tuple(first.legs), tops[0, list(first.legs)].copy(),
+                              ctx.foot_pos_world[list(first.legs), :2].copy())
         landing_safe = bool(terrain.is_safe(first.footholds_xy_world).all())
         self.records.append(
             StepRecord(
@@ -395,13 +369,19 @@ class Locomotion:
         self.swing_retargets += 1
 
     def _close_height_change(self, feet_world: np.ndarray) -> None:
-        """The last step's rise or drop: the tops under its legs now against those at lift-off."""
+        """The last step's rise or drop (the tops under its legs now against those at lift-off) and how far its
+        feet moved."""
         if self._liftoff_tops is None or not self.records:
             return
-        legs, liftoff = self._liftoff_tops
-        now = self.terrain.ground_z(feet_world[list(legs), :2])
-        self.records[-1].height_change_m = float(np.max(np.abs(now - liftoff)))
+        legs, liftoff, liftoff_xy = self._liftoff_tops
         self._liftoff_tops = None
+        if not legs:  # standing
+            self.records[-1].height_change_m = self.records[-1].moved_m = 0.0
+            return
+        now_xy = feet_world[list(legs), :2]
+        now = self.terrain.ground_z(now_xy)
+        self.records[-1].height_change_m = float(np.max(np.abs(now - liftoff)))
+        self.records[-1].moved_m = float(np.max(np.hypot(*(now_xy - liftoff_xy).T)))
 
     def _optimize(self, state: SimState, plan: _Plan, fallback: _Plan | None = None) -> None:
         """Solve the optimizer from the measured state over the plan's remaining nodes (padded with
@@ -547,12 +527,19 @@ class Locomotion:
             reached_goal=self.reached_goal,
             last_planner_ms=1e3 * self.planner_times_s[-1] if self.planner_times_s else 0.0,
             last_trajopt_ms=1e3 * self.trajopt_times_s[-1] if self.trajopt_times_s else 0.0,
-            steps=len(self.records),
+            steps=self.steps_taken,
             candidates=self.planner.last_candidates,
         )
 
+    @property
+    def steps_taken(self) -> int:
+        """Steps in which legs swung (standing not counted)."""
+        return sum(1 for r in self.records if r.legs)
+
     def summary(self) -> dict:
-        """The `contactnet simulate --json` object (docs/architecture.md, "Contracts"), plus a few diagnostics."""
+        """The `contactnet simulate --json` object (docs/architecture.md, "Contracts"), plus a few diagnostics.
+        ``steps`` counts the steps that swung legs; ``stand_steps`` the step horizons the planner chose to stand;
+        ``useless_steps`` the steps whose feet landed less than ``USELESS_STEP_M`` from where they lifted off."""
         ranks = [r.rank for r in self.records if r.rank is not None]
         sim_time = float(self.sim.t_s)
         displacement = self._state.base_pos_world[:2] - self.start_xy
@@ -562,8 +549,10 @@ class Locomotion:
             "reached_x": float(self._state.base_pos_world[0]),
             "sim_time_s": sim_time,
             "wall_time_s": float(self.wall_time_s),
-            "steps": len(self.records),
-            "gait_sequence": [list(r.legs) for r in self.records],
+            "steps": self.steps_taken,
+            "stand_steps": sum(r.stand for r in self.records),
+            "useless_steps": sum(r.useless for r in self.records),
+            "gait_sequence": [list(r.legs) for r in self.records if r.legs],
             "planner_ms": summary_stats(self.planner_times_s),
             "trajopt_ms": summary_stats(self.trajopt_times_s),
             "rank_chosen": {"mean": float(np.mean(ranks)) if ranks else 0.0, "max": int(max(ranks)) if ranks else 0},

@@ -82,9 +82,11 @@ class ModelFileError(ValueError):
     """A model file that is missing, unreadable, malformed or not the one expected: one-line message."""
 
 
-def _n_actions_of(gait: str) -> int:
-    """N_a of a registered gait; ValueError for an unknown one."""
-    return gait_by_name(gait).n_actions
+def _n_actions_of(gait: str) -> tuple[int, ...]:
+    """The output sizes a model of a registered gait may have: N_a + 1 (the stepping actions, then standing) or
+    N_a (a model made before the stand choice: it never stands); ValueError for an unknown gait."""
+    spec = gait_by_name(gait)
+    return (spec.n_choices, spec.n_actions)
 
 
 # ---- rank targets ------------------------------------------------------------------------------
@@ -391,8 +393,9 @@ def load_model(path: str | os.PathLike, expect_gait: str | None = None, expect_n
     if expect_gait is not None and gait != expect_gait:
         raise fail(f"is a {gait!r} model, but a {expect_gait!r} model was expected")
     n_actions, n_inputs, hidden = payload["n_actions"], payload["n_inputs"], payload["hidden"]
-    if type(n_actions) is not int or n_actions != gait_n_actions or n_actions > MAX_ACTIONS:
-        raise fail(f"n_actions is {_excerpt(n_actions)}, but gait {gait!r} has {gait_n_actions}")
+    if type(n_actions) is not int or n_actions not in gait_n_actions or n_actions > MAX_ACTIONS:
+        raise fail(f"n_actions is {_excerpt(n_actions)}, but gait {gait!r} has {gait_n_actions[0]} choices "
+                   f"({gait_n_actions[1]} actions and standing)")
     if expect_n_actions is not None and n_actions != expect_n_actions:
         raise fail(f"n_actions is {n_actions}, expected {expect_n_actions}")
     if type(n_inputs) is not int or n_inputs != N_INPUTS:

@@ -98,9 +98,10 @@ def save_model(path: str | os.PathLike, model: ContactNet, normalizer: Normalize
     robot = metadata.get("robot", DEFAULT_ROBOT)
     if not isinstance(robot, str) or not robot:
         raise ValueError(f"save_model: metadata 'robot' must be a robot name, got {robot!r}")
-    n_actions = gait_by_name(gait).n_actions
-    if n_actions != model.n_actions:
-        raise ValueError(f"save_model: gait {gait!r} has {n_actions} actions, model {model.n_actions}")
+    spec = gait_by_name(gait)
+    if model.n_actions not in (spec.n_choices, spec.n_actions):
+        raise ValueError(f"save_model: gait {gait!r} has {spec.n_choices} choices ({spec.n_actions} actions and "
+                         f"standing), model {model.n_actions} outputs")
     if normalizer.low.size != model.n_inputs:
         raise ValueError(f"save_model: normalizer has {normalizer.low.size} inputs, model {model.n_inputs}")
     meta = _plain(dict(metadata), "metadata")

@@ -24,6 +24,7 @@ from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
 from contactnet.network_input import network_input_one
 from contactnet.robots.description import RobotDescription
+from contactnet.stand import prefer_stand, split_stand
 from contactnet.terrain import Terrain
 
 
@@ -215,8 +216,11 @@ class OraclePlanner:
         nominal). It only fills the optimizer's horizon; the next plan re-evaluates from the new state."""
         gait = self.gait
         cyclic = gait.cyclic_order
-        group = gait.swing_groups.index(tuple(previous_legs))
-        legs = gait.swing_groups[cyclic[(cyclic.index(group) + 1) % len(cyclic)]]
+        if previous_legs:
+            group = gait.swing_groups.index(tuple(previous_legs))
+            legs = gait.swing_groups[cyclic[(cyclic.index(group) + 1) % len(cyclic)]]
+        else:  # after standing: the order's first group
+            legs = gait.swing_groups[cyclic[0]]
         vel = np.asarray(state.vel_cmd_world, dtype=float)
         half_stance = 0.5 * (len(cyclic) * gait.step_duration_s - gait.swing_duration_s)
         touchdown_s = (gait.n_stance_pre + gait.n_swing) * gait.node_dt_s
@@ -226,9 +230,10 @@ class OraclePlanner:
 
     def choose(self, costs, state, terrain: Terrain) -> PlannedStep:  # noqa: ANN001 - cost types
         """The cheapest safe action of one evaluated state (or the step in place, see the class doc)."""
-        order = costs.ranking()
+        order, stand_position = split_stand(self.gait, costs.ranking())
         cells = cell_grid(self.gait, costs.footholds_xy_world)
         step = first_safe_step(self.gait, order, cells, state.foot_pos_world, terrain, self.margin_m)
+        step = prefer_stand(self.gait, step, stand_position)
         self.last_candidates = CandidateRanking(self.gait, order, cells, terrain, self.margin_m,
                                                 step.action_index)
         return step
@@ -419,9 +424,9 @@ class ContactNetPlanner:
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None) -> None:
-        if model.gait != gait.name or model.n_actions != gait.n_actions:
-            raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} actions), "
-                             f"not {gait.name} ({gait.n_actions})")
+        if model.gait != gait.name or model.n_actions not in (gait.n_actions, gait.n_choices):
+            raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} outputs), "
+                             f"not {gait.name} ({gait.n_choices} choices: {gait.n_actions} actions and standing)")
         self.gait = gait
         self.robot = robot
         self.model = model
@@ -466,7 +471,7 @@ class ContactNetPlanner:
         steps = []
         for j in range(gait.steps_per_plan):
             u = network_input_one(feet_xy, com, vel, cmd_xy, ctx.yaw_rad, ground_z)
-            order = self._order(self.model.scores(u), j)
+            order, stand_position = split_stand(gait, self._order(self.model.scores(u), j))
             cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
             check = None
             if heights:
@@ -474,16 +479,19 @@ class ContactNetPlanner:
                 check = self._height_check(terrain, feet_xy.copy(), base_xy + hips_touchdown, tops.copy(),
                                            ctx.yaw_rad)
                 if j == 0:
-                    order = self._swing_cornered_legs_first(order, cells, terrain, feet_xy, tops, base_xy,
-                                                            to_world, cmd_world, ctx.yaw_rad)
-            step = first_safe_step(gait, order, cells, feet_xy, terrain, self.margin_m, check)
+                    promoted = self._swing_cornered_legs_first(order, cells, terrain, feet_xy, tops, base_xy,
+                                                               to_world, cmd_world, ctx.yaw_rad)
+                    if promoted is not order:  # a leg is cornered: it steps, the robot does not stand
+                        order, stand_position = promoted, None
+            step = prefer_stand(gait, first_safe_step(gait, order, cells, feet_xy, terrain, self.margin_m, check),
+                                stand_position)
             if j == 0:
                 self.last_candidates = CandidateRanking(gait, order, cells, terrain, self.margin_m,
                                                         step.action_index, check)
             steps.append(step)
             # The state a step later, as contactnet.cost.predicted_state predicts it.
             feet_xy[list(step.legs)] = step.footholds_xy_world
-            if heights:
+            if heights and step.legs:
                 tops[list(step.legs)] = terrain.ground_z(step.footholds_xy_world)
                 ground_z = sum(tops.tolist()) / len(tops)
             com[0:2] += shift

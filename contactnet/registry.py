@@ -88,8 +88,7 @@ def make_planner(name: str, gait: GaitSpec, robot: Robot | RobotDescription | No
         from contactnet.network import load_model
 
         path = model_path(description.name, gait.name) if model is None else Path(model)
-        loaded = load_model(path, expect_gait=gait.name, expect_n_actions=gait.n_actions,
-                            expect_robot=description.name, dtype="float32")
+        loaded = load_model(path, expect_gait=gait.name, expect_robot=description.name, dtype="float32")
     return entry.build(gait, description, loaded)
 
 

@@ -59,14 +59,16 @@ class DatasetError(ValueError):
 
 
 # ---- dataset -----------------------------------------------------------------------------------
-def _gait_n_actions(gait: Any) -> int | None:
-    """N_a of a registered gait, None for anything else."""
+def _gait_sizes(gait: Any) -> tuple[int, ...] | None:
+    """The numbers of ranked choices a dataset of a registered gait may have, None for anything else: N_a
+    (made before the stand choice) or N_a + 1 (the stepping actions, then standing)."""
     if not isinstance(gait, str):
         return None
     try:
-        return registry.gait_by_name(gait).n_actions
+        spec = registry.gait_by_name(gait)
     except ValueError:
         return None
+    return (spec.n_choices, spec.n_actions)
 
 
 def _check_arrays(u: np.ndarray, V: np.ndarray, episode: np.ndarray, n_actions: int, where: str) -> None:
@@ -109,11 +111,12 @@ class Dataset:
                     manifest: dict[str, Any] | None = None, path: Path | None = None,
                     robot: str = registry.DEFAULT_ROBOT) -> Dataset:
         """Checked in-memory dataset (episode ids default to one episode per instance)."""
-        n_actions = _gait_n_actions(gait)
-        if n_actions is None:
+        sizes = _gait_sizes(gait)
+        if sizes is None:
             raise DatasetError(f"unknown gait {gait!r}")
         u = np.ascontiguousarray(u, dtype=np.float32)
         V = np.ascontiguousarray(V, dtype=np.float32)
+        n_actions = V.shape[1] if V.ndim == 2 and V.shape[1] in sizes else sizes[0]
         episode = np.arange(len(u)) if episode is None else np.asarray(episode)
         if not np.issubdtype(episode.dtype, np.integer):
             raise DatasetError(f"{path or 'dataset'}: episode ids must be integers, got {episode.dtype}")
@@ -159,14 +162,16 @@ def load_dataset(directory: str | os.PathLike) -> Dataset:
         if key not in manifest:
             raise DatasetError(f"{manifest_path}: missing field {key!r}")
     gait = manifest["gait"]
-    n_actions = _gait_n_actions(gait)
-    if n_actions is None:
+    sizes = _gait_sizes(gait)
+    if sizes is None:
         raise DatasetError(f"{manifest_path}: unknown gait {gait!r} ({' or '.join(registry.gait_names())})")
     robot = manifest.get("robot", registry.DEFAULT_ROBOT)  # datasets made before the field: Solo12
     if not isinstance(robot, str) or not robot:
         raise DatasetError(f"{manifest_path}: robot must be a robot name, got {robot!r}")
-    if manifest["n_actions"] != n_actions:
-        raise DatasetError(f"{manifest_path}: n_actions is {manifest['n_actions']!r}, gait {gait!r} has {n_actions}")
+    if manifest["n_actions"] not in sizes:
+        raise DatasetError(f"{manifest_path}: n_actions is {manifest['n_actions']!r}, gait {gait!r} has "
+                           f"{sizes[0]} choices ({sizes[1]} actions and standing)")
+    n_actions = int(manifest["n_actions"])
     names = manifest["input_names"]
     if not (isinstance(names, list) and len(names) == N_INPUTS and all(isinstance(s, str) for s in names)):
         raise DatasetError(f"{manifest_path}: input_names must be a list of {N_INPUTS} strings")

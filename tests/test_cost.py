@@ -58,7 +58,8 @@ def costs() -> dict[str, RankingCost]:
 
 
 def reference_evaluate(cost: RankingCost, state: CostState) -> CostBreakdown:
-    """``RankingCost.evaluate``, plainly: one optimizer ``solve`` per action, shapely polygons, Python loops."""
+    """``RankingCost.evaluate``, plainly: one optimizer ``solve`` per choice (the actions, then standing), shapely
+    polygons, Python loops."""
     config = TrajoptConfig(n_nodes=cost.gait.nodes_per_step, dt_s=cost.gait.node_dt_s, solver="auto")
     opt = TrajectoryOptimizer(cost.model, config, cost.trajopt_weights)  # casadi + piqp, one at a time
     w = cost.weights
@@ -71,11 +72,14 @@ def reference_evaluate(cost: RankingCost, state: CostState) -> CostBreakdown:
     n = gait.nodes_per_step
     terms, success, coms, footholds, solutions = [], [], [], [], []
     opt_time = 0.0
-    for index in range(gait.n_actions):
-        action = gait.decode(index)
-        contact = gait.step_contact(action.legs)
+    for index in range(cost.n_choices):
+        if index == gait.stand_index:
+            legs, offsets = (), np.zeros((0, 2))
+        else:
+            legs, offsets = gait.decode(index).legs, gait.decode(index).offsets_xy
+        contact = gait.step_contact(legs)
         feet = np.repeat(feet_now[None], n, axis=0)
-        for leg, offset in zip(action.legs, action.offsets_xy, strict=True):
+        for leg, offset in zip(legs, offsets, strict=True):
             landing = grid_base + rot @ cost.hip_ref_xy_base[leg] + rot @ offset
             for k in range(gait.n_stance_pre + gait.n_swing, n):
                 feet[k, leg] = (landing[0], landing[1], state.ground_z)
@@ -113,7 +117,9 @@ def reference_evaluate(cost: RankingCost, state: CostState) -> CostBreakdown:
                     kin += 1.0 + (worst - cost.kin_threshold_m) / w.kin_ramp_m
         final = MultiPoint([tuple(feet[-1, leg, 0:2]) for leg in range(4)]).convex_hull
         cent = final.centroid.distance(Point(*com_xy[-1]))
-        terms.append([sol.cost, stab, kin, cent, final.area])
+        short = sum(max(0.0, 1.0 - float(np.hypot(*(feet[-1, leg, 0:2] - feet_now[leg, 0:2]))) / w.short_swing_m)
+                    for leg in legs)
+        terms.append([sol.cost, stab, kin, cent, final.area, float(len(legs)), short])
     breakdown = cost._finish(
         np.array(terms, dtype=float), np.array(success), np.array(coms), np.array(footholds), solutions
     )
@@ -226,7 +232,7 @@ def test_stab_walk_triangle(costs, com_xy, expected):
     state = nominal_state(SOLO12, (0.0, 0.0))
     a = WALK.encode(2, (CENTRE_CELL["walk"],))  # HL swings and lands back on its hip reference
     feet = rc._foot_plans(state)[..., 0:2]
-    terms = rc.geometric_terms(state, constant_com(WALK.n_actions, com_xy), feet)
+    terms = rc.geometric_terms(state, constant_com(WALK.n_choices, com_xy), feet)
     # inside the four-foot rectangle at nodes 0-2 and 7; the 4 swing nodes see the triangle FL FR HR
     assert terms[a, 0] == pytest.approx(expected(), abs=1e-12)
 
@@ -238,12 +244,12 @@ def test_stab_trot_segment_and_cent_area(costs):
     a = TROT.encode(0, (c, c))  # FL + HR swing, FR-HL stance, both land back on their hips
     feet = rc._foot_plans(state)[..., 0:2]
     p = (0.03, 0.03)
-    terms = rc.geometric_terms(state, constant_com(TROT.n_actions, p), feet)
+    terms = rc.geometric_terms(state, constant_com(TROT.n_choices, p), feet)
     assert terms[a, 0] == pytest.approx(4 * point_line_distance(p, HIPS[1], HIPS[2]))
     assert terms[a, 2] == pytest.approx(np.hypot(*p))  # V_cent: to the rectangle's centre
     assert terms[a, 3] == pytest.approx(4 * 0.1946 * 0.14695)  # V_area of the nominal rectangle
     far = (0.3, -0.2)  # beyond FR: outside everything, 8 nodes at the same corner distance
-    terms = rc.geometric_terms(state, constant_com(TROT.n_actions, far), feet)
+    terms = rc.geometric_terms(state, constant_com(TROT.n_choices, far), feet)
     assert terms[a, 0] == pytest.approx(8 * np.hypot(0.3 - 0.1946, -0.2 + 0.14695))
 
 
@@ -267,10 +273,10 @@ def test_kin_threshold_just_below_and_above(costs, excess):
 def test_weights_combine_the_terms(costs):
     result = costs["walk"].evaluate(nominal_state(SOLO12, (0.1, 0.0)))
     w = costs["walk"].weights
-    expected = result.terms @ np.array([w.opt, w.stab, w.kin, w.cent, -w.area])
+    expected = result.terms @ np.array([w.opt, w.stab, w.kin, w.cent, -w.area, w.swing, w.short])
     np.testing.assert_allclose(result.V, expected, rtol=1e-12)
     assert result.success.all()
-    assert result.com_traj_world.shape == (100, 9, 3)
+    assert result.com_traj_world.shape == (101, 9, 3)  # 100 actions, then standing
     assert np.all(result.terms[:, AREA] > 0)
 
 
@@ -332,7 +338,7 @@ def test_failed_optimizations_tie_at_the_bottom(costs, monkeypatch):
 
     monkeypatch.setattr(rc.optimizer, "solve_batch", with_failures)
     result = rc.evaluate(nominal_state(SOLO12, (0.1, 0.0)))
-    assert not result.success[failed].any() and result.success.sum() == 97
+    assert not result.success[failed].any() and result.success.sum() == 98  # 101 choices
     assert np.all(result.V[failed] == rc.weights.failure_cost)
     assert np.isnan(result.terms[failed]).all()
     np.testing.assert_array_equal(result.ranking()[-3:], sorted(failed))
@@ -387,7 +393,7 @@ def test_oracle_plans_three_steps_from_predicted_states():
     assert len(steps) == WALK.steps_per_plan
     assert all(s.rank == 0 and s.discarded == 0 and s.safe for s in steps)
     first = planner.last_costs
-    assert first.V.shape == (100,) and steps[0].action_index == int(first.ranking()[0])
+    assert first.V.shape == (101,) and steps[0].action_index == int(first.ranking()[0])
     # step 2 is chosen from the state predicted one step horizon later: its grid moved with the body
     state2 = predicted_state(planner.last_state, steps[0].footholds_xy_world, steps[0].legs,
                              WALK.step_duration_s)
@@ -437,10 +443,19 @@ def islands(points_xy, radius=0.02) -> Terrain:
     return Terrain.from_dict({"name": "islands", "start": [0.0, 0.0], "goal_x": 1.0, "regions": regions})
 
 
+def test_oracle_stands_when_no_action_is_safe():
+    """With the stand choice, nothing safe to step on means standing, whatever standing's rank."""
+    offsets = np.full((4, 2), 0.025)
+    planner = OraclePlanner(WALK, SOLO12)
+    step = planner.plan(context(islands(HIPS + offsets), foot_offsets_xy=offsets))[0]
+    assert step.legs == () and step.action_index == WALK.stand_index and step.safe
+    assert step.footholds_xy_world.shape == (0, 2)
+
+
 def test_oracle_steps_in_place_when_no_action_is_safe():
     offsets = np.full((4, 2), 0.025)  # every candidate is >= 3.5 cm from a foot
     feet_xy = HIPS + offsets
-    planner = OraclePlanner(WALK, SOLO12)
+    planner = OraclePlanner(WALK, SOLO12, weights=dataclasses.replace(WALK.cost_weights, stand=False))
     ranking = planner.cost.evaluate(CostState.from_context(context(flat(), foot_offsets_xy=offsets), FOOT_RADIUS_M)).ranking()
     groups = list(dict.fromkeys(WALK.decode(int(a)).group for a in ranking))
 

@@ -39,12 +39,12 @@ def test_generate_writes_shards_and_a_manifest(dataset):
     assert manifest["complete"] and manifest["episodes"] == 3 and manifest["gait"] == "walk"
     assert manifest["robot"] == manifest["settings"]["robot"] == "solo12"
     assert manifest["shards"] == [shard_name(i) for i in range(3)]
-    assert manifest["input_names"] == list(INPUT_NAMES) and manifest["n_actions"] == WALK.n_actions
+    assert manifest["input_names"] == list(INPUT_NAMES) and manifest["n_actions"] == WALK.n_choices  # with standing
     total = 0
     for i, name in enumerate(manifest["shards"]):
         with np.load(dataset / name) as shard:
             u, V, episode = shard["u"], shard["V"], shard["episode"]
-        assert u.shape[1] == 14 and V.shape == (len(u), WALK.n_actions) and (episode == i).all()
+        assert u.shape[1] == 14 and V.shape == (len(u), WALK.n_choices) and (episode == i).all()
         assert len(u) == 4 or manifest["falls"] > 0  # 4 instances unless the episode fell
         assert np.isfinite(u).all() and np.isfinite(V).any(axis=1).all()
         assert 0.1 < u[:, 8].min() and u[:, 8].max() < 0.35  # CoM height above the ground
@@ -147,7 +147,7 @@ def test_tiny_pipeline_datagen_train_load_plan(dataset, tmp_path, robot, capsys)
                  "--quiet"]) == 0
     assert "top-5" in capsys.readouterr().out
     model = load_model(model_path, expect_gait="walk")
-    assert model.n_actions == WALK.n_actions and model.metadata["training"]["epochs_done"] == 5
+    assert model.n_actions == WALK.n_choices and model.metadata["training"]["epochs_done"] == 5
     from contactnet.bench.planner import planning_contexts
     from contactnet.terrain import random_field
 
@@ -158,7 +158,9 @@ def test_tiny_pipeline_datagen_train_load_plan(dataset, tmp_path, robot, capsys)
         assert len(steps) == WALK.steps_per_plan
         for step in steps:
             assert step.footholds_xy_world.shape == (len(step.legs), 2)
-            if step.action_index is not None:
+            if step.action_index == WALK.stand_index:  # standing: no leg moves
+                assert step.legs == () and step.rank is not None
+            elif step.action_index is not None:
                 assert terrain.is_safe(step.footholds_xy_world, planner.margin_m).all()
             else:  # stepped in place: only when no candidate at all was safe
                 assert step.discarded == WALK.n_actions

@@ -176,7 +176,7 @@ def _fake_shard_arrays(config: DatagenConfig, shard: int):
     rng = np.random.default_rng([config.seed, shard])
     n = config.instances_per_episode * len(config.shard_episodes(shard))
     u = rng.normal(size=(n, 14)).astype(np.float32)
-    V = rng.uniform(0, 1, size=(n, WALK.n_actions)).astype(np.float32)
+    V = rng.uniform(0, 1, size=(n, WALK.n_choices)).astype(np.float32)
     return u, V, np.full(n, shard, dtype=np.int32), 0
 
 

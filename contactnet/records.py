@@ -1,0 +1,56 @@
+"""What a run of the locomotion loop records: one ``StepRecord`` per planned step horizon, and timing statistics."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: A step whose swinging feet all land closer than this to where they lifted off is useless (``useless_steps``).
+USELESS_STEP_M = 0.02
+
+
+@dataclass
+class StepRecord:
+    """One executed step: what was planned and what it cost."""
+
+    t_s: float
+    legs: tuple[str, ...]
+    footholds_xy_world: np.ndarray
+    planner_s: float
+    rank: int | None
+    discarded: int
+    safe_landing: bool
+    # Largest rise or drop (m) of the tops under a swinging foot from lift-off to touchdown, measured at the
+    # next plan (NaN until then).
+    height_change_m: float = math.nan
+    # How far (m, horizontally) the swinging feet moved from lift-off, the most of them, measured at the next plan
+    # (NaN until then; 0 for standing).
+    moved_m: float = math.nan
+
+    @property
+    def stand(self) -> bool:
+        """The planner chose not to step: no leg swung during this step horizon."""
+        return not self.legs
+
+    @property
+    def useless(self) -> bool:
+        """A step whose swinging feet all landed less than ``USELESS_STEP_M`` from where they lifted off."""
+        return bool(self.legs) and self.moved_m < USELESS_STEP_M
+
+
+def summary_stats(values_s: list[float]) -> dict[str, float]:
+    """mean / median / p99 / max in milliseconds (zeros when empty)."""
+    if not values_s:
+        return {"mean": 0.0, "median": 0.0, "p99": 0.0, "max": 0.0}
+    ms = np.asarray(values_s) * 1e3
+    return {
+        "mean": float(ms.mean()),
+        "median": float(np.median(ms)),
+        "p99": float(np.percentile(ms, 99)),
+        "max": float(ms.max()),
+    }
+
+
+__all__ = ["USELESS_STEP_M", "StepRecord", "summary_stats"]

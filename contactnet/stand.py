@@ -1,0 +1,38 @@
+"""The stand choice (issue 14): beside its stepping actions a ranking planner may choose not to step.
+
+Standing (``GaitSpec.stand_index``) keeps all four feet in stance for the next step horizon. A ranking over
+choices (the ranking cost's, or a network's with N_a + 1 outputs) holds it like any action; since no foot
+moves, standing is always safe, so the planner takes it when it ranks above the best *safe* stepping action
+(or when no stepping action is safe at all). See ``contactnet.cost`` for how the cost scores it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from contactnet.gait import GaitSpec
+
+
+def split_stand(gait: GaitSpec, order: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """A ranking of choices (best first) as the stepping actions in their order and the position of standing
+    (``gait.stand_index``) in it, None when standing is not in the ranking."""
+    order = np.asarray(order)
+    stand = order == gait.stand_index
+    if not stand.any():
+        return order, None
+    return order[~stand], int(stand.argmax())
+
+
+def prefer_stand(gait: GaitSpec, step, stand_position: int | None):  # noqa: ANN001, ANN201 - planner.PlannedStep
+    """``step`` (a ``PlannedStep``: the first safe stepping action, ``rank`` its position among the stepping
+    actions, or a step in place with ``rank`` None) or standing, whichever ranks first. Standing is a step with
+    no legs, ranked at ``stand_position`` (every stepping action ranked above it was unsafe)."""
+    if stand_position is None or (step.rank is not None and step.rank < stand_position):
+        return step
+    return dataclasses.replace(step, legs=(), footholds_xy_world=np.zeros((0, 2)), action_index=gait.stand_index,
+                               rank=stand_position, discarded=stand_position, safe=True)
+
+
+__all__ = ["prefer_stand", "split_stand"]
