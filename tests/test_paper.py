@@ -212,8 +212,13 @@ def test_a_tiny_paper_run_end_to_end_resumes_and_reports(tmp_path, capsys):
     again = run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY, command="tiny run")
     assert again["ran"] == 0
     assert {folder: (out / folder / "trials.jsonl").read_text() for folder in logs} == logs
+    # A trial lost (as if killed before it was logged) runs again, alone.
+    (out / "table2" / "trials.jsonl").write_text("")
+    assert run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY, command="tiny run")["ran"] == 1
+    assert (out / "table2" / "trials.jsonl").read_text().count("\n") == 1
     header = json.loads((out / "paper.json").read_text())
-    assert [run["trials_run"] for run in header["runs"]] == [3, 0] and header["runs"][1]["trials_reused"] == 3
+    assert [run["trials_run"] for run in header["runs"]] == [3, 0, 1] and header["runs"][1]["trials_reused"] == 3
+    logs["table2"] = (out / "table2" / "trials.jsonl").read_text()
     # The report: the trials' own numbers; regenerated from the stored trials by the command line.
     (out / "report.md").unlink()
     assert main(["report", str(out)]) == 0 and "report.html" in capsys.readouterr().out

@@ -98,12 +98,26 @@ def rate_of(records: list[dict]) -> Rate:
     return Rate(sum(bool(r["success"]) for r in records), len(records))
 
 
+#: The order of the report's rows: these values first, in this order, then the others (numbers by value).
+ROW_ORDER = {value: rank for rank, value in enumerate(
+    ("walk", "trot", "contactnet", "fixed", "heuristic", "oracle", "+x", "-x", "+y", "-y"))}
+
+
+def _row_key(value: object) -> tuple:
+    if isinstance(value, str):
+        return (0, ROW_ORDER.get(value, len(ROW_ORDER)), value)
+    if isinstance(value, int | float):
+        return (1, 0, float(value))
+    return (2, 0, str(value))
+
+
 def group(records: list[dict], key: Callable[[dict], tuple]) -> dict[tuple, list[dict]]:
-    """The records by ``key(record["trial"])``, keys sorted."""
+    """The records by ``key(record["trial"])``, in the report's row order (walk before trot, ContactNet before
+    the fixed gait, numbers by value)."""
     groups: dict[tuple, list[dict]] = {}
     for r in records:
         groups.setdefault(key(r["trial"]), []).append(r)
-    return {k: groups[k] for k in sorted(groups, key=lambda k: tuple(map(str, k)))}
+    return {k: groups[k] for k in sorted(groups, key=lambda k: tuple(map(_row_key, k)))}
 
 
 def outcome(record: dict) -> str:
