@@ -67,6 +67,13 @@ def _ms(value: float) -> str:
     return "-" if value is None or np.isnan(value) else f"{value:.3f}"
 
 
+def _load(load: dict | None) -> str:
+    """The machine's load average at a run's start and end (other work on the machine slows trials down)."""
+    if not isinstance(load, dict):
+        return "-"
+    return " / ".join("-" if load.get(k) is None else f"{load[k]:.1f}" for k in ("start", "end"))
+
+
 def _seconds(s: float) -> str:
     return f"{s / 3600:.2f} h" if s >= 3600 else f"{s / 60:.1f} min" if s >= 60 else f"{s:.0f} s"
 
@@ -180,10 +187,11 @@ def _run(r: _Report) -> None:
     rows = [[run.get("started_utc", "?"), f"`{run.get('command', '')}`", run.get("trials_run", 0),
              run.get("trials_reused", 0), _seconds(run.get("wall_s", 0.0)),
              f"{run.get('trials_run', 0) / max(run.get('wall_s', 0.0), 1e-9):.3f}" if run.get("trials_run") else "-",
-             f"{run.get('workers')} ({run.get('engine', 'local')})", "yes" if run.get("interrupted") else ""]
+             f"{run.get('workers')} ({run.get('engine', 'local')})", _load(run.get("load_average")),
+             "yes" if run.get("interrupted") else ""]
             for run in runs]
     r.add(*table(["started (UTC)", "command", "trials run", "reused", "wall time", "trials/s", "workers (engine)",
-                  "interrupted"], rows))
+                  "load average start / end", "interrupted"], rows))
     wall = sum(run.get("wall_s", 0.0) for run in runs)
     ran = sum(run.get("trials_run", 0) for run in runs)
     r.add(f"Total: {ran} trials run in {_seconds(wall)} of wall time ({ran / max(wall, 1e-9):.3f} trials/s).", "")
@@ -283,7 +291,8 @@ def _table1(r: _Report) -> None:
 def _table2(r: _Report) -> None:
     r.add("## Table II: acyclic vs fixed gait, n = 110", "",
           "The same random fields (seed i = terrain i) with 110 squares removed, walk: ContactNet choosing leg and "
-          "foothold (optimized acyclic) and the same network held to a fixed leg order (fixed cyclic).", "")
+          "foothold (optimized acyclic) and the same network held to a fixed leg order (fixed cyclic). The paper prints "
+          "93.6 % for its 281 / 300 (93.67 %).", "")
     section = r.section("table2")
     if not section:
         return r.missing("table2")

@@ -37,6 +37,14 @@ from contactnet.paper.plan import PAPER_SECTIONS, Section, plan_trials
 from contactnet.paper.provenance import code_version, machine
 
 
+def _load_average() -> float | None:
+    """The machine's 1-minute load average (other work slows the trials down), None where unknown."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except (AttributeError, OSError):
+        return None
+
+
 def _order(trial: Trial) -> tuple[int, float]:
     """Seed by seed (push: push time by push time) across all sections."""
     return trial.seed, trial.push_t0_s or 0.0
@@ -68,6 +76,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
     tally = {"ok": sum(bool(r["success"]) for b in batches.values() for r in b.done.values()),
              "finished": len(done), "ran": 0}
     started = datetime.now(UTC).isoformat(timespec="seconds")
+    load_before = _load_average()
     t0 = time.perf_counter()
 
     def on_result(job: Job, record: dict) -> dict:
@@ -89,6 +98,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
             "command": command, "started_utc": started, "wall_s": wall_s, "trials_run": tally["ran"],
             "trials_reused": len(done), "trials_planned": len(jobs), "scale": scale,
             "workers": workers or os.cpu_count(), "engine": engine, "interrupted": interrupted,
+            "load_average": {"start": load_before, "end": _load_average()},
             "code": code_version(), "machine": machine()})
         atomic_write_text(out / HEADER_NAME, json.dumps(header, indent=1))
     summaries = {folder: close_batch(batch, wall_s) for folder, batch in batches.items()}
