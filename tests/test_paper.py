@@ -103,7 +103,8 @@ def _record(key, trial, success, planner_ms=0.3):
             "rank_chosen": {"mean": 2.0, "max": 9}, "unsafe_landings": 0, "trajopt_failures": 0,
             "max_height_change_m": 0.0, "planner_ms_samples": [planner_ms] * 5, "trajopt_ms_samples": [4.0, 5.0],
             "inputs": {"model": f"file-sha256:model-of-{trial['gait']}", "code": {"contactnet": "0.1.0",
-                                                                                   "sources": "abc"}}}
+                                                                                   "sources": "abc"}},
+            "paper_run": 0}
 
 
 def _stored_run(out: Path) -> None:
@@ -124,7 +125,7 @@ def _stored_run(out: Path) -> None:
     }
     header = {"format": "contactnet-paper-v1", "scale": 0.5, "runs": [
         {"command": "contactnet experiment paper --out X --scale 0.5", "started_utc": "2026-01-01T00:00:00+00:00",
-         "wall_s": 3600.0, "trials_run": 624, "trials_reused": 0, "workers": 2, "engine": "local",
+         "wall_s": 3600.0, "cpu_s": 2000.0, "trials_run": 624, "trials_reused": 0, "workers": 2, "engine": "local",
          "interrupted": False, "code": {"git_describe": "v1-3-gabc", "git_commit": "abc", "contactnet": "0.1.0",
                                         "sources": "abc"},
          "machine": {"cpu": "Test CPU", "cores": 2, "usable_cores": 2, "python": "3.11", "packages": {}}}],
@@ -163,6 +164,9 @@ def test_the_report_of_stored_trials_has_the_numbers_beside_the_papers(tmp_path)
     assert re.search(r"\| fell: base tilted over \| 1 \| 63 \| 1 \|", md)  # outcomes by section
     assert "`contactnet experiment paper --out X --scale 0.5`" in md and "v1-3-gabc" in md and "Test CPU" in md
     assert "file-sha256:model-of-walk" in md and "Estimate for the full plan (1248 trials)" in md
+    # 624 trials of 11 s in 3600 s of wall time with 2000 CPU s; the full plan has twice the trials
+    assert "2.00 h at this run's parallelism (1.91 trials at a time" in md
+    assert "33.3 min on 2 idle cores (the runs used 0.29 CPU s per trial second)" in md  # 2 x 2000 CPU s / 2
     assert "Scaled run" in md and "Incomplete" not in md
     html = html_path.read_text()
     _assert_self_contained(html)

@@ -186,11 +186,13 @@ def _run(r: _Report) -> None:
     r.add("## Run", "")
     rows = [[run.get("started_utc", "?"), f"`{run.get('command', '')}`", run.get("trials_run", 0),
              run.get("trials_reused", 0), _seconds(run.get("wall_s", 0.0)),
+             "-" if run.get("cpu_s") is None else _seconds(run["cpu_s"]),
              f"{run.get('trials_run', 0) / max(run.get('wall_s', 0.0), 1e-9):.3f}" if run.get("trials_run") else "-",
              f"{run.get('workers')} ({run.get('engine', 'local')})", _load(run.get("load_average")),
              "yes" if run.get("interrupted") else ""]
             for run in runs]
-    r.add(*table(["started (UTC)", "command", "trials run", "reused", "wall time", "trials/s", "workers (engine)",
+    r.add(*table(["started (UTC)", "command", "trials run", "reused", "wall time", "CPU time", "trials/s",
+                  "workers (engine)",
                   "load average start / end", "interrupted"], rows))
     wall = sum(run.get("wall_s", 0.0) for run in runs)
     ran = sum(run.get("trials_run", 0) for run in runs)
@@ -233,18 +235,30 @@ def _code_of_trials(r: _Report) -> dict:
 
 
 def _estimate(r: _Report, wall_s: float) -> None:
-    """The full plan's wall time, estimated from this run's mean trial time per section and its parallelism."""
+    """The full plan's wall time, estimated from the stored trials' mean time per section (in their workers):
+    at the parallelism the runs achieved on this machine as loaded as it was, and on an idle machine from the CPU
+    time the runs used per second of trial (all usable cores busy)."""
     if r.header.get("scale", 1.0) >= 1.0 or wall_s <= 0:
         return
-    worker_s = sum(x.get("trial_wall_s", 0.0) for s in r.sections.values() for x in s.records)
+    records = [x for s in r.sections.values() for x in s.records]
+    worker_s = sum(x.get("trial_wall_s", 0.0) for x in records)
     if worker_s <= 0:
         return
+    full_worker_s = sum(s.full * np.mean([x.get("trial_wall_s", 0.0) for x in s.records])
+                        for s in r.sections.values() if s.records)
     parallel = worker_s / wall_s
-    total = sum(s.full * np.mean([x.get("trial_wall_s", 0.0) for x in s.records])
-                for s in r.sections.values() if s.records)
-    r.add(f"Estimate for the full plan ({sum(s.full for s in r.sections.values())} trials): "
-          f"{_seconds(total / parallel)} (each section's mean trial time here times its full number of trials, "
-          f"over this run's parallelism of {parallel:.2f} trials at a time).", "")
+    text = (f"Estimate for the full plan ({sum(s.full for s in r.sections.values())} trials), from each section's "
+            f"mean trial time here times its full number of trials: {_seconds(full_worker_s / parallel)} at this "
+            f"run's parallelism ({parallel:.2f} trials at a time, the machine as loaded as it was)")
+    runs = r.header.get("runs", [])
+    timed = {i for i, run in enumerate(runs) if run.get("cpu_s") and run.get("engine", "local") == "local"}
+    timed_worker_s = sum(x.get("trial_wall_s", 0.0) for x in records if x.get("paper_run") in timed)
+    cores = (runs[-1].get("machine") or {}).get("usable_cores") if runs else None
+    if timed_worker_s > 0 and cores:
+        cpu_share = sum(runs[i]["cpu_s"] for i in timed) / timed_worker_s
+        text += (f"; {_seconds(full_worker_s * cpu_share / cores)} on {cores} idle cores (the runs used "
+                 f"{cpu_share:.2f} CPU s per trial second)")
+    r.add(text + ".", "")
 
 
 def _fig5(r: _Report) -> None:

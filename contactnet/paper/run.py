@@ -7,7 +7,8 @@ The trials of all sections missing so far run in one `run_jobs` call, so one pro
 (trials done / total, ETA, successes so far and trials/s of this run) and the workers stay busy from the
 first trial to the last. They run seed by seed (every section's seed 0 first), so an interrupted run has
 touched every section. ``DIR/paper.json`` (the folder's header) holds the scale, the sections and one entry
-per invocation (command, start, wall time, trials run, code version, machine); the report
+per invocation (command, start, wall and CPU time, trials run, load average, code version, machine); each trial
+record names the invocation that ran it (``paper_run``: its index there). The report
 (`contactnet.paper.report`) is written at the end and again by ``contactnet report DIR``.
 """
 
@@ -35,6 +36,15 @@ from contactnet.jobs import ENGINES, Job, run_jobs
 from contactnet.paper.layout import HEADER_FORMAT, HEADER_NAME, read_header
 from contactnet.paper.plan import PAPER_SECTIONS, Section, plan_trials
 from contactnet.paper.provenance import code_version, machine
+
+
+def _cpu_s() -> float:
+    """CPU seconds used so far by this process and its finished child processes (the local engine's workers,
+    counted once the pool has been joined; a Ray cluster's workers are not children: not counted)."""
+    import resource
+
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
 def _load_average() -> float | None:
@@ -77,10 +87,11 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
              "finished": len(done), "ran": 0}
     started = datetime.now(UTC).isoformat(timespec="seconds")
     load_before = _load_average()
-    t0 = time.perf_counter()
+    run_index = len(header["runs"])
+    cpu0, t0 = _cpu_s(), time.perf_counter()
 
     def on_result(job: Job, record: dict) -> dict:
-        record = log_record(batches[job.key[0]], record)
+        record = log_record(batches[job.key[0]], {**record, "paper_run": run_index})
         tally["ok"] += bool(record["success"])
         tally["finished"] += 1
         tally["ran"] += 1
@@ -94,8 +105,9 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
         interrupted = False
     finally:  # also after Ctrl-C: the report counts this run's wall time and trials
         wall_s = time.perf_counter() - t0
+        cpu_s = _cpu_s() - cpu0
         header["runs"].append({
-            "command": command, "started_utc": started, "wall_s": wall_s, "trials_run": tally["ran"],
+            "command": command, "started_utc": started, "wall_s": wall_s, "cpu_s": cpu_s, "trials_run": tally["ran"],
             "trials_reused": len(done), "trials_planned": len(jobs), "scale": scale,
             "workers": workers or os.cpu_count(), "engine": engine, "interrupted": interrupted,
             "load_average": {"start": load_before, "end": _load_average()},
