@@ -8,12 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
+from contactnet.paper import reference
 from contactnet.paper.results import Rate, SectionResult, group, rate_of, samples
 
-PAPER_TABLE1_MS = {"walk": {50: 1.272, 60: 0.938, 70: 0.944, 80: 1.152, 90: 1.0584, 100: 0.9167},
-                   "trot": {50: 1.507, 60: 7.950, 70: 0.803, 80: 0.785, 90: 0.874, 100: 0.7899}}
-PAPER_TABLE2 = {"contactnet": Rate(281, 300), "fixed": Rate(256, 300)}
-PAPER_TABLE2_PERCENT = {"contactnet": 93.6, "fixed": 85.3}  # as the paper prints them (281 / 300 is 93.67 %)
 COLORS = {"walk": "#1f6fd1", "trot": "#d1641f"}
 
 
@@ -77,7 +74,7 @@ def plot_table1(rows: list[tuple[int, dict[str, float]]], path: Path) -> None:
         ours = [(n, ms[gait]) for n, ms in rows if not np.isnan(ms.get(gait, np.nan))]
         if ours:
             ax.plot(*zip(*ours, strict=True), marker="o", color=COLORS[gait], label=f"{gait}, ours")
-        paper = sorted(PAPER_TABLE1_MS[gait].items())
+        paper = sorted(reference.TABLE1_MS[gait].items())
         ax.plot(*zip(*paper, strict=True), linestyle="--", marker="x", color=COLORS[gait], alpha=0.6,
                 label=f"{gait}, paper")
     ax.set_yscale("log")
@@ -101,7 +98,7 @@ def plot_table2(section: SectionResult, path: Path) -> None:
     x = np.arange(len(planners))
     for offset, (label, rates, style) in zip((-0.18, 0.18), (
             ("ours", [ours[p] for p in planners], {"color": "#1f6fd1"}),
-            ("paper", [PAPER_TABLE2.get(p, Rate(0, 0)) for p in planners], {"color": "#bbbbbb", "hatch": "//"})),
+            ("paper", [reference.TABLE2.get(p, Rate(0, 0)) for p in planners], {"color": "#bbbbbb", "hatch": "//"})),
             strict=True):
         shown = [r for r in rates if r.trials]
         xs = [xi + offset for xi, r in zip(x, rates, strict=True) if r.trials]

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from contactnet.atomic import atomic_write_text
-from contactnet.paper import plots
+from contactnet.paper import plots, reference
 from contactnet.paper.results import (
     SectionResult,
     group,
@@ -30,17 +30,6 @@ from contactnet.paper.results import (
 )
 
 PLOTS = "report_plots"
-PAPER_SUMMARY = {
-    "fig5": "high success for both gaits, the walk above the trot; noise no significant reduction (a figure "
-            "without numbers in the text)",
-    "fig5 walk": "high (a figure without numbers in the text)",
-    "fig5 trot": "high, below the walk",
-    "fig5 noise": "no significant reduction",
-    "push": "recovers from pushes of up to +-5 N for 1 s in both directions (no numbers)",
-    "stepping_stones": "ContactNet crosses; on average the 6th element of the ranking chosen, at most 30 "
-                       "discarded; 1.6 ms mean planner time",
-    "narrow_stones": "the fixed cyclic gait fails, the acyclic ContactNet crosses",
-}
 UNEVEN = ("stairs", "raised_stones", "random_heights")
 
 
@@ -55,11 +44,11 @@ def table(headers: list[str], rows: list[list[object]]) -> list[str]:
 
 def _paper_table2(planner: str) -> str:
     """The paper's Table II row: its counts and printed rate, with the Wilson interval of the counts."""
-    if planner not in plots.PAPER_TABLE2:
+    if planner not in reference.TABLE2:
         return "-"
-    rate = plots.PAPER_TABLE2[planner]
+    rate = reference.TABLE2[planner]
     low, high = rate.interval
-    return (f"{rate.successes} / {rate.trials} ({plots.PAPER_TABLE2_PERCENT[planner]:.1f} %, "
+    return (f"{rate.successes} / {rate.trials} ({reference.TABLE2_PERCENT[planner]:.1f} %, "
             f"{100 * low:.1f}-{100 * high:.1f})")
 
 
@@ -143,20 +132,20 @@ def _summary(r: _Report) -> None:
             target = ">= 95 % at every n" if gait == "walk" else "reported"
             met = r.met(all(c.rate >= 0.95 for c in clean.values())) if gait == "walk" else ""
             rows.append([f"Fig. 5, {gait}, no noise: lowest over n = {min(clean)}-{max(clean)}",
-                         f"n = {n_low}: {clean[n_low].text()}", PAPER_SUMMARY[f"fig5 {gait}"], target, met])
+                         f"n = {n_low}: {clean[n_low].text()}", reference.SAYS[f"fig5 {gait}"], target, met])
         for gait in ("walk", "trot"):
             by_noise = {noise: rate_of([x for (g, v, _), rs in cells.items() if g == gait and v == noise for x in rs])
                         for noise in sorted({v for (g, v, _) in cells if g == gait})}
             if len(by_noise) > 1:
                 rows.append([f"Fig. 5, {gait}, all n: without / with noise",
-                             " / ".join(f"{rate.text()}" for rate in by_noise.values()), PAPER_SUMMARY["fig5 noise"],
+                             " / ".join(f"{rate.text()}" for rate in by_noise.values()), reference.SAYS["fig5 noise"],
                              "", ""])
     table2 = r.section("table2")
     if table2:
         by_planner = {p: rate_of(rs) for (p,), rs in group(table2.records, lambda t: (t["planner"],)).items()}
-        for planner in plots.PAPER_TABLE2:
+        for planner in reference.TABLE2:
             if planner in by_planner:
-                percent = plots.PAPER_TABLE2_PERCENT[planner]
+                percent = reference.TABLE2_PERCENT[planner]
                 target = f">= {percent:.1f} %" if planner == "contactnet" else ""
                 met = r.met(by_planner[planner].rate >= percent / 100) if planner == "contactnet" else ""
                 rows.append([f"Table II, n = 110, {'acyclic' if planner == 'contactnet' else 'fixed gait'}",
@@ -164,14 +153,14 @@ def _summary(r: _Report) -> None:
     push = r.section("push")
     if push:
         falls = sum(bool(x["fell"]) for x in push.records)
-        rows.append(["Push +-5 N: falls", f"{falls} of {len(push.records)}", PAPER_SUMMARY["push"], "0 falls",
+        rows.append(["Push +-5 N: falls", f"{falls} of {len(push.records)}", reference.SAYS["push"], "0 falls",
                      r.met(falls == 0)])
     for folder in ("stepping_stones", "narrow_stones"):
         scene = r.section(folder)
         if scene:
             by_planner = group(scene.records, lambda t: (t["planner"],))
             ours = "; ".join(f"{p}: {rate_of(rs).successes} / {len(rs)} crossed" for (p,), rs in by_planner.items())
-            rows.append([scene.title, ours, PAPER_SUMMARY[folder], "", ""])
+            rows.append([scene.title, ours, reference.SAYS[folder], "", ""])
     r.add("## Summary", "")
     if rows:
         r.add(*table(["result", "ours", "paper", "target (issue 15)", "met"], rows))
@@ -264,7 +253,7 @@ def _estimate(r: _Report, wall_s: float) -> None:
 def _fig5(r: _Report) -> None:
     r.add("## Fig. 5: random field, success vs squares removed", "",
           "1.5 x 0.5 m of 300 squares of 5 x 5 cm, n removed at random (seed i = terrain i), vx = 0.05 m/s, "
-          "ContactNet; without and with joint-velocity noise of variance 0.01. Paper: " + PAPER_SUMMARY["fig5"]
+          "ContactNet; without and with joint-velocity noise of variance 0.01. Paper: " + reference.SAYS["fig5"]
           + "; 100 attempts per point.", "")
     section = r.section("fig5")
     if not section:
@@ -295,7 +284,7 @@ def _table1(r: _Report) -> None:
         for gait in ("walk", "trot"):
             calls = samples(cells.get((n, gait), []), "planner")
             row += [_ms(mean[gait]), _ms(float(np.median(calls)) if calls.size else np.nan),
-                    _ms(plots.PAPER_TABLE1_MS[gait].get(n, np.nan))]
+                    _ms(reference.TABLE1_MS[gait].get(n, np.nan))]
         rows.append(row)
     r.add(*table(["n removed", "walk: ours mean", "walk: ours median", "walk: paper", "trot: ours mean",
                   "trot: ours median", "trot: paper"], rows))
@@ -329,7 +318,7 @@ def _push(r: _Report) -> None:
     r.add("## Push recovery", "",
           "Walk and trot at vx = 0.05 m/s on `push_field` (10 x 10 cm holes); one push of 5 N for 1 s per trial, "
           "along +x, -x, +y or -y, at one of the push times (from 4 s, every 1.5 s); success = no fall 4 s after the "
-          "push. Paper: " + PAPER_SUMMARY["push"] + ".", "")
+          "push. Paper: " + reference.SAYS["push"] + ".", "")
     section = r.section("push")
     if not section:
         return r.missing("push")
@@ -350,7 +339,7 @@ def _stones(r: _Report) -> None:
     r.add("## Stepping stones and narrow stones", "")
     for folder in ("stepping_stones", "narrow_stones"):
         section = r.section(folder)
-        r.add(f"### {section.title if section else folder}", "", "Paper: " + PAPER_SUMMARY[folder] + ".", "")
+        r.add(f"### {section.title if section else folder}", "", "Paper: " + reference.SAYS[folder] + ".", "")
         if not section:
             r.missing(folder)
             continue
