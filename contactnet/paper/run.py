@@ -87,6 +87,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
              "finished": len(done), "ran": 0}
     started = datetime.now(UTC).isoformat(timespec="seconds")
     load_before = _load_average()
+    code, computer = code_version(), machine()  # now: the checkout may change while the trials run
     run_index = len(header["runs"])
     cpu0, t0 = _cpu_s(), time.perf_counter()
 
@@ -111,7 +112,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
             "trials_reused": len(done), "trials_planned": len(jobs), "scale": scale,
             "workers": workers or os.cpu_count(), "engine": engine, "interrupted": interrupted,
             "load_average": {"start": load_before, "end": _load_average()},
-            "code": code_version(), "machine": machine()})
+            "code": code, "machine": computer})
         atomic_write_text(out / HEADER_NAME, json.dumps(header, indent=1))
     summaries = {folder: close_batch(batch, wall_s) for folder, batch in batches.items()}
     if report:
