@@ -269,6 +269,12 @@ def cmd_train(args: argparse.Namespace) -> int:
 def cmd_experiment(args: argparse.Namespace) -> int:
     from contactnet.experiment import DEFAULT_HEIGHT_M, format_summary, run_experiment, trials_of
 
+    if args.name == "paper":
+        from contactnet.paper.run import paper_command
+
+        return paper_command(args)
+    if args.scale is not None or args.report_only:
+        raise UserError("--scale and --report-only are options of experiment paper")
     model_dir = args.model_dir
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
@@ -289,6 +295,12 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     print(format_summary(summary))
     print(f"wrote {Path(args.out) / 'summary.json'} and {Path(args.out) / 'success.png'}")
     return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from contactnet.paper.run import report_command
+
+    return report_command(Path(args.dir))
 
 
 # ---- parser ------------------------------------------------------------------------------------
@@ -382,7 +394,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
     experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random", "stairs",
-                                             "raised_stones", "random_heights", "push"])
+                                             "raised_stones", "random_heights", "push", "paper"],
+                            help="paper: the paper's whole Sec. IV (every experiment, its numbers of trials) and "
+                                 "a report in DIR")
+    experiment.add_argument("--scale", type=_bounded_float("--scale", 1e-6, 1.0), default=None,
+                            help="paper: run this share of every batch (at least 1 trial per cell; default 1)")
+    experiment.add_argument("--report-only", action="store_true",
+                            help="paper: write DIR's report from its stored trials, run nothing")
     experiment.add_argument("--trials", type=_positive_int("--trials", 10**5),
                             help="seeds per setting (default: 20 on random and random_heights, 5 on raised_stones, "
                                  "1 on the others)")
@@ -411,6 +429,10 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     experiment.set_defaults(func=cmd_experiment)
+
+    report = sub.add_parser("report", help="write the report of an `experiment paper` folder from its stored trials")
+    report.add_argument("dir", metavar="DIR")
+    report.set_defaults(func=cmd_report)
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
     bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion", "live", "upload"])

@@ -29,7 +29,11 @@ Every trial is one `Locomotion` run (the same loop as `contactnet simulate`) unt
 time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Trials run in worker
 processes (``contactnet.jobs``); each finished trial is appended to ``DIR/trials.jsonl`` at once, so an
 interrupted experiment resumes with the trials still missing. At the end: ``summary.json``, a table on stdout, and
-``success.png`` (the success rates, looked at before they are quoted).
+``success.png`` (the success rates, looked at before they are quoted). A record is the trial's `simulate --json`
+summary (without the gait sequence) plus the trial, its time limit, the time of every planner call and optimizer
+solve in ms (``planner_ms_samples``, ``trajopt_ms_samples``) and the trial's wall time in its worker
+(``trial_wall_s``). `open_batch`, `log_record` and `close_batch` are `run_experiment`'s steps, for a caller that runs
+several experiment folders in one job run (``contactnet.paper``).
 
 Resume is keyed on everything that determines a trial's result (`trial_inputs`): the trial's settings
 (terrain, removed squares, seed, gait, planner, robot, vx, noise, bar width and gap), the terrain's
@@ -176,6 +180,7 @@ def run_trial(trial: Trial) -> dict:
     from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
     from contactnet.sim import SimConfig
 
+    t0 = time.perf_counter()
     terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m)
     gait = gait_by_name(trial.gait)
     robot = load_robot(trial.robot)
@@ -191,10 +196,18 @@ def run_trial(trial: Trial) -> dict:
             loco.push(Push(trial.push_t0_s, PUSH_DURATION_S, (*trial.push_force_xy, 0.0)))
             limit_s = trial.push_t0_s + PUSH_DURATION_S + PUSH_SETTLE_S
         summary = loco.run(limit_s)
+        samples = {"planner_ms_samples": _ms_samples(loco.planner_times_s),
+                   "trajopt_ms_samples": _ms_samples(loco.trajopt_times_s)}
     if trial.push_force_xy is not None:
         summary["success"] = not summary["fell"]
     summary.pop("gait_sequence", None)  # long; the table does not need it
-    return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary}
+    return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary, **samples,
+            "trial_wall_s": time.perf_counter() - t0}
+
+
+def _ms_samples(times_s: list[float]) -> list[float]:
+    """Every call's time in ms to the microsecond (the report's time distributions)."""
+    return [round(1e3 * t, 3) for t in times_s]
 
 
 def _terrain(name: str, removed: int | None, seed: int, bar_width_m: float | None, last_gap_m: float | None,
@@ -309,10 +322,26 @@ def _check_header(out: Path, name: str) -> None:
                               "use another --out")
 
 
-def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
-                   progress: bool = True, engine: str = "local") -> dict:
-    """Run (or resume) ``trials`` into ``out_dir`` with ``workers`` processes (default: all cores; 1: in this
-    process), run by ``contactnet.jobs`` (``engine``); returns the summary (also written to summary.json)."""
+@dataclass
+class Batch:
+    """One experiment folder open for running: its trials, what determines each (``inputs``) and their
+    ``fingerprints``, and the records already done (reused from the log, then each new one as it comes)."""
+
+    name: str
+    out: Path
+    trials: list[Trial]
+    inputs: dict[str, dict]
+    fingerprints: dict[str, str]
+    done: dict[str, dict]
+
+    @property
+    def log(self) -> Path:
+        return self.out / "trials.jsonl"
+
+
+def open_batch(name: str, out_dir: str | Path, trials: list[Trial]) -> Batch:
+    """Check ``out_dir`` (refused when it holds another experiment), write its header naming ``trials``'
+    fingerprints and read the logged records that can be reused."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ExperimentError(f"{out} exists and is not a directory")
@@ -326,22 +355,43 @@ def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers:
     done = _reusable(log, _read_log(log), inputs, fingerprints)
     atomic_write_text(out / "experiment.json", json.dumps(
         {"format": HEADER_FORMAT, "experiment": name, "code": code_identity(), "trials": fingerprints}, indent=1))
+    return Batch(name, out, list(trials), inputs, fingerprints, done)
+
+
+def log_record(batch: Batch, record: dict) -> dict:
+    """Append a finished trial's ``record`` (from `run_trial`) to the batch's log with its inputs and
+    fingerprint, at once; returns the stored record."""
+    key = record["key"]
+    record = {**record, "fingerprint": batch.fingerprints[key], "inputs": batch.inputs[key]}
+    with open(batch.log, "a") as file:
+        file.write(json.dumps(record) + "\n")
+    batch.done[key] = record
+    return record
+
+
+def close_batch(batch: Batch, wall_s: float) -> dict:
+    """The summary of a batch whose trials are all done: summary.json and success.png; returns the summary."""
+    records = [batch.done[t.key] for t in batch.trials]
+    summary = summarize(batch.name, records, wall_s)
+    atomic_write_text(batch.out / "summary.json", json.dumps(summary, indent=1))
+    plot_success(summary, batch.out / "success.png")
+    return summary
+
+
+def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
+                   progress: bool = True, engine: str = "local") -> dict:
+    """Run (or resume) ``trials`` into ``out_dir`` with ``workers`` processes (default: all cores; 1: in this
+    process), run by ``contactnet.jobs`` (``engine``); returns the summary (also written to summary.json)."""
+    batch = open_batch(name, out_dir, trials)
     t0 = time.perf_counter()
 
     def append(job: Job, record: dict) -> dict:
-        record = {**record, "fingerprint": fingerprints[job.key], "inputs": inputs[job.key]}
-        with open(log, "a") as file:
-            file.write(json.dumps(record) + "\n")
-        done[record["key"]] = record
+        record = log_record(batch, record)
         return {"last": f"{record['key']}: {'ok' if record['success'] else 'fail'}"}
 
-    run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=done, workers=workers, progress=progress,
+    run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=batch.done, workers=workers, progress=progress,
              unit="trial", engine=engine, worker_init=_one_torch_thread)
-    records = [done[t.key] for t in trials]
-    summary = summarize(name, records, time.perf_counter() - t0)
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=1))
-    plot_success(summary, out / "success.png")
-    return summary
+    return close_batch(batch, time.perf_counter() - t0)
 
 
 def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:

@@ -1,0 +1,239 @@
+"""`contactnet experiment paper` and its report: the plan at scale 1 and 0.1, the Wilson interval, the report
+of stored trials (numbers, self-contained html), and a tiny real run end to end (layout, resume, report)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from contactnet.cli import main
+from contactnet.experiment import ExperimentError
+from contactnet.paper.plan import Section, plan_trials, scaled
+from contactnet.paper.report import write_report
+from contactnet.paper.results import outcome
+from contactnet.paper.run import run_paper
+from contactnet.paper.stats import wilson_interval
+
+
+# ---- Wilson interval -----------------------------------------------------------------------------
+@pytest.mark.parametrize("successes, trials, low, high", [
+    # Newcombe (1998), Stat. Med. 17:857-872, Table I, method 3 (Wilson score, no continuity correction)
+    (81, 263, 0.2553, 0.3662), (15, 148, 0.0624, 0.1605), (0, 20, 0.0, 0.1611), (1, 29, 0.0061, 0.1718),
+    # the paper's Table II
+    (281, 300, 0.9032, 0.9591), (256, 300, 0.8088, 0.8889),
+])
+def test_wilson_interval_known_values(successes, trials, low, high):
+    found = wilson_interval(successes, trials)
+    assert found == pytest.approx((low, high), abs=6e-5)
+
+
+def test_wilson_interval_edges_and_scipy():
+    assert wilson_interval(0, 0) == (0.0, 1.0)
+    assert wilson_interval(5, 5)[1] == 1.0 and wilson_interval(0, 5)[0] == 0.0
+    assert wilson_interval(50, 100, 0.99)[0] < wilson_interval(50, 100)[0]  # wider at 99 %
+    with pytest.raises(ValueError, match="successes"):
+        wilson_interval(3, 2)
+    stats = pytest.importorskip("scipy.stats")
+    for k, n in ((0, 7), (3, 7), (7, 7), (93, 100), (1, 300)):
+        ci = stats.binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        assert wilson_interval(k, n) == pytest.approx((ci.low, ci.high), abs=1e-12)
+
+
+# ---- the plan ------------------------------------------------------------------------------------
+FULL = {"fig5": 2400, "table2": 600, "push": 80, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
+        "raised_stones": 20, "random_heights": 80}
+TENTH = {"fig5": 240, "table2": 60, "push": 8, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
+         "raised_stones": 4, "random_heights": 8}
+
+
+def test_the_plan_has_the_papers_counts_and_scales_as_a_prefix():
+    full, tenth, tiny = plan_trials(scale=1.0), plan_trials(scale=0.1), plan_trials(scale=1e-6)
+    assert {k: len(v) for k, v in full.items()} == FULL and sum(FULL.values()) == 3188
+    assert {k: len(v) for k, v in tenth.items()} == TENTH
+    fig5 = full["fig5"]
+    assert {(t.gait, t.planner, t.noise) for t in fig5} == {(g, "contactnet", v) for g in ("walk", "trot")
+                                                            for v in (0.0, 0.01)}
+    assert sorted({t.removed for t in fig5}) == [50, 60, 70, 80, 90, 100] and {t.seed for t in fig5} == set(range(100))
+    table2 = full["table2"]
+    assert {(t.removed, t.gait) for t in table2} == {(110, "walk")}
+    assert {t.seed for t in table2 if t.planner == "fixed"} == {t.seed for t in table2 if t.planner == "contactnet"}
+    assert {t.push_force_xy for t in full["push"]} == {(5.0, 0.0), (-5.0, 0.0), (0.0, 5.0), (0.0, -5.0)}
+    assert {t.seed for t in tenth["fig5"]} == set(range(10))  # seed i of a batch = i
+    for folder in FULL:  # a scaled run is a prefix of the full one: a full run reuses its trials
+        assert {t.key for t in tenth[folder]} <= {t.key for t in full[folder]}
+        cells = {(t.gait, t.planner, t.removed, t.noise, t.push_force_xy) for t in full[folder]}
+        assert {(t.gait, t.planner, t.removed, t.noise, t.push_force_xy) for t in tiny[folder]} == cells
+        assert len(tiny[folder]) == len(cells)  # at least (and here exactly) one trial per cell
+
+
+def test_scaled_rounds_half_up_and_keeps_one():
+    assert [scaled(100, 0.1), scaled(300, 0.1), scaled(5, 0.1), scaled(10, 0.05), scaled(100, 0.02)] == [10, 30, 1,
+                                                                                                           1, 2]
+    assert scaled(20, 0.1) == 2 and scaled(20, 0.125) == 3 and scaled(5, 1.0) == 5
+    with pytest.raises(ValueError, match="scale"):
+        scaled(10, 0.0)
+    with pytest.raises(ValueError, match="scale"):
+        scaled(10, 1.5)
+
+
+def test_outcomes_name_the_kind_of_fall():
+    def rec(success, fell, reason=None, push=None):
+        return {"success": success, "fell": fell, "fall_reason": reason, "trial": {"push_force_xy": push}}
+
+    assert outcome(rec(True, False)) == "reached the goal"
+    assert outcome(rec(True, False, push=[5.0, 0.0])) == "stood the push"
+    assert outcome(rec(False, False)) == "time limit before the goal"
+    assert outcome(rec(False, True, "base height 0.050 m below 0.1 m")) == "fell: base too low"
+    assert outcome(rec(False, True, "base tilted (roll 1.20, pitch 0.00 rad)")) == "fell: base tilted over"
+    gap = "non-foot contact: FR_LOWER_LEG on an edge at x 0.44, y -0.14 m (the FR foot stepped into a gap)"
+    assert outcome(rec(False, True, gap)) == "fell: a foot stepped into a gap"
+    assert outcome(rec(False, True, "non-foot contact: BASE on an edge at x 1, y 0 m")) == \
+        "fell: a leg or the body hit an edge"
+
+
+# ---- the report of stored trials (no simulation) ---------------------------------------------------
+def _record(key, trial, success, planner_ms=0.3):
+    return {"key": key, "trial": trial, "fingerprint": f"fp-{key}", "success": success, "fell": not success,
+            "fall_reason": None if success else "base tilted (roll 1.00, pitch 0.00 rad)", "reached_x": 1.0,
+            "sim_time_s": 30.0, "wall_time_s": 10.0, "trial_wall_s": 11.0, "steps": 90,
+            "planner_ms": {"mean": planner_ms, "median": planner_ms}, "trajopt_ms": {"mean": 4.0, "median": 4.0},
+            "rank_chosen": {"mean": 2.0, "max": 9}, "unsafe_landings": 0, "trajopt_failures": 0,
+            "max_height_change_m": 0.0, "planner_ms_samples": [planner_ms] * 5, "trajopt_ms_samples": [4.0, 5.0],
+            "inputs": {"model": f"file-sha256:model-of-{trial['gait']}", "code": {"contactnet": "0.1.0",
+                                                                                   "sources": "abc"}},
+            "paper_run": 0}
+
+
+def _stored_run(out: Path) -> None:
+    """A paper folder written by hand: Fig. 5 walk 9/10 at n = 50 (and 10/10 at 60), Table II 281/300 and
+    256/300, one push that fell; plus a record of other code in the log that must not count."""
+    def trial(**kw):
+        return {"gait": "walk", "planner": "contactnet", "removed": None, "noise": 0.0, "seed": 0,
+                "push_force_xy": None, "push_t0_s": None, **kw}
+
+    sections = {
+        "fig5": ("random", [_record(f"r/{n}/{s}", trial(removed=n, seed=s), not (n == 50 and s == 3), 0.5)
+                            for n in (50, 60) for s in range(10)]),
+        "table2": ("random", [_record(f"r/110/{s}/{p}", trial(removed=110, seed=s, planner=p),
+                                      s < (281 if p == "contactnet" else 256)) for p in ("contactnet", "fixed")
+                              for s in range(300)]),
+        "push": ("push", [_record(f"p/{i}", trial(push_force_xy=[0.0, 5.0], push_t0_s=4.0 + 1.5 * i), i != 1)
+                          for i in range(4)]),
+    }
+    header = {"format": "contactnet-paper-v1", "scale": 0.5, "runs": [
+        {"command": "contactnet experiment paper --out X --scale 0.5", "started_utc": "2026-01-01T00:00:00+00:00",
+         "wall_s": 3600.0, "cpu_s": 2000.0, "trials_run": 624, "trials_reused": 0, "workers": 2, "engine": "local",
+         "interrupted": False, "code": {"git_describe": "v1-3-gabc", "git_commit": "abc", "contactnet": "0.1.0",
+                                        "sources": "abc"},
+         "machine": {"cpu": "Test CPU", "cores": 2, "usable_cores": 2, "python": "3.11", "packages": {}}}],
+        "sections": []}
+    for folder, (experiment, records) in sections.items():
+        (out / folder).mkdir(parents=True)
+        (out / folder / "experiment.json").write_text(json.dumps(
+            {"format": "contactnet-experiment-v1", "experiment": experiment,
+             "trials": {r["key"]: r["fingerprint"] for r in records}}))
+        stale = {**records[0], "fingerprint": "other code", "success": not records[0]["success"]}
+        (out / folder / "trials.jsonl").write_text("".join(json.dumps(r) + "\n" for r in [stale, *records]))
+        header["sections"].append({"folder": folder, "experiment": experiment, "title": folder,
+                                   "trials": len(records), "trials_full": 2 * len(records)})
+    (out / "paper.json").write_text(json.dumps(header))
+
+
+def _assert_self_contained(html: str) -> None:
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
+    assert "<link" not in html and "<script" not in html
+    assert all(src.startswith("data:image/png;base64,") for src in re.findall(r'src="([^"]*)"', html))
+
+
+def test_the_report_of_stored_trials_has_the_numbers_beside_the_papers(tmp_path):
+    _stored_run(tmp_path)
+    md_path, html_path = write_report(tmp_path)
+    md = md_path.read_text()
+    assert "| 50 | 9 / 10 (90.0 %, 59.6-98.2) |" in md and "| 60 | 10 / 10 (100.0 %, 72.2-100.0) |" in md
+    # Table II: ours beside the paper's (the same counts here), with Wilson intervals
+    assert "| optimized acyclic | 300 | 281 | 281 / 300 (93.7 %, 90.3-95.9) | 281 / 300 (93.6 %, 90.3-95.9) |" in md
+    assert "| fixed cyclic | 300 | 256 | 256 / 300 (85.3 %, 80.9-88.9) | 256 / 300 (85.3 %, 80.9-88.9) |" in md
+    assert "| >= 93.6 % | (yes) |" in md  # the target, judged on a scaled run
+    assert "only the acyclic 25, only the fixed 0" in md
+    assert "| walk | +y | 3 / 4 (75.0 %, 30.1-95.4) | 1 | 5.5 s |" in md  # the push that fell, at 5.5 s
+    assert "| Push +-5 N: falls | 1 of 4 |" in md
+    assert "| walk: ours mean |" in md and "| 50 | 0.500 | 0.500 | 1.272 |" in md  # Table I
+    assert re.search(r"\| fell: base tilted over \| 1 \| 63 \| 1 \|", md)  # outcomes by section
+    assert "`contactnet experiment paper --out X --scale 0.5`" in md and "v1-3-gabc" in md and "Test CPU" in md
+    assert "file-sha256:model-of-walk" in md and "Estimate for the full plan (1248 trials)" in md
+    # 624 trials of 11 s in 3600 s of wall time with 2000 CPU s; the full plan has twice the trials
+    assert "2.00 h at this run's parallelism (1.91 trials at a time" in md
+    assert "33.3 min on 2 idle cores (the runs used 0.29 CPU s per trial second)" in md  # 2 x 2000 CPU s / 2
+    assert "Scaled run" in md and "Incomplete" not in md
+    html = html_path.read_text()
+    _assert_self_contained(html)
+    assert html.count("data:image/png;base64,") == 4  # Fig. 5, Table I, Table II, times
+    assert "<table>" in html and "281 / 300" in html
+    for name in ("fig5", "table1", "table2", "times"):
+        assert (tmp_path / "report_plots" / f"{name}.png").stat().st_size > 5000
+
+
+def test_report_errors_are_one_line(tmp_path, capsys):
+    assert main(["report", str(tmp_path)]) == 2
+    assert "no paper.json" in capsys.readouterr().err
+    (tmp_path / "experiment.json").write_text("{}")
+    with pytest.raises(ExperimentError, match="single experiment"):
+        run_paper(tmp_path, 0.1)
+    assert main(["experiment", "paper", "--out", str(tmp_path / "x"), "--trials", "3"]) == 2
+    assert "drop --trials" in capsys.readouterr().err
+    assert main(["experiment", "random", "--out", str(tmp_path / "y"), "--scale", "0.1"]) == 2
+    assert "experiment paper" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["experiment", "paper", "--out", str(tmp_path / "z"), "--scale", "2"])
+    assert "--scale" in capsys.readouterr().err
+
+
+# ---- a tiny real run --------------------------------------------------------------------------------
+# The blind heuristic falls within a few simulated seconds on these terrains: three short PyBullet trials.
+TINY = (
+    Section("fig5", "random", "Fig. 5 (tiny)", 100, ("walk",), ("heuristic",), removed=(110,)),
+    Section("table2", "random", "Table II (tiny)", 300, ("walk",), ("heuristic",), removed=(110,)),
+    Section("narrow_stones", "narrow_stones", "Narrow stones (tiny)", 1, ("walk",), ("heuristic",)),
+)
+
+
+@pytest.mark.slow
+def test_a_tiny_paper_run_end_to_end_resumes_and_reports(tmp_path, capsys):
+    out = tmp_path / "paper"
+    first = run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY, command="tiny run")
+    assert first["ran"] == 3 and first["trials"] == 3
+    for folder in ("fig5", "table2", "narrow_stones"):
+        for name in ("experiment.json", "trials.jsonl", "summary.json", "success.png"):
+            assert (out / folder / name).is_file(), f"{folder}/{name}"
+    assert {p.name for p in out.iterdir()} >= {"paper.json", "report.md", "report.html", "report_plots"}
+    logs = {folder: (out / folder / "trials.jsonl").read_text() for folder in ("fig5", "table2", "narrow_stones")}
+    records = [json.loads(line) for text in logs.values() for line in text.splitlines()]
+    assert len(records) == 3 and not any(r["success"] for r in records)
+    assert all(r["planner_ms_samples"] and r["trajopt_ms_samples"] and r["trial_wall_s"] > 0 for r in records)
+    # Resume: nothing runs again, the logs are untouched, the run is recorded.
+    again = run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY, command="tiny run")
+    assert again["ran"] == 0
+    assert {folder: (out / folder / "trials.jsonl").read_text() for folder in logs} == logs
+    # A trial lost (as if killed before it was logged) runs again, alone.
+    (out / "table2" / "trials.jsonl").write_text("")
+    assert run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY, command="tiny run")["ran"] == 1
+    assert (out / "table2" / "trials.jsonl").read_text().count("\n") == 1
+    header = json.loads((out / "paper.json").read_text())
+    assert [run["trials_run"] for run in header["runs"]] == [3, 0, 1] and header["runs"][1]["trials_reused"] == 3
+    logs["table2"] = (out / "table2" / "trials.jsonl").read_text()
+    # The report: the trials' own numbers; regenerated from the stored trials by the command line.
+    (out / "report.md").unlink()
+    assert main(["report", str(out)]) == 0 and "report.html" in capsys.readouterr().out
+    md = (out / "report.md").read_text()
+    assert "| 110 | 0 / 1 (0.0 %, 0.0-79.3) |" in md  # Fig. 5's table: the stored trial
+    by_folder = {folder: [outcome(json.loads(line)) for line in text.splitlines()] for folder, text in logs.items()}
+    for reason in {o for found in by_folder.values() for o in found}:  # outcomes by reason, per section
+        counts = [found.count(reason) or "" for found in by_folder.values()]
+        assert f"| {reason} | {' | '.join(map(str, counts))} |" in md
+    assert "| heuristic | 1 | 0 | 0 / 1 (0.0 %, 0.0-79.3) | - |" in md  # Table II: ours, the paper's has no row
+    assert "`tiny run`" in md
+    _assert_self_contained((out / "report.html").read_text())
+    assert main(["experiment", "paper", "--out", str(out), "--report-only"]) == 0
