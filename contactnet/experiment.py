@@ -310,9 +310,11 @@ def _check_header(out: Path, name: str) -> None:
 
 
 def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
-                   progress: bool = True, engine: str = "local") -> dict:
+                   progress: bool = True, engine: str = "local", address: str | None = None) -> dict:
     """Run (or resume) ``trials`` into ``out_dir`` with ``workers`` processes (default: all cores; 1: in this
-    process), run by ``contactnet.jobs`` (``engine``); returns the summary (also written to summary.json)."""
+    process), run by ``contactnet.jobs`` (``engine``, ``address``: see `contactnet.jobs.run_jobs`); returns
+    the summary (also written to summary.json). The progress bar shows trials/s, the ETA and the successes
+    so far (of the trials done, the reused ones included)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ExperimentError(f"{out} exists and is not a directory")
@@ -327,16 +329,21 @@ def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers:
     atomic_write_text(out / "experiment.json", json.dumps(
         {"format": HEADER_FORMAT, "experiment": name, "code": code_identity(), "trials": fingerprints}, indent=1))
     t0 = time.perf_counter()
+    tally = {"ok": sum(bool(done[t.key]["success"]) for t in trials if t.key in done),
+             "done": sum(t.key in done for t in trials)}
 
     def append(job: Job, record: dict) -> dict:
         record = {**record, "fingerprint": fingerprints[job.key], "inputs": inputs[job.key]}
         with open(log, "a") as file:
             file.write(json.dumps(record) + "\n")
         done[record["key"]] = record
-        return {"last": f"{record['key']}: {'ok' if record['success'] else 'fail'}"}
+        tally["ok"] += bool(record["success"])
+        tally["done"] += 1
+        return {"successes": f"{tally['ok']}/{tally['done']}",
+                "last": f"{record['key']}: {'ok' if record['success'] else 'fail'}"}
 
     run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=done, workers=workers, progress=progress,
-             unit="trial", engine=engine, worker_init=_one_torch_thread)
+             unit="trial", engine=engine, worker_init=_one_torch_thread, address=address)
     records = [done[t.key] for t in trials]
     summary = summarize(name, records, time.perf_counter() - t0)
     atomic_write_text(out / "summary.json", json.dumps(summary, indent=1))
