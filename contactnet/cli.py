@@ -254,8 +254,8 @@ def cmd_datagen(args: argparse.Namespace) -> int:
                            episodes_per_shard=args.episodes_per_shard,
                            instances_per_episode=args.instances_per_episode)
     try:
-        manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet, engine=args.engine,
-                            address=args.address)
+        manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet,
+                            engine=args.engine, address=args.address)
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished shards are kept in {args.out}: run the same command to resume",
               file=sys.stderr)
@@ -315,8 +315,10 @@ def _engine_arguments(parser: argparse.ArgumentParser) -> None:
 
     parser.add_argument("--engine", choices=ENGINES, default="local",
                         help="local: a process pool on this machine (default); ray: Ray tasks (pip install "
-                             "contactnet[ray]) on --address, else $RAY_ADDRESS, else a local Ray of --workers CPUs")
-    parser.add_argument("--address", metavar="A", help="an existing Ray cluster (host:port, auto, ray://host:port)")
+                             "contactnet[ray]) on --address, else $RAY_ADDRESS, else a local Ray of --workers "
+                             "CPUs")
+    parser.add_argument("--address", metavar="A",
+                        help="an existing Ray cluster (host:port, auto, ray://host:port)")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -276,7 +276,8 @@ def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = N
         write_manifest(out, config, shards, wall_before + elapsed)
         return {"instances": previous + new_instances, "per_s": f"{new_instances / elapsed:.1f}"}
 
-    jobs = [Job(shard, (config, shard), size=len(config.shard_episodes(shard))) for shard in range(config.n_shards)]
+    jobs = [Job(shard, (config, shard), size=len(config.shard_episodes(shard)))
+            for shard in range(config.n_shards)]
     try:
         run_jobs(jobs, _shard_job, store, done=shards, workers=workers, progress=progress, unit="episode",
                  engine=engine, worker_init=_one_torch_thread, address=address)

@@ -76,8 +76,9 @@ def run_jobs(
     progress bar (any other return value is ignored). ``workers``: processes (default: the CPU count; never
     more than the jobs to run); 1 runs the jobs in this process (local engine). ``worker_init()`` (picklable)
     runs once in each worker process, not when the jobs run in this process. ``engine``: one of `ENGINES`;
-    ``address``: the Ray cluster of the ``ray`` engine (see `contactnet.ray_engine`). The progress bar (tqdm on stderr: done/total in ``unit``s, rate, ETA;
-    ``progress=False`` hides it) counts every job's ``size``, the done ones included.
+    ``address``: the Ray cluster of the ``ray`` engine (see `contactnet.ray_engine`). The progress bar (tqdm
+    on stderr: done/total in ``unit``s, rate, ETA; ``progress=False`` hides it) counts every job's ``size``,
+    the done ones included.
 
     Ctrl-C (or any error) stops the running jobs; the results already passed to ``on_result`` stay, and the
     exception is re-raised.
@@ -283,5 +284,5 @@ _ENGINES: dict[str, Engine] = {"local": _local_engine, "ray": _ray_engine}
 
 ENGINES = tuple(_ENGINES)  #: the engines ``run_jobs`` knows
 
-__all__ = ["ENGINES", "RESULT_PACKAGES", "Job", "check_engine", "check_file", "code_identity", "differences", "digest",
-           "file_sha256", "run_jobs", "sources_digest"]
+__all__ = ["ENGINES", "RESULT_PACKAGES", "Job", "check_engine", "check_file", "code_identity", "differences",
+           "digest", "file_sha256", "run_jobs", "sources_digest"]

@@ -2,11 +2,13 @@
 local Ray started for the run (``pip install contactnet[ray]``; nothing else here needs Ray).
 
 - Where (`session`): a Ray already initialised in this process, as it is; else the cluster at ``address``
-  (``--address``) or ``$RAY_ADDRESS`` (``host:port``, ``auto``, ``ray://host:port``); else a local Ray
-  started with ``workers`` CPUs (default: this machine's), no dashboard, quiet logs, no usage report, on the
-  loopback interface only (Ray's own local-only switch, read when Ray is imported: it holds when this
-  module imports Ray first). Only what was started for the batch is stopped at its end (a local Ray shut
-  down, a cluster disconnected from); a caller holding a `session` around several batches starts Ray once.
+  (``--address``) or ``$RAY_ADDRESS`` (``host:port``, ``auto``, ``ray://host:port``; a cluster with token
+  authentication also needs Ray's ``RAY_AUTH_MODE=token`` and its token); else a local Ray started with
+  ``workers`` CPUs (default: this machine's), no dashboard, quiet logs, on the loopback interface only (Ray's
+  own local-only switch, read when Ray is imported: it holds when this module imports Ray first; Ray adds a
+  token of its own and sends no usage report). Only what was started for the batch is stopped at its end (a
+  local Ray shut down, a cluster disconnected from); a caller holding a `session` around several batches
+  starts Ray once.
 - What: each job is one task of one CPU (``workers`` also caps how many run at once on a cluster). A
   worker process runs ``worker_init`` once, before its first job. Every worker checks once that its code
   (``identity()``: the contactnet sources and the numerical packages, `contactnet.jobs.code_identity`) is
@@ -79,7 +81,6 @@ def session(address: str | None = None, workers: int | None = None) -> Iterator[
         return
     quiet = {"include_dashboard": False, "logging_level": logging.ERROR, "log_to_driver": False}
     if address is None:
-        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # read by the Ray processes started here
         ray.init(num_cpus=workers or os.cpu_count() or 1, **quiet)
     else:
         ray.init(address=address, **quiet)

@@ -69,8 +69,8 @@ def test_worker_init_runs_in_the_ray_workers(local_ray):
 def test_a_job_error_comes_back_as_itself_and_keeps_the_results_before_it(local_ray):
     seen = []
     with pytest.raises(ValueError, match="could not convert") as caught:
-        run_jobs([Job(1, "1.5"), Job(2, "nan?"), Job(3, "3")], float, lambda job, r: seen.append(r), workers=1,
-                 engine="ray", progress=False)
+        run_jobs([Job(1, "1.5"), Job(2, "nan?"), Job(3, "3")], float, lambda job, r: seen.append(r),
+                 workers=1, engine="ray", progress=False)
     assert seen == [1.5] and isinstance(caught.value.__cause__, local_ray.exceptions.RayTaskError)
 
 
@@ -83,12 +83,13 @@ def test_workers_running_other_code_refuse(local_ray):
 def test_without_ray_one_line_says_how_to_install_it(tmp_path, monkeypatch, capsys):
     out = tmp_path / "e"
     assert main(["experiment", "push", "--out", str(out), "--address", "127.0.0.1:1"]) == EXIT_USER_ERROR
-    assert capsys.readouterr().err.strip() == ("contactnet: error: --address 127.0.0.1:1: a cluster address needs "
-                                               "--engine ray")
+    needs_ray = "contactnet: error: --address 127.0.0.1:1: a cluster address needs --engine ray"
+    assert capsys.readouterr().err.strip() == needs_ray
     monkeypatch.setitem(sys.modules, "ray", None)  # what `import ray` does where Ray is not installed
     for command in (["experiment", "push"], ["datagen", "--gait", "walk"]):
         assert main([*command, "--engine", "ray", "--out", str(out)]) == EXIT_USER_ERROR
-        assert capsys.readouterr().err.strip() == "contactnet: error: --engine ray needs Ray: pip install contactnet[ray]"
+        assert capsys.readouterr().err.strip() == \
+            "contactnet: error: --engine ray needs Ray: pip install contactnet[ray]"
     assert not out.exists()
 
 
@@ -106,11 +107,11 @@ def test_an_experiment_on_ray_gives_the_summary_and_trials_of_the_local_engine(l
 
     # Short push trials (pushed at 0.2 s, 4 s to settle): two stand their push (one with joint noise, so the
     # seed matters), one falls.
-    trials = [Trial("push", "push_field", None, 0, "walk", "contactnet", push_t0_s=0.2, push_force_xy=(0.5, 0.0)),
-              Trial("push", "push_field", None, 1, "walk", "contactnet", noise=0.01, push_t0_s=0.2,
-                    push_force_xy=(0.0, -1.0)),
-              Trial("push", "push_field", None, 2, "walk", "contactnet", push_t0_s=0.2, push_force_xy=(0.0, 150.0))]
-    local = run_experiment("push", tmp_path / "local", trials, workers=1, progress=False)  # default engine, here
+    push = functools.partial(Trial, "push", "push_field", None, gait="walk", planner="contactnet",
+                             push_t0_s=0.2)
+    trials = [push(0, push_force_xy=(0.5, 0.0)), push(1, noise=0.01, push_force_xy=(0.0, -1.0)),
+              push(2, push_force_xy=(0.0, 150.0))]
+    local = run_experiment("push", tmp_path / "local", trials, workers=1, progress=False)  # default engine
     ray = run_experiment("push", tmp_path / "ray", trials, workers=2, progress=False, engine="ray")
     assert _without_timings(ray["rows"]) == _without_timings(local["rows"])
 
