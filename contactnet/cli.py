@@ -26,6 +26,7 @@ USER_ERROR_CLASSES = (
     ("contactnet.train", "DatasetError"),
     ("contactnet.network", "ModelFileError"),
     ("contactnet.experiment", "ExperimentError"),
+    ("contactnet.ray_engine", "EngineUnavailable"),
 )
 
 
@@ -235,14 +236,26 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return serve(settings)
 
 
+def _check_engine(args: argparse.Namespace) -> None:
+    """``--engine`` / ``--address`` fail now, in one line (e.g. Ray not installed), before any work."""
+    from contactnet.jobs import check_engine
+
+    try:
+        check_engine(args.engine, args.address)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
 def cmd_datagen(args: argparse.Namespace) -> int:
     from contactnet.datagen import DatagenConfig, generate
 
+    _check_engine(args)
     config = DatagenConfig(gait=args.gait, robot=args.robot, episodes=args.episodes, seed=args.seed,
                            episodes_per_shard=args.episodes_per_shard,
                            instances_per_episode=args.instances_per_episode)
     try:
-        manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet)
+        manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet,
+                            engine=args.engine, address=args.address)
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished shards are kept in {args.out}: run the same command to resume",
               file=sys.stderr)
@@ -269,6 +282,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 def cmd_experiment(args: argparse.Namespace) -> int:
     from contactnet.experiment import DEFAULT_HEIGHT_M, format_summary, run_experiment, trials_of
 
+    _check_engine(args)
     if args.name == "paper":
         from contactnet.paper.run import paper_command
 
@@ -287,7 +301,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
             model = None if model_dir is None else registry.model_path(args.robot, gait, Path(model_dir))
             make_planner("contactnet", registry.gait_by_name(gait), robot, model=model)
     try:
-        summary = run_experiment(args.name, args.out, trials, workers=args.workers, progress=not args.quiet)
+        summary = run_experiment(args.name, args.out, trials, workers=args.workers, progress=not args.quiet,
+                                 engine=args.engine, address=args.address)
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished trials are kept in {args.out}: run the same command to resume",
               file=sys.stderr)
@@ -305,6 +320,17 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 # ---- parser ------------------------------------------------------------------------------------
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
+
+
+def _engine_arguments(parser: argparse.ArgumentParser) -> None:
+    from contactnet.jobs import ENGINES
+
+    parser.add_argument("--engine", choices=ENGINES, default="local",
+                        help="local: a process pool on this machine (default); ray: Ray tasks (pip install "
+                             "contactnet[ray]) on --address, else $RAY_ADDRESS, else a local Ray of --workers "
+                             "CPUs")
+    parser.add_argument("--address", metavar="A",
+                        help="an existing Ray cluster (host:port, auto, ray://host:port)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -372,6 +398,7 @@ def build_parser() -> argparse.ArgumentParser:
     datagen.add_argument("--instances-per-episode", type=_positive_int("--instances-per-episode", 1000), default=30,
                          help="the paper's 30; fewer for quick trials")
     datagen.add_argument("--quiet", action="store_true", help="no progress bar")
+    _engine_arguments(datagen)
     datagen.set_defaults(func=cmd_datagen)
 
     train = sub.add_parser("train", help="train a ContactNet model")
@@ -428,6 +455,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
+    _engine_arguments(experiment)
     experiment.set_defaults(func=cmd_experiment)
 
     report = sub.add_parser("report", help="write the report of an `experiment paper` folder from its stored trials")

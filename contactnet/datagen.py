@@ -166,12 +166,15 @@ def run_episode(loco, recorder: RecordingPlanner, config: DatagenConfig, episode
 
 def make_shard(out_dir: str, config: DatagenConfig, shard: int) -> dict:
     """Generate one shard's episodes and write the shard file. Returns its counts, size and sha256."""
-    t0 = time.perf_counter()
-    u, V, episode_ids, falls = shard_arrays(config, shard)
-    path = Path(out_dir) / shard_name(shard)
+    return write_shard(Path(out_dir), _shard_job((config, shard)))
+
+
+def write_shard(out_dir: Path, made: dict) -> dict:
+    """Write a shard made by `_shard_job` (atomically) and return its stats: counts, size and sha256."""
+    u, V, episode_ids = made.pop("arrays")
+    path = out_dir / shard_name(made["shard"])
     atomic_write_with(path, lambda file: np.savez_compressed(file, u=u, V=V, episode=episode_ids))
-    return {"shard": shard, "instances": len(u), "falls": falls, "seconds": time.perf_counter() - t0,
-            "bytes": path.stat().st_size, "sha256": file_sha256(path)}
+    return {**made, "bytes": path.stat().st_size, "sha256": file_sha256(path)}
 
 
 def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -235,9 +238,10 @@ def write_manifest(out_dir: Path, config: DatagenConfig, shards: dict[int, dict]
 
 
 def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = None, progress: bool = True,
-             engine: str = "local") -> dict:
+             engine: str = "local", address: str | None = None) -> dict:
     """Generate (or resume) a dataset in out_dir with `workers` processes (default: all cores; 1: in this
-    process), run by ``contactnet.jobs`` (``engine``).
+    process), run by ``contactnet.jobs`` (``engine``, ``address``: see `contactnet.jobs.run_jobs`); the
+    shard files and the manifest are written by this process.
 
     Ctrl-C stops the workers at once; finished shards stay, listed in the manifest, and the next
     call with the same settings resumes with the missing shards.
@@ -264,19 +268,20 @@ def generate(out_dir: str | Path, config: DatagenConfig, workers: int | None = N
     previous = sum(s["instances"] for s in shards.values())
     new_instances = 0
 
-    def store(job: Job, stats: dict) -> dict:
+    def store(job: Job, made: dict) -> dict:
         nonlocal new_instances
+        stats = write_shard(out, made)  # here, not in the worker: a Ray cluster needs no shared file system
         shards[stats["shard"]] = stats
         new_instances += stats["instances"]
         elapsed = time.perf_counter() - t0
         write_manifest(out, config, shards, wall_before + elapsed)
         return {"instances": previous + new_instances, "per_s": f"{new_instances / elapsed:.1f}"}
 
-    jobs = [Job(shard, (str(out), config, shard), size=len(config.shard_episodes(shard)))
+    jobs = [Job(shard, (config, shard), size=len(config.shard_episodes(shard)))
             for shard in range(config.n_shards)]
     try:
-        run_jobs(jobs, _make_shard_job, store, done=shards, workers=workers, progress=progress, unit="episode",
-                 engine=engine, worker_init=_one_torch_thread)
+        run_jobs(jobs, _shard_job, store, done=shards, workers=workers, progress=progress, unit="episode",
+                 engine=engine, worker_init=_one_torch_thread, address=address)
     except BaseException:
         write_manifest(out, config, shards, wall_before + time.perf_counter() - t0)
         raise
@@ -318,8 +323,13 @@ def _verified_shards(out: Path, manifest: dict) -> dict[int, dict]:
     return shards
 
 
-def _make_shard_job(job: tuple[str, DatagenConfig, int]) -> dict:
-    return make_shard(*job)
+def _shard_job(job: tuple[DatagenConfig, int]) -> dict:
+    """A worker's part of a shard: its arrays and counts (the caller writes the file)."""
+    config, shard = job
+    t0 = time.perf_counter()
+    u, V, episode_ids, falls = shard_arrays(config, shard)
+    return {"shard": shard, "instances": len(u), "falls": falls, "seconds": time.perf_counter() - t0,
+            "arrays": (u, V, episode_ids)}
 
 
 def _one_torch_thread() -> None:

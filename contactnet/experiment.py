@@ -379,18 +379,26 @@ def close_batch(batch: Batch, wall_s: float) -> dict:
 
 
 def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
-                   progress: bool = True, engine: str = "local") -> dict:
+                   progress: bool = True, engine: str = "local", address: str | None = None) -> dict:
     """Run (or resume) ``trials`` into ``out_dir`` with ``workers`` processes (default: all cores; 1: in this
-    process), run by ``contactnet.jobs`` (``engine``); returns the summary (also written to summary.json)."""
+    process), run by ``contactnet.jobs`` (``engine``, ``address``: see `contactnet.jobs.run_jobs`); returns
+    the summary (also written to summary.json). The progress bar shows trials/s, the ETA and the successes
+    so far (of the trials done, the reused ones included)."""
     batch = open_batch(name, out_dir, trials)
+    done = batch.done
     t0 = time.perf_counter()
+    tally = {"ok": sum(bool(done[t.key]["success"]) for t in trials if t.key in done),
+             "done": sum(t.key in done for t in trials)}
 
     def append(job: Job, record: dict) -> dict:
         record = log_record(batch, record)
-        return {"last": f"{record['key']}: {'ok' if record['success'] else 'fail'}"}
+        tally["ok"] += bool(record["success"])
+        tally["done"] += 1
+        return {"successes": f"{tally['ok']}/{tally['done']}",
+                "last": f"{record['key']}: {'ok' if record['success'] else 'fail'}"}
 
-    run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=batch.done, workers=workers, progress=progress,
-             unit="trial", engine=engine, worker_init=_one_torch_thread)
+    run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=dict(done), workers=workers,
+             progress=progress, unit="trial", engine=engine, worker_init=_one_torch_thread, address=address)
     return close_batch(batch, time.perf_counter() - t0)
 
 

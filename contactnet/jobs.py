@@ -8,11 +8,15 @@ progress and the same call resumes with the missing ones::
     done = keys_found_in_my_files()
     run_jobs([Job(key, args) for key, args in ...], work, on_result, done=done, workers=4)
 
-The *engine* runs the missing jobs. ``"local"`` (the only one so far) is a ``spawn`` process pool on this
-machine: workers ignore SIGINT, so Ctrl-C reaches the parent only, which stops the pool at once, keeps what
-the callback stored and re-raises KeyboardInterrupt (the command then prints how to resume). With one
-worker the jobs run in this process, one after the other. A new engine (e.g. Ray) is a function with the
-signature of `_local_engine` registered in ``_ENGINES``.
+The *engine* runs the missing jobs; the results always come back to this process, where the callback
+stores them (workers compute, they never write the caller's files). ``"local"`` (the default, needing
+nothing) is a ``spawn`` process pool on this machine: workers ignore SIGINT, so Ctrl-C reaches the parent
+only, which stops the pool at once, keeps what the callback stored and re-raises KeyboardInterrupt (the
+command then prints how to resume). With one worker the jobs run in this process, one after the other.
+``"ray"`` (`contactnet.ray_engine`, the optional extra ``contactnet[ray]``) runs them as Ray tasks on an
+existing cluster (``address`` or ``RAY_ADDRESS``) or on a local Ray started for the run; the same Ctrl-C
+and error behaviour (the outstanding tasks are cancelled). A new engine is a function with the signature of
+`_local_engine` registered in ``_ENGINES``.
 
 Resume keys: a stored result is reused only when everything that determines it is unchanged. The callers
 describe those inputs as plain values and compare `digest`s; `code_identity` is the code's part (the
@@ -36,9 +40,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-#: ``engine(call, items, workers, worker_init)``: apply ``call`` to every item (in any order) and yield its
-#: results as they arrive; stop all work when the generator is closed or an exception passes through it.
-Engine = Callable[[Callable[[Any], Any], Sequence[Any], int, Callable[[], None] | None], Iterator[Any]]
+#: ``engine(call, items, workers, worker_init, address)``: apply ``call`` to every item (in any order) and
+#: yield its results as they arrive; stop all work when the generator is closed or an exception passes
+#: through it. ``workers``: at most this many at once (None: the engine's default), never more than the items.
+Engine = Callable[[Callable[[Any], Any], Sequence[Any], int | None, Callable[[], None] | None, str | None],
+                  Iterator[Any]]
 
 
 @dataclass(frozen=True)
@@ -61,36 +67,38 @@ def run_jobs(
     unit: str = "job",
     engine: str = "local",
     worker_init: Callable[[], None] | None = None,
+    address: str | None = None,
 ) -> int:
     """Run the ``jobs`` whose key is not in ``done``; returns how many ran.
 
     ``work(job.args)`` runs in a worker (a module-level function: it is pickled); ``on_result(job, result)``
     runs in this process as each job finishes, in completion order; a mapping it returns is shown after the
-    progress bar (any other return value is ignored). ``workers``: processes (default: the CPU count; never more than the jobs to run); 1 runs
-    the jobs in this process. ``worker_init()`` (picklable) runs once in each worker process, not when the
-    jobs run in this process. The progress bar (tqdm on stderr: done/total in ``unit``s, rate, ETA;
-    ``progress=False`` hides it) counts every job's ``size``, the done ones included.
+    progress bar (any other return value is ignored). ``workers``: processes (default: the CPU count; never
+    more than the jobs to run); 1 runs the jobs in this process (local engine). ``worker_init()`` (picklable)
+    runs once in each worker process, not when the jobs run in this process. ``engine``: one of `ENGINES`;
+    ``address``: the Ray cluster of the ``ray`` engine (see `contactnet.ray_engine`). The progress bar (tqdm
+    on stderr: done/total in ``unit``s, rate, ETA; ``progress=False`` hides it) counts every job's ``size``,
+    the done ones included.
 
     Ctrl-C (or any error) stops the running jobs; the results already passed to ``on_result`` stay, and the
     exception is re-raised.
     """
     from tqdm import tqdm
 
-    if engine not in _ENGINES:
-        raise ValueError(f"unknown job engine {engine!r}: choose one of {', '.join(_ENGINES)}")
+    check_engine(engine, address)
     keys = [job.key for job in jobs]
     if len(set(keys)) != len(keys):
         raise ValueError("run_jobs: job keys must be unique")
     done = set(done)
     todo = [job for job in jobs if job.key not in done]
-    n_workers = max(1, min(workers or os.cpu_count() or 1, len(todo) or 1))
+    n_workers = None if workers is None else max(1, min(workers, len(todo) or 1))
     with tqdm(total=sum(job.size for job in jobs), initial=sum(job.size for job in jobs if job.key in done),
               unit=unit, disable=not progress, dynamic_ncols=True) as bar:
         if not todo:
             return 0
         call = functools.partial(_call_indexed, work)
         items = list(enumerate(job.args for job in todo))
-        with contextlib.closing(_ENGINES[engine](call, items, n_workers, worker_init)) as results:
+        with contextlib.closing(_ENGINES[engine](call, items, n_workers, worker_init, address)) as results:
             for index, result in results:
                 job = todo[index]
                 shown = on_result(job, result)
@@ -98,6 +106,19 @@ def run_jobs(
                 if isinstance(shown, Mapping) and shown:
                     bar.set_postfix(shown)
     return len(todo)
+
+
+def check_engine(engine: str, address: str | None = None) -> None:
+    """Fail now, in one line, when ``engine`` cannot run: an unknown name (ValueError), an ``address``
+    without the ``ray`` engine (ValueError), Ray not installed (`contactnet.ray_engine.EngineUnavailable`)."""
+    if engine not in _ENGINES:
+        raise ValueError(f"unknown job engine {engine!r}: choose one of {', '.join(_ENGINES)}")
+    if address is not None and engine != "ray":
+        raise ValueError(f"--address {address}: a cluster address needs --engine ray")
+    if engine == "ray":
+        from contactnet.ray_engine import cluster_address, import_ray
+
+        import_ray(local=cluster_address(address) is None)
 
 
 def _call_indexed(work: Callable[[Any], Any], item: tuple[int, Any]) -> tuple[int, Any]:
@@ -125,10 +146,11 @@ def _sigint_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
-def _local_engine(call: Callable[[Any], Any], items: Sequence[Any], workers: int,
-                  worker_init: Callable[[], None] | None) -> Iterator[Any]:
+def _local_engine(call: Callable[[Any], Any], items: Sequence[Any], workers: int | None,
+                  worker_init: Callable[[], None] | None, address: str | None = None) -> Iterator[Any]:
     """This machine: one worker runs in this process, more in a ``spawn`` process pool (a clean interpreter
-    per worker, safe with PyBullet and threads)."""
+    per worker, safe with PyBullet and threads); default: the CPU count."""
+    workers = max(1, min(workers or os.cpu_count() or 1, len(items)))
     if workers == 1:
         for item in items:
             yield call(item)
@@ -250,9 +272,18 @@ def check_file(path: str | os.PathLike, size: Any, sha256: Any) -> str | None:
     return None
 
 
-_ENGINES: dict[str, Engine] = {"local": _local_engine}
+def _ray_engine(call: Callable[[Any], Any], items: Sequence[Any], workers: int | None,
+                worker_init: Callable[[], None] | None, address: str | None = None) -> Iterator[Any]:
+    """Ray tasks (`contactnet.ray_engine`, imported only here: the package works without Ray); the workers
+    must run this code (`code_identity`), else they refuse."""
+    from contactnet.ray_engine import ray_engine
+
+    return ray_engine(call, items, workers, worker_init, address, identity=code_identity)
+
+
+_ENGINES: dict[str, Engine] = {"local": _local_engine, "ray": _ray_engine}
 
 ENGINES = tuple(_ENGINES)  #: the engines ``run_jobs`` knows
 
-__all__ = ["ENGINES", "RESULT_PACKAGES", "Job", "check_file", "code_identity", "differences", "digest",
-           "file_sha256", "run_jobs", "sources_digest"]
+__all__ = ["ENGINES", "RESULT_PACKAGES", "Job", "check_engine", "check_file", "code_identity", "differences",
+           "digest", "file_sha256", "run_jobs", "sources_digest"]

@@ -41,7 +41,7 @@ def test_errors_keep_finished_results_and_bad_calls_are_refused():
         run_jobs([Job(1, "1"), Job(1, "2")], float, lambda job, r: None, progress=False)
     with pytest.raises(ValueError, match="unknown job engine 'moon'"):
         run_jobs([Job(1, "1")], float, lambda job, r: None, engine="moon", progress=False)
-    assert ENGINES == ("local",)
+    assert ENGINES == ("local", "ray")
 
 
 SCRIPT = """

@@ -61,10 +61,10 @@ def _order(trial: Trial) -> tuple[int, float]:
 
 
 def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = None, engine: str = "local",
-              progress: bool = True, model_dir: str | None = None,
+              progress: bool = True, model_dir: str | None = None, address: str | None = None,
               sections: tuple[Section, ...] = PAPER_SECTIONS, command: str = "", report: bool = True) -> dict:
     """Run (or resume) the ``sections`` at ``scale`` into ``out_dir`` with ``workers`` processes on ``engine``
-    and write the report; returns ``{"trials", "ran", "wall_s", "summaries": {folder: summary}}``. On Ctrl-C
+    (Ray: on the cluster at ``address``, else a local one) and write the report; returns ``{"trials", "ran", "wall_s", "summaries": {folder: summary}}``. On Ctrl-C
     the finished trials stay logged, the run is recorded in paper.json and KeyboardInterrupt is re-raised."""
     if engine not in ENGINES:
         raise ExperimentError(f"unknown engine {engine!r}: choose one of {', '.join(ENGINES)}")
@@ -102,7 +102,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
     interrupted = True
     try:
         run_jobs(jobs, run_trial, on_result, done=done, workers=workers, progress=progress, unit="trial",
-                 engine=engine, worker_init=_one_torch_thread)
+                 engine=engine, worker_init=_one_torch_thread, address=address)
         interrupted = False
     finally:  # also after Ctrl-C: the report counts this run's wall time and trials
         wall_s = time.perf_counter() - t0
@@ -130,7 +130,7 @@ _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed"
 
 def _command(args: argparse.Namespace, scale: float) -> str:
     words = ["contactnet", "experiment", "paper", "--out", str(args.out), "--scale", f"{scale:g}"]
-    for option in ("workers", "engine", "model_dir"):
+    for option in ("workers", "engine", "address", "model_dir"):
         value = getattr(args, option, None)
         if value is not None and not (option == "engine" and value == "local"):
             words += [f"--{option.replace('_', '-')}", str(value)]
@@ -151,7 +151,8 @@ def paper_command(args: argparse.Namespace) -> int:
     engine = getattr(args, "engine", None) or "local"
     try:
         result = run_paper(out, scale, workers=args.workers, engine=engine, progress=not args.quiet,
-                           model_dir=args.model_dir, command=_command(args, scale))
+                           model_dir=args.model_dir, command=_command(args, scale),
+                           address=getattr(args, "address", None))
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished trials are kept in {out}: run the same command to resume "
               f"(contactnet report {out} writes the report of the trials so far)", file=sys.stderr)
