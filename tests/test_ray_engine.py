@@ -24,7 +24,8 @@ from contactnet.jobs import ENGINES, Job, run_jobs
 from contactnet.ray_engine import EngineUnavailable, ray_engine, session
 
 #: Per-trial fields that are timings (they differ between any two runs); everything else must match.
-TIMINGS = ("wall_time_s", "planner_ms", "trajopt_ms", "planner_ms_median", "planner_ms_mean")
+TIMINGS = ("wall_time_s", "planner_ms", "trajopt_ms", "planner_ms_median", "planner_ms_mean", "planner_ms_samples",
+           "trajopt_ms_samples", "trial_wall_s")
 
 
 @pytest.fixture(scope="module")
