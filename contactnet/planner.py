@@ -405,12 +405,14 @@ class ContactNetPlanner:
         hips_world = self.hip_ref_xy_base @ to_world.T
         offsets_world = gait.cell_offsets_xy @ to_world.T
         feet_xy = np.array(ctx.foot_pos_world, dtype=float)[:, 0:2]
-        com = np.array(ctx.com_pos_world, dtype=float)
-        vel = np.array(ctx.com_vel_world, dtype=float)
+        com = np.asarray(ctx.com_pos_world, dtype=float).tolist()
+        vel = np.asarray(ctx.com_vel_world, dtype=float).tolist()
         base_xy = np.array(ctx.base_xy_world, dtype=float)
         cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
+        cmd = cmd_xy.tolist()
         cmd_world = to_world @ cmd_xy
         shift = cmd_world * gait.step_duration_s
+        shift_x, shift_y = shift.tolist()
         terrain = ctx.terrain
         ground_xy = _ground_xy(terrain)
         tops = np.array([ground_xy(x, y) for x, y in feet_xy.tolist()])  # (4,) the support (contactnet.ground)
@@ -425,16 +427,16 @@ class ContactNetPlanner:
                            ctx.yaw_rad)
         steps = []
         for j in range(self._steps_per_plan):
-            u = network_input_values(feet_xy.tolist(), com.tolist(), vel.tolist(), cmd_xy.tolist(), cos_yaw, sin_yaw,
-                                     ground_z)
-            order = self._order(self._costs(u), j)
-            hips_xy = base_xy + hips_touchdown
+            order = self._order(self._costs(network_input_values(feet_xy.tolist(), com, vel, cmd, cos_yaw, sin_yaw,
+                                                                 ground_z)), j)
+            hips_xy = np.array(bases[j]) + hips_touchdown
             if j == 0:
                 order = self._swing_cornered_legs_first(order, walk.grid(0), terrain, feet_xy, tops, base_xy,
                                                         to_world, cmd_world, ctx.yaw_rad)
             found = walk.first_usable(j, order, feet_xy, tops, hips_xy)
             if found is None:  # nothing usable: step in place
                 step = step_in_place(gait, order, feet_xy, terrain)
+                points = step.footholds_xy_world.tolist()
             else:
                 rank, action, points = found
                 step = PlannedStep(legs=self._actions.group[action], footholds_xy_world=np.array(points),
@@ -445,14 +447,12 @@ class ContactNetPlanner:
                     self._height_check(terrain, feet_xy.copy(), hips_xy, tops.copy(), ctx.yaw_rad))
             steps.append(step)
             # The state a step later, as contactnet.cost.predicted_state predicts it.
-            feet_xy[list(step.legs)] = step.footholds_xy_world
-            for leg, (x, y) in zip(step.legs, step.footholds_xy_world.tolist(), strict=True):
+            for leg, (x, y) in zip(step.legs, points, strict=True):
+                feet_xy[leg] = x, y
                 tops[leg] = ground_xy(x, y)
             ground_z = sum(tops.tolist()) / len(tops)
-            com[0:2] += shift
-            com[2] = ground_z + ctx.com_height_ref_m
-            base_xy += shift
-            vel = np.array([cmd_world[0], cmd_world[1], 0.0])
+            com = [com[0] + shift_x, com[1] + shift_y, ground_z + ctx.com_height_ref_m]
+            vel = [*cmd_world.tolist(), 0.0]
         return steps
 
     def replan_swing(self, ctx: PlanningContext, legs: tuple[int, ...]) -> PlannedStep | None:

@@ -302,7 +302,8 @@ class OneLevelWalk:
 
 
 
-#: ``HeightsWalk``: the first batch of landing points whose height checks are run together; the next is all the rest.
+#: ``HeightsWalk``: the first batch of landing points whose height checks are run together is this many per leg of a
+#: step (8 on the walk's grid, 16 on the trot's); the next is all the rest.
 FIRST_BATCH_POINTS = 8
 _PENDING = object()  # a landing point whose height checks are asked in the current batch
 
@@ -314,7 +315,7 @@ class HeightsWalk:
     Down the ranking, each landing point is placed (the candidate grid's cell, moved to the centre of a small
     top: ``FootholdChecker.centred``, with ``TopParts.locator.index_xy``) and tested for safety one at a time
     in Python floats (``PointLocator.covers_xy``); the safe ones whose height checks are not known yet are
-    gathered, ``FIRST_BATCH_POINTS`` of them (then all the rest), and checked together in one call of
+    gathered, ``FIRST_BATCH_POINTS`` per leg of a step (then all the rest), and checked together in one call of
     ``FootholdChecker.usable`` (which costs about the same for one point as for a hundred). The walk stops at
     the first action whose points are all safe and usable, as ``first_safe_step`` does. The same choice and the
     same floats: a landing point is (base + hip reference) + cell offset as there, or the top's centre."""
@@ -355,7 +356,7 @@ class HeightsWalk:
         place: list = [None] * (4 * n_cells)  # per grid cell: (x, y, part, at centre) if safe, else False
         usable: list = [None] * (4 * n_cells)  # per grid cell: its height checks (or _PENDING)
         flat_lists, order = self.actions.flat, ranking.tolist()
-        start, limit = 0, FIRST_BATCH_POINTS
+        start, limit = 0, FIRST_BATCH_POINTS * self.actions.legs_per_step
         while True:
             pending: list[int] = []
             for rank in range(start, len(order)):

@@ -193,6 +193,10 @@ class HeightLocator:
     upper_codes: np.ndarray  # (n * n,) int32: ``codes`` with each BOUNDARY cell's highest top touching it
     starts: np.ndarray  # (B + 1,) int32: the b-th BOUNDARY cell's regions are candidates[starts[b]:starts[b + 1]]
     candidates: np.ndarray  # int32
+    _code_z_below: np.ndarray = field(init=False, repr=False, compare=False)  # code_z, -inf for no top
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_code_z_below", np.concatenate([[-math.inf], self.code_z[1:]]))
 
     @classmethod
     def build(cls, geometries: np.ndarray, tops_z: np.ndarray, target_cells: int = RASTER_TARGET_CELLS,
@@ -293,7 +297,12 @@ class HeightLocator:
         np.fmax(cell, 0.0, out=cell)
         np.fmin(cell, self.clamp_hi, out=cell)
         index = cell.astype(np.intp)
-        code_z = self.code_z if math.isnan(outside) else np.concatenate([[outside], self.code_z[1:]])
+        if math.isnan(outside):
+            code_z = self.code_z
+        elif outside == -math.inf:
+            code_z = self._code_z_below
+        else:
+            code_z = np.concatenate([[outside], self.code_z[1:]])
         return code_z.take(self.upper_codes.take(index[0] + index[1] * int(self.strides[1])))
 
 
