@@ -142,11 +142,14 @@ def path_top_z(terrain: Terrain, start_xy: np.ndarray, end_xy: np.ndarray, n: in
 class FootholdChecker:
     """The height checks of candidate footholds (see the module doc) for one robot.
 
-    Written for few numpy calls per batch of candidates (the planner asks a batch per planning step): points
-    are kept coordinate first, (2, ...), so numpy's loops run along the long axes; the leg outlines of every
-    candidate and pose come from one matrix product; the terrain is looked up once per kind of question. The
-    foot ball's room on a small top, the same for every candidate moved to that top's centre, is remembered per
-    top part (``_centres``)."""
+    ``evaluate`` answers each check on its own (diagnostics, tests); ``usable``, the planner's question, their
+    conjunction, computed for few numpy calls per batch of candidates (the planner asks one batch per planning
+    step; a call costs about the same for one candidate as for dozens): the terrain checks only for the
+    candidates with a top and in reach, points kept coordinate first, (2, ...), so numpy's loops run along the
+    long axes, the terrain looked up once for the swing paths and leg outlines together, every comparison with
+    it in one reduction. The top and the foot ball's room at a small top's centre, the same for every candidate
+    moved there, are remembered per top part (``_centres``). ``tests/test_planner_fast.py`` checks that
+    ``usable`` is the conjunction of ``evaluate``."""
 
     def __init__(self, robot: RobotDescription, checks: HeightChecks = HeightChecks()) -> None:
         self.legs = geo = LegGeometry.of(robot)

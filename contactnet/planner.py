@@ -334,7 +334,8 @@ class ContactNetPlanner:
     def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
         """Three steps. The state is carried in Python floats rather than ``CostState`` objects (this is the
         hot path); ``tests/test_planner.py`` checks it against ``network_input_of_state`` and ``predicted_state``
-        step by step, on flat terrain and with heights."""
+        step by step, and ``tests/test_planner_fast.py`` against a plain walk down the ranking, flat and with
+        heights."""
         if self.footholds.applies(ctx.terrain):
             steps = self._plan_with_heights(ctx)
         else:
