@@ -255,12 +255,9 @@ class FootholdChecker:
                       * self._side_offsets[None, :, None] * np.array([-s, c]))
             side_z = terrain.height_bound(beside.reshape(-1, 2), outside=-np.inf).reshape(len(wide), -1)
             ok[wide] = side_z.max(axis=1) <= top[wide] + checks.ball_tolerance_m
-        rows = ok.nonzero()[0]
-        if rows.size:
-            ok[rows] = self._clear(terrain, legs[rows], landing[rows],
-                                   np.asarray(liftoff_xy_world, dtype=float).reshape(-1, 2)[rows], top[rows],
-                                   foot_z[rows], hip_z[rows], ahead_left[rows, 0], toward_plane[rows], tops_z, c, s,
-                                   None if centred is None else part[rows], None if centred is None else centred[rows])
+        # The terrain checks of every landing (as many numpy calls as for the reachable ones alone).
+        ok &= self._clear(terrain, legs, landing, np.asarray(liftoff_xy_world, dtype=float).reshape(-1, 2), top,
+                          foot_z, hip_z, ahead_left[:, 0], toward_plane, tops_z, c, s, part, centred)
         return ok
 
     def _clear(self, terrain: Terrain, legs: np.ndarray, landing: np.ndarray, liftoff: np.ndarray, top: np.ndarray,
@@ -287,21 +284,30 @@ class FootholdChecker:
         lean = np.minimum(np.maximum(np.concatenate([toward_plane, toward_plane]), k.min_lean), k.max_lean)
         lean = lean[:, None] * up / rise[:, None]
         along = k.knee_direction[poses][:, None] * distance
-        # The points to look up, coordinate first: swing paths (m, P), then the outlines' 3 lines (3, 2m, n).
-        paths = m * len(self._path_fractions)
-        points = np.empty((2, paths + 3 * 2 * m * n))
+        # The points to look up, coordinate first: swing paths (m, P), then the outlines' lines (L, 2m, n): the
+        # axis and a line to each side, and for an unknown knee the same mirrored through the foot.
+        paths, outlines = m * len(self._path_fractions), 2 * m * n
+        lines = 3 if self._known_knees else 6
+        points = np.empty((2, paths + lines * outlines))
         delta = landing - liftoff
         for axis, (cos_part, sin_part) in enumerate(((c, -s), (s, c))):
             np.add(liftoff[:, axis, None], delta[:, axis, None] * self._path_fractions,
                    out=points[axis, :paths].reshape(m, -1))
-            middle = np.concatenate([landing[:, axis], landing[:, axis]])[:, None] + along * cos_part  # (2m, n)
-            np.add(middle.reshape(1, -1), (lean.reshape(1, -1) + self._lines[:, None]) * sin_part,
-                   out=points[axis, paths:].reshape(3, -1))
+            foot = np.concatenate([landing[:, axis], landing[:, axis]])[:, None]  # (2m, 1)
+            np.add((foot + along * cos_part).reshape(1, -1), (lean.reshape(1, -1) + self._lines[:, None]) * sin_part,
+                   out=points[axis, paths: paths + 3 * outlines].reshape(3, -1))
+            if lines == 6:
+                np.subtract(np.broadcast_to(2.0 * foot, (2 * m, n)).reshape(1, -1),
+                            points[axis, paths: paths + 3 * outlines].reshape(3, -1),
+                            out=points[axis, paths + 3 * outlines:].reshape(3, -1))
         heights = _height_bound_of(terrain, points)
         # Every comparison with the terrain as a margin that must not be positive, one row per landing.
         start_top = tops_z[legs]
-        outline = heights[paths:].reshape(3, -1)
-        outline = np.maximum(np.maximum(outline[0], outline[1]), outline[2]).reshape(2, m, n) - allowed_z.reshape(2, m, n)
+        outline = heights[paths:].reshape(lines, -1)
+        highest = np.maximum(np.maximum(outline[0], outline[1]), outline[2])
+        if lines == 6:
+            highest = np.maximum(highest, np.maximum(np.maximum(outline[3], outline[4]), outline[5]))
+        outline = highest.reshape(2, m, n) - allowed_z.reshape(2, m, n)
         margins = np.concatenate([
             heights[:paths].reshape(m, -1) - np.maximum(start_top, top)[:, None] - k.max_step,  # 2. swing path
             np.maximum(outline[0], outline[1]),  # 4. shin and thigh, both poses
@@ -414,7 +420,7 @@ class FootholdChecker:
         # (By at most max_lean_m: a leg leaning further has had the ground beside its foot checked instead.)
         lean = np.clip(np.concatenate([toward_plane, toward_plane]), -checks.max_lean_m, checks.max_lean_m)
         outline = self._outline_points(np.concatenate([landing, landing]).T, distance, lean[:, None] * up
-                                       / both_rise[:, None], geo.knee_side[poses], c, s)  # (2, 2M, S, lines)
+                                       / both_rise[:, None], poses, c, s)  # (2, 2M, S, lines)
         # The points to look up at once: swing path and leg outline (an upper bound of the tops is enough there).
         start = liftoff.T[:, :, None]
         path = start + (landing.T[:, :, None] - start) * self._path_fractions  # (2, M, P)
@@ -478,26 +484,28 @@ class FootholdChecker:
                                                                           np.abs(ahead))
         distance, allowed_z, up = self._leg_outline(legs, foot_z, lever, rise)
         toward_plane = ahead_left[:, 1] + geo.plane_left_m
-        points = self._outline_points(feet.T, distance, toward_plane[:, None] * up / rise[:, None], geo.knee_side,
-                                      c, s)  # (2, 4, S, lines)
+        points = self._outline_points(feet.T, distance, toward_plane[:, None] * up / rise[:, None], legs, c,
+                                      s)  # (2, 4, S, lines)
         heights = _height_bound_of(terrain, points.reshape(2, -1)).reshape(4, distance.shape[1], -1)
         margin = np.maximum.reduce(heights, axis=2) - allowed_z
         return (margin.max(axis=1) <= 0.0) | (tops != tops)
 
-    def _outline_points(self, feet: np.ndarray, distance: np.ndarray, lean: np.ndarray, side: np.ndarray,
+    def _outline_points(self, feet: np.ndarray, distance: np.ndarray, lean: np.ndarray, legs: np.ndarray,
                         c: float, s: float) -> np.ndarray:
-        """(2, M, S, L) the points under leg outlines, coordinate first: ``distance`` (M, S) from the feet (2, M)
-        toward the knee side and ``lean`` (M, S) along the left of the heading (cos, sin = c, s), on L lines
-        (the axis and ``shin_half_width_m`` to each side; both sides of the foot as well for an unknown knee)."""
-        direction = np.where(side != 0, side, 1.0)[:, None] * distance  # (M, S) along the heading
+        """(2, M, S, L) the points under the outlines of legs (M,), coordinate first: ``distance`` (M, S) from the
+        feet (2, M) toward the knee side and ``lean`` (M, S) along the left of the heading (cos, sin = c, s), on L
+        lines (the axis and ``shin_half_width_m`` to each side; both sides of the foot as well for an unknown
+        knee)."""
+        along = (self._k.knee_direction[legs][:, None] * distance)[:, :, None]  # (M, S, 1) along the heading
         across = lean[:, :, None] + self._lines  # (M, S, 3) along its left
-        along = direction[:, :, None]
-        x = feet[0][:, None, None] + along * c - across * s
-        y = feet[1][:, None, None] + along * s + across * c
-        if not np.all(side != 0):  # unknown knee: the other side too
-            x = np.concatenate([x, 2.0 * feet[0][:, None, None] - x], axis=2)
-            y = np.concatenate([y, 2.0 * feet[1][:, None, None] - y], axis=2)
-        return np.stack([x, y])
+        points = np.empty((2,) + across.shape[:2] + (3 if self._known_knees else 6,))
+        x, y = points[0, :, :, :3], points[1, :, :, :3]
+        np.subtract(feet[0][:, None, None] + along * c, across * s, out=x)
+        np.add(feet[1][:, None, None] + along * s, across * c, out=y)
+        if not self._known_knees:  # unknown knee: the other side too
+            np.subtract(2.0 * feet[0][:, None, None], x, out=points[0, :, :, 3:])
+            np.subtract(2.0 * feet[1][:, None, None], y, out=points[1, :, :, 3:])
+        return points
 
     def _leg_outline(self, legs: np.ndarray, foot_z: np.ndarray, lever: np.ndarray,
                      rise: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

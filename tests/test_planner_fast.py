@@ -5,6 +5,8 @@ candidate view, the height checks' batch (``FootholdChecker.usable``) against th
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import shapely
@@ -220,15 +222,18 @@ def test_the_candidate_view_marks_the_cells_the_reference_would_take(robot, mode
                 assert view.safe[list(view.chosen)].all() and view.rank[list(view.chosen)].min() <= step.rank
 
 
-def test_the_batched_height_checks_are_the_checks_one_by_one(robot):
+@pytest.mark.parametrize("knees", [True, False], ids=["knees", "no-knees"])
+def test_the_batched_height_checks_are_the_checks_one_by_one(robot, knees):
     """``usable`` (the planner's batch, with the parts and centres it knows) == every check of ``evaluate``, on
-    random landings around random stances, both robots' legs (Solo12's knees point both ways)."""
+    random landings around random stances (Solo12's knees point both ways; without knee positions the shin is
+    checked on both sides of the foot)."""
+    description = robot.description if knees else dataclasses.replace(robot.description, knee_pos_base=None)
     rng = np.random.default_rng(11)
     checked = usable_seen = 0
     for terrain in (random_heights(0, 0), random_heights(120, 5), random_heights(60, 7, 0.12), resolve("stairs"),
                     resolve("raised_stones")):  # (tops within +-12 cm: steps past what the swing clears)
         parts = terrain.top_parts()
-        checker = FootholdChecker(robot.description)
+        checker = FootholdChecker(description)
         b = terrain.bounds
         for _ in range(40):
             yaw = rng.uniform(-0.4, 0.4)
