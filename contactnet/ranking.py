@@ -300,8 +300,6 @@ class OneLevelWalk:
         return xy
 
 
-
-
 #: ``HeightsWalk``: the first batch of landing points whose height checks are run together is this many per leg of a
 #: step (8 on the walk's grid, 16 on the trot's); the next is all the rest.
 FIRST_BATCH_POINTS = 8

@@ -12,6 +12,7 @@ import pytest
 import shapely
 from helpers import save_random_models
 
+import contactnet.ranking
 from contactnet.bench.planner import planning_contexts
 from contactnet.footholds import FootholdChecker
 from contactnet.gait import TROT, WALK
@@ -142,6 +143,15 @@ def test_one_level_plans_match_the_reference(robot, models, gait, name):
             for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
                 seen[key] += value
     assert seen["plans"] == 150 and seen["deep"] > 0, seen  # some choices lie deep in the ranking
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_one_level_whole_grid_past_the_walk(robot, models, gait, monkeypatch):
+    """Past ``RANK_WALK`` actions tried one at a time, the whole grid at once: the same plans (the walk tried 2)."""
+    monkeypatch.setattr(contactnet.ranking, "RANK_WALK", 2)
+    planner = make_planner("contactnet", gait, robot, model=models[gait.name])
+    seen = _compare(planner, planning_contexts(gait, random_field(220, 2), robot.description, 20, seed=7))
+    assert seen["plans"] == 20 and seen["deep"] > 0, seen
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
