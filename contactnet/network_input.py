@@ -8,7 +8,8 @@ heading frame). Expressing the horizontal vectors in the heading frame makes the
 where the robot stands and which way it faces.
 
 - `network_input`: the general function, vectorised over any leading axes;
-- `network_input_one`: the same for one state, lean (a few microseconds: the planner's hot loop);
+- `network_input_one`: the same for one state, lean (a few microseconds: the planner's hot loop), and
+  `network_input_values` on Python floats (the planner's state);
 - `network_input_of_context` / `network_input_of_state`: a ``PlanningContext`` / a ``CostState``.
 """
 
@@ -76,18 +77,34 @@ def network_input_one(
     """`network_input` of one state, (14,): the same arguments without leading axes (``feet_xy_world``
     (4, 2), ``com_pos_world`` (3,), ``com_vel_world`` (3,), ``vel_cmd_xy`` (2,), scalar ``yaw_rad`` and
     ``ground_z``), computed on Python floats: a few microseconds, the planner's hot loop."""
-    (fl_x, fl_y), (fr_x, fr_y), (hl_x, hl_y), (hr_x, hr_y) = feet_xy_world.tolist()
-    com_x, com_y, com_z = com_pos_world.tolist()
-    vel_x, vel_y, vel_z = com_vel_world.tolist()
-    cmd_x, cmd_y = vel_cmd_xy.tolist()
-    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return np.array(network_input_values(feet_xy_world.tolist(), com_pos_world.tolist(), com_vel_world.tolist(),
+                                         vel_cmd_xy.tolist(), math.cos(yaw_rad), math.sin(yaw_rad), ground_z))
+
+
+def network_input_values(
+    feet_xy_world: list[list[float]],
+    com_pos_world: list[float],
+    com_vel_world: list[float],
+    vel_cmd_xy: list[float],
+    cos_yaw: float,
+    sin_yaw: float,
+    ground_z: float,
+) -> list[float]:
+    """`network_input_one` on Python floats and lists, as a list of 14 floats: feet [[x, y]] * 4, CoM [x, y, z],
+    velocity [x, y, z], command [x, y], the cosine and sine of the yaw (``math.cos``, ``math.sin``) and the
+    ground height. The planner keeps its state in floats and calls this directly."""
+    (fl_x, fl_y), (fr_x, fr_y), (hl_x, hl_y), (hr_x, hr_y) = feet_xy_world
+    com_x, com_y, com_z = com_pos_world
+    vel_x, vel_y, vel_z = com_vel_world
+    cmd_x, cmd_y = vel_cmd_xy
+    c, s = cos_yaw, sin_yaw
     fl_x, fr_x, hl_x, hr_x = fl_x - com_x, fr_x - com_x, hl_x - com_x, hr_x - com_x
     fl_y, fr_y, hl_y, hr_y = fl_y - com_y, fr_y - com_y, hl_y - com_y, hr_y - com_y
-    return np.array([
+    return [
         c * fl_x + s * fl_y, -s * fl_x + c * fl_y, c * fr_x + s * fr_y, -s * fr_x + c * fr_y,
         c * hl_x + s * hl_y, -s * hl_x + c * hl_y, c * hr_x + s * hr_y, -s * hr_x + c * hr_y,
         com_z - ground_z, c * vel_x + s * vel_y, -s * vel_x + c * vel_y, vel_z, cmd_x, cmd_y,
-    ])  # fmt: skip
+    ]  # fmt: skip
 
 
 def network_input_of_context(ctx: Any) -> np.ndarray:
@@ -123,4 +140,4 @@ def network_input_of_state(state: Any) -> np.ndarray:
 
 
 __all__ = ["INPUT_NAMES", "N_INPUTS", "network_input", "network_input_of_context", "network_input_of_state",
-           "network_input_one"]
+           "network_input_one", "network_input_values"]

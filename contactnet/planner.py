@@ -13,6 +13,7 @@ in how they choose; the loop (`locomotion.py`) treats them alike.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
@@ -22,22 +23,31 @@ import numpy as np
 from contactnet.footholds import FootholdChecker
 from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
-from contactnet.network_input import network_input_one
+from contactnet.network import NumpyContactNet
+from contactnet.network_input import network_input_one, network_input_values
+from contactnet.ranking import (
+    SAFETY_CHUNK,
+    WHOLE_GRID_MAX_POINTS,
+    ActionCells,
+    CandidateRanking,
+    HeightsWalk,
+    LandingCheck,
+    OneLevelWalk,
+    PlannedStep,
+    cell_grid,
+    first_safe_step,
+    step_in_place,
+)
 from contactnet.robots.description import RobotDescription
-from contactnet.stand import prefer_stand, split_stand
+from contactnet.stand import prefer_stand, split_stand, stand_step
 from contactnet.terrain import Terrain
 
-
-@dataclass(frozen=True)
-class PlannedStep:
-    """One step: the legs that swing and where each lands (world XY), plus how it was chosen."""
-
-    legs: tuple[int, ...]
-    footholds_xy_world: np.ndarray  # (len(legs), 2)
-    action_index: int | None = None  # index in the gait's action set, when the planner uses it
-    rank: int | None = None  # position of the chosen action in the planner's ranking (0 = best)
-    discarded: int = 0  # candidates ranked better but rejected as unsafe
-    safe: bool = True  # False when the planner knowingly steps where the terrain is unsafe
+#: Re-exported: choosing a step from a ranking lives in ``contactnet.ranking``.
+__all__ = [
+    "CORNERED_BACKSTEP_M", "CORNERED_LOOKAHEAD_STEPS", "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking",
+    "ContactNetPlanner", "FixedGaitPlanner", "HeuristicPlanner", "LandingCheck", "OraclePlanner", "PlannedStep",
+    "Planner", "PlanningContext", "cell_grid", "first_safe_step", "step_in_place", "touchdown_times_s",
+]
 
 
 @dataclass(frozen=True)
@@ -239,162 +249,10 @@ class OraclePlanner:
         return step
 
 
-# ----------------------------------------------------------------------------------------------------
-# Choosing from a ranking: shared by the oracle, ContactNet and the fixed gait
-# ----------------------------------------------------------------------------------------------------
-
-SAFETY_CHUNK = 8  # the best actions checked on their own before the whole candidate grid ...
-WHOLE_GRID_MAX_POINTS = 48  # ... unless the grid is this small (trot: 36 cells): then the grid at once
-
 #: A cornered leg's step (``ContactNetPlanner``) is promoted only if it lands no further back than this (m).
 CORNERED_BACKSTEP_M = 0.01
 #: ... and a leg is cornered when its lower leg would reach the terrain this many steps of motion ahead.
 CORNERED_LOOKAHEAD_STEPS = 3.0
-
-#: A further test of landing points besides ``terrain.is_safe``: ``(legs (M,), landing_xy_world (M, 2)) ->
-#: usable (M,) bool`` (the height checks of ``contactnet.footholds`` on terrain with heights).
-LandingCheck = Callable[[np.ndarray, np.ndarray], np.ndarray]
-
-
-def _usable(terrain: Terrain, margin_m: float, legs: np.ndarray | None, xy: np.ndarray,
-            check: LandingCheck | None) -> np.ndarray:
-    """(M,) bool: landing points ``xy`` (M, 2) of ``legs`` (M,) that are safe and pass ``check``."""
-    safe = terrain.is_safe(xy, margin_m)
-    if check is not None and safe.any():
-        where = safe.nonzero()[0]
-        safe[where] = check(legs[where], xy[where])
-    return safe
-
-
-def first_safe_step(
-    gait: GaitSpec,
-    order: np.ndarray,
-    cell_xy_world: np.ndarray,
-    foot_pos_world: np.ndarray,
-    terrain: Terrain,
-    margin_m: float,
-    check: LandingCheck | None = None,
-) -> PlannedStep:
-    """Walk down ``order`` (action indices, best first) to the first action whose swinging legs all land on
-    safe ground (``terrain.is_safe`` with ``margin_m``, and ``check`` when given). ``cell_xy_world`` (4,
-    cells_per_leg, 2) is every leg's candidate grid; an action lands its legs on the cells ``gait.action_cells``
-    names.
-
-    The terrain is queried for all 4 x cells_per_leg cells at once, then every action is looked up in
-    ranking order, so the cost does not depend on how deep into the ranking the holes push the choice.
-    A large grid (walk: 100 cells, 1 leg per action) first tries the landing points of the best
-    ``SAFETY_CHUNK`` actions on their own (the usual case: one of them is safe); a small one (trot: 36
-    cells, 2 legs per action) is cheaper to query whole than to try a chunk first.
-
-    ``rank`` is the chosen action's position in ``order`` and ``discarded`` how many better-ranked actions
-    were unsafe (the same number). No safe action in ``order``: step in place (see ``OraclePlanner``).
-    """
-    order = np.asarray(order)
-    cells_xy = np.asarray(cell_xy_world, dtype=float)
-    action_legs, action_cells = gait.action_cells
-    whole_grid = cells_xy.shape[0] * cells_xy.shape[1] <= WHOLE_GRID_MAX_POINTS
-    safe = np.zeros(0, dtype=bool)
-    if not whole_grid:
-        head = order[:SAFETY_CHUNK]
-        landing = cells_xy[action_legs[head], action_cells[head]]
-        safe = _usable(terrain, margin_m, action_legs[head].ravel(), landing.reshape(-1, 2), check)
-        safe = safe.reshape(landing.shape[:2]).all(axis=1)
-    if not safe.any() and (whole_grid or len(order) > SAFETY_CHUNK):
-        grid_legs = None if check is None else np.repeat(np.arange(cells_xy.shape[0]), cells_xy.shape[1])
-        cell_safe = _usable(terrain, margin_m, grid_legs, cells_xy.reshape(-1, 2), check).astype(np.float32)
-        safe = (gait.action_cell_incidence @ cell_safe == gait.legs_per_step)[order]
-    rank = int(safe.argmax()) if len(safe) else 0
-    if not len(safe) or not safe[rank]:
-        return step_in_place(gait, order, foot_pos_world, terrain)
-    index = int(order[rank])
-    return PlannedStep(legs=gait.swing_groups[index // gait.actions_per_group],
-                       footholds_xy_world=cells_xy[action_legs[index], action_cells[index]], action_index=index,
-                       rank=rank, discarded=rank)
-
-
-def cell_grid(gait: GaitSpec, footholds_xy_world: np.ndarray) -> np.ndarray:
-    """(4, cells_per_leg, 2) every leg's candidate cells, from (N_a, 4, 2) feet after each action (the
-    ranking cost's ``footholds_xy_world``). An action lands its legs on ``grid[gait.action_cells]``."""
-    legs, cells = gait.action_cells
-    grid = np.full((4, gait.cells_per_leg, 2), np.nan)
-    grid[legs, cells] = np.asarray(footholds_xy_world)[np.arange(gait.n_actions)[:, None], legs]
-    return grid
-
-
-def step_in_place(gait: GaitSpec, order: np.ndarray, foot_pos_world: np.ndarray, terrain: Terrain) -> PlannedStep:
-    """No safe candidate: lift a group of legs and put them back where they are. Groups are tried in the
-    order their best action appears in ``order``; the first whose feet stand on safe ground is used
-    (``safe=True``), else the first group with ``safe=False``."""
-    groups = list(dict.fromkeys(int(a) // gait.actions_per_group for a in np.asarray(order)))
-    feet_xy = np.asarray(foot_pos_world, dtype=float)[:, 0:2]
-    for group in groups:
-        legs = gait.swing_groups[group]
-        if terrain.is_safe(feet_xy[list(legs)], 0.0).all():
-            return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(), discarded=len(order))
-    legs = gait.swing_groups[groups[0]]
-    return PlannedStep(legs=legs, footholds_xy_world=feet_xy[list(legs)].copy(), discarded=len(order), safe=False)
-
-
-class CandidateRanking:
-    """What a ranking planner saw for the step it executes now, for viewers: every candidate cell of every
-    leg (world XY), whether it is safe, its best rank among the actions that use it, and the chosen
-    cells. Built lazily (``cells()``): planning itself never pays for it."""
-
-    def __init__(self, gait: GaitSpec, order: np.ndarray, cell_xy_world: np.ndarray, terrain: Terrain,
-                 margin_m: float, chosen_action: int | None, check: LandingCheck | None = None) -> None:
-        self.check = check  # the planner's further test of landing points (heights), None on flat ground
-        self.gait = gait
-        self.order = np.asarray(order)
-        self.cell_xy_world = cell_xy_world  # (4, cells_per_leg, 2), see first_safe_step
-        self.terrain = terrain
-        self.margin_m = float(margin_m)
-        self.chosen_action = chosen_action
-        self._cells: tuple | None = None
-
-    def cells(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple[int, ...]]:
-        """(xy_world (C, 2), safe (C,), leg (C,), rank (C,), chosen cell indices), C = 4 x cells per leg.
-        Cells no ranked action uses get rank len(order)."""
-        if self._cells is None:
-            gait = self.gait
-            n_cells = gait.cells_per_leg
-            rank = np.full((4, n_cells), len(self.order), dtype=int)
-            chosen: list[int] = []
-            action_legs, action_cells = gait.action_cells
-            for position, index in enumerate(self.order):
-                for leg, cell in zip(action_legs[index], action_cells[index], strict=True):
-                    if rank[leg, cell] == len(self.order):
-                        rank[leg, cell] = position
-                    if index == self.chosen_action:
-                        chosen.append(leg * n_cells + cell)
-            used = rank < len(self.order)
-            xy_used = np.asarray(self.cell_xy_world, dtype=float)[used]
-            leg_ids = np.repeat(np.arange(4), n_cells).reshape(4, n_cells)[used]
-            flat_index = np.cumsum(used.ravel()) - 1
-            chosen_used = tuple(int(flat_index[c]) for c in chosen)
-            safe = _usable(self.terrain, self.margin_m, leg_ids, xy_used, self.check)
-            self._cells = (xy_used, safe, leg_ids, rank[used], chosen_used)
-        return self._cells
-
-    @property
-    def xy_world(self) -> np.ndarray:
-        return self.cells()[0]
-
-    @property
-    def safe(self) -> np.ndarray:
-        return self.cells()[1]
-
-    @property
-    def leg(self) -> np.ndarray:
-        return self.cells()[2]
-
-    @property
-    def rank(self) -> np.ndarray:
-        return self.cells()[3]
-
-    @property
-    def chosen(self) -> tuple[int, ...]:
-        return self.cells()[4]
-
 
 # ----------------------------------------------------------------------------------------------------
 # ContactNet
@@ -435,70 +293,194 @@ class ContactNetPlanner:
         self.footholds = FootholdChecker(robot)
         self.hip_xy_base = np.array(robot.hip_pos_base[:, :2], dtype=float)
         self.last_candidates: CandidateRanking | None = None
+        # The hot path's constants: the network with its scores negated (an ascending sort ranks), when the
+        # model is the numpy network; the actions as lists of grid cells; numbers of the gait.
+        net = getattr(model, "net", None)
+        self._cost_net = net.negated() if isinstance(net, NumpyContactNet) else None
+        self._actions = ActionCells.of(gait)
+        self._n_actions, self._actions_per_group = gait.n_actions, gait.actions_per_group
+        self._steps_per_plan, self._step_duration_s = gait.steps_per_plan, gait.step_duration_s
+        self._may_stand = True  # with a model of N_a + 1 outputs (contactnet.stand)
 
     def reset(self) -> None:
         self.last_candidates = None
 
-    def _order(self, scores: np.ndarray, step_index: int) -> np.ndarray:
-        """Action indices best first (higher score = cheaper)."""
-        return np.argsort(-scores, kind="stable")
+    def _group_range(self, step_index: int) -> tuple[int, int]:
+        """The actions ranked at step ``step_index`` of this plan: ``range(first, stop)`` (all of them)."""
+        return 0, self._n_actions
+
+    def _order(self, costs: np.ndarray, step_index: int) -> np.ndarray:
+        """Action indices best first (lower cost, i.e. higher score, first; ties in index order)."""
+        return self._ranking(costs, step_index)()
+
+    def _ranking(self, costs: np.ndarray, step_index: int) -> Callable[[], np.ndarray]:
+        """A function making ``_order(costs, step_index)`` when called, even after the plan has moved on."""
+        first, stop = self._group_range(step_index)
+        if first == 0 and stop == self._n_actions:
+            return lambda: costs.argsort(kind="stable")
+        return lambda: first + costs[first:stop].argsort(kind="stable")
+
+    def _best(self, costs: np.ndarray, step_index: int) -> int:
+        """``_order(costs, step_index)[0]`` without sorting (the first index of the lowest cost)."""
+        first, stop = self._group_range(step_index)
+        if first == 0 and stop == self._n_actions:
+            return int(costs.argmin())
+        return first + int(costs[first:stop].argmin())
 
     def _advance(self) -> None:
         """Called once per plan (the fixed gait moves on to the next group)."""
 
+    def _split_stand(self, costs: np.ndarray) -> tuple[np.ndarray, float | None]:
+        """The stepping actions' costs (N_a,) and standing's (None when the model cannot stand, or for the fixed
+        gait, which keeps its order)."""
+        if len(costs) == self._n_actions or not self._may_stand:
+            return costs[:self._n_actions], None
+        return costs[:self._n_actions], float(costs[self._n_actions])
+
+    @staticmethod
+    def _stands(costs: np.ndarray, stand_cost: float | None, found: tuple | None) -> bool:
+        """Standing ranks above the first usable step (ties go to the step: it comes first in index order), or
+        no step is usable at all (standing is always safe: no foot moves)."""
+        return stand_cost is not None and (found is None or stand_cost < costs[found[1]])
+
+    def _costs(self, u: list[float]) -> np.ndarray:
+        """Minus the network's scores (N_a, or N_a + 1 with standing last) of the input u (14 floats)."""
+        net = self._cost_net
+        if net is not None:
+            return net.scores_unchecked(np.array(u, dtype=net.dtype))
+        return -np.asarray(self.model.scores(np.array(u)))
+
     def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
-        """Three steps. The state is carried in a few arrays rather than ``CostState`` objects (this is the
-        hot path); ``tests/test_planner.py`` checks it against ``network_input_of_state`` and
-        ``predicted_state`` step by step."""
+        """Three steps. The state is carried in Python floats rather than ``CostState`` objects (this is the
+        hot path); ``tests/test_planner.py`` checks it against ``network_input_of_state`` and ``predicted_state``
+        step by step, and ``tests/test_planner_fast.py`` against a plain walk down the ranking, flat and with
+        heights."""
+        if self.footholds.applies(ctx.terrain):
+            steps = self._plan_with_heights(ctx)
+        else:
+            steps = self._plan_one_level(ctx)
+        self._advance()
+        return steps
+
+    def _plan_one_level(self, ctx: PlanningContext) -> list[PlannedStep]:
+        """``plan`` on a terrain whose tops are all at one height, where a candidate is usable when it is safe:
+        ``first_safe_step``'s choice, found faster (``OneLevelWalk``)."""
+        gait, terrain = self.gait, ctx.terrain
+        c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
+        to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
+        hips_world = self.hip_ref_xy_base @ to_world.T
+        offsets_world = gait.cell_offsets_xy @ to_world.T
+        feet = np.asarray(ctx.foot_pos_world, dtype=float)[:, 0:2].tolist()
+        com = np.asarray(ctx.com_pos_world, dtype=float).tolist()
+        vel = np.asarray(ctx.com_vel_world, dtype=float).tolist()
+        base_x, base_y = np.asarray(ctx.base_xy_world, dtype=float).tolist()
+        cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
+        cmd = cmd_xy.tolist()
+        cmd_world = (to_world @ cmd_xy).tolist()
+        shift_x, shift_y = cmd_world[0] * self._step_duration_s, cmd_world[1] * self._step_duration_s
+        level_z = terrain.levels[0][0]
+        if level_z == terrain.surface_z:  # every foot on a top or over a hole: the same height (ground_z)
+            tops = [level_z] * 4
+        else:
+            tops = terrain.ground_z(np.array(feet)).tolist()
+        ground_z = sum(tops) / len(tops)
+        com_z = ground_z + ctx.com_height_ref_m
+        cos_yaw, sin_yaw = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
+        bases = [[base_x, base_y]]
+        for _ in range(1, self._steps_per_plan):
+            base_x += shift_x
+            base_y += shift_y
+            bases.append([base_x, base_y])
+        walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
+        costs_of, action_group = self._costs, self._actions.group
+        steps = []
+        for j in range(self._steps_per_plan):
+            costs, stand_cost = self._split_stand(costs_of(network_input_values(feet, com, vel, cmd, cos_yaw, sin_yaw,
+                                                                                ground_z)))
+            order = self._ranking(costs, j)
+            found = walk.first_safe(j, costs, self._best(costs, j), order)
+            if self._stands(costs, stand_cost, found):
+                step, points = stand_step(gait, costs, stand_cost), []
+            elif found is None:  # nothing safe: step in place
+                step = step_in_place(gait, order(), np.array(feet), terrain)
+                points = step.footholds_xy_world.tolist()
+            else:
+                rank, action, points = found
+                step = PlannedStep(legs=action_group[action], footholds_xy_world=np.array(points),
+                                   action_index=action, rank=rank, discarded=rank)
+            if j == 0:
+                self.last_candidates = CandidateRanking(gait, order, walk.grid(0), terrain, self.margin_m,
+                                                        step.action_index)
+            steps.append(step)
+            # The state a step later, as contactnet.cost.predicted_state predicts it.
+            for leg, xy in zip(step.legs, points, strict=True):
+                feet[leg] = xy
+            com = [com[0] + shift_x, com[1] + shift_y, com_z]
+            vel = [cmd_world[0], cmd_world[1], 0.0]
+        return steps
+
+    def _plan_with_heights(self, ctx: PlanningContext) -> list[PlannedStep]:
+        """``plan`` on a terrain with tops at several heights (see the class doc): ``first_safe_step`` with the
+        height checks, found faster (``HeightsWalk``)."""
         gait = self.gait
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
         hips_world = self.hip_ref_xy_base @ to_world.T
         offsets_world = gait.cell_offsets_xy @ to_world.T
         feet_xy = np.array(ctx.foot_pos_world, dtype=float)[:, 0:2]
-        com = np.array(ctx.com_pos_world, dtype=float)
-        vel = np.array(ctx.com_vel_world, dtype=float)
+        com = np.asarray(ctx.com_pos_world, dtype=float).tolist()
+        vel = np.asarray(ctx.com_vel_world, dtype=float).tolist()
         base_xy = np.array(ctx.base_xy_world, dtype=float)
         cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
+        cmd = cmd_xy.tolist()
         cmd_world = to_world @ cmd_xy
         shift = cmd_world * gait.step_duration_s
+        shift_x, shift_y = shift.tolist()
         terrain = ctx.terrain
-        heights = self.footholds.applies(terrain)
-        tops = terrain.ground_z(feet_xy)  # (4,) the support (contactnet.ground)
+        ground_xy = _ground_xy(terrain)
+        tops = np.array([ground_xy(x, y) for x, y in feet_xy.tolist()])  # (4,) the support (contactnet.ground)
         ground_z = sum(tops.tolist()) / len(tops)
-        if heights:  # each leg's hip (flexion joint) at touchdown, from the base at the start of the step
-            hips_touchdown = self.hip_xy_base @ to_world.T + cmd_world * touchdown_times_s(gait)[0]
+        # each leg's hip (flexion joint) at touchdown, from the base at the start of the step
+        hips_touchdown = self.hip_xy_base @ to_world.T + cmd_world * touchdown_times_s(gait)[0]
+        cos_yaw, sin_yaw = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
+        bases = [base_xy.tolist()]
+        for _ in range(1, self._steps_per_plan):
+            bases.append((np.array(bases[-1]) + shift).tolist())
+        walk = HeightsWalk(self._actions, terrain, self.margin_m, self.footholds, hips_world, offsets_world, bases,
+                           ctx.yaw_rad)
         steps = []
-        for j in range(gait.steps_per_plan):
-            u = network_input_one(feet_xy, com, vel, cmd_xy, ctx.yaw_rad, ground_z)
-            order, stand_position = split_stand(gait, self._order(self.model.scores(u), j))
-            cells = (base_xy + hips_world)[:, None, :] + offsets_world[None]
-            check = None
-            if heights:
-                cells = self.footholds.centred(terrain, cells.reshape(-1, 2)).reshape(cells.shape)
-                check = self._height_check(terrain, feet_xy.copy(), base_xy + hips_touchdown, tops.copy(),
-                                           ctx.yaw_rad)
-                if j == 0:
-                    promoted = self._swing_cornered_legs_first(order, cells, terrain, feet_xy, tops, base_xy,
-                                                               to_world, cmd_world, ctx.yaw_rad)
-                    if promoted is not order:  # a leg is cornered: it steps, the robot does not stand
-                        order, stand_position = promoted, None
-            step = prefer_stand(gait, first_safe_step(gait, order, cells, feet_xy, terrain, self.margin_m, check),
-                                stand_position)
+        for j in range(self._steps_per_plan):
+            costs, stand_cost = self._split_stand(self._costs(network_input_values(
+                feet_xy.tolist(), com, vel, cmd, cos_yaw, sin_yaw, ground_z)))
+            order = self._order(costs, j)
+            hips_xy = np.array(bases[j]) + hips_touchdown
             if j == 0:
-                self.last_candidates = CandidateRanking(gait, order, cells, terrain, self.margin_m,
-                                                        step.action_index, check)
+                promoted = self._swing_cornered_legs_first(order, walk.grid(0), terrain, feet_xy, tops, base_xy,
+                                                           to_world, cmd_world, ctx.yaw_rad)
+                if promoted is not order:  # a leg is cornered: it steps, the robot does not stand
+                    order, stand_cost = promoted, None
+            found = walk.first_usable(j, order, feet_xy, tops, hips_xy)
+            if self._stands(costs, stand_cost, found):
+                step, points = stand_step(gait, costs, stand_cost), []
+            elif found is None:  # nothing usable: step in place
+                step = step_in_place(gait, order, feet_xy, terrain)
+                points = step.footholds_xy_world.tolist()
+            else:
+                rank, action, points = found
+                step = PlannedStep(legs=self._actions.group[action], footholds_xy_world=np.array(points),
+                                   action_index=action, rank=rank, discarded=rank)
+            if j == 0:
+                self.last_candidates = CandidateRanking(
+                    gait, order, walk.grid(0), terrain, self.margin_m, step.action_index,
+                    self._height_check(terrain, feet_xy.copy(), hips_xy, tops.copy(), ctx.yaw_rad))
             steps.append(step)
             # The state a step later, as contactnet.cost.predicted_state predicts it.
-            feet_xy[list(step.legs)] = step.footholds_xy_world
-            if heights and step.legs:
-                tops[list(step.legs)] = terrain.ground_z(step.footholds_xy_world)
-                ground_z = sum(tops.tolist()) / len(tops)
-            com[0:2] += shift
-            com[2] = ground_z + ctx.com_height_ref_m
-            base_xy += shift
-            vel = np.array([cmd_world[0], cmd_world[1], 0.0])
-        self._advance()
+            for leg, (x, y) in zip(step.legs, points, strict=True):
+                feet_xy[leg] = x, y
+                tops[leg] = ground_xy(x, y)
+            ground_z = sum(tops.tolist()) / len(tops)
+            com = [com[0] + shift_x, com[1] + shift_y, ground_z + ctx.com_height_ref_m]
+            vel = [*cmd_world.tolist(), 0.0]
         return steps
 
     def replan_swing(self, ctx: PlanningContext, legs: tuple[int, ...]) -> PlannedStep | None:
@@ -524,24 +506,27 @@ class ContactNetPlanner:
         step = first_safe_step(gait, order, cells, feet_xy, terrain, self.margin_m, check)
         return None if step.action_index is None else step
 
-    def _swing_cornered_legs_first(self, order: np.ndarray, cells: np.ndarray, terrain: Terrain,
+    def _swing_cornered_legs_first(self, order: np.ndarray, grid: Callable[[], np.ndarray], terrain: Terrain,
                                    feet_xy: np.ndarray, tops: np.ndarray, base_xy: np.ndarray, to_world: np.ndarray,
                                    cmd_world: np.ndarray, yaw_rad: float) -> np.ndarray:
         """The ranking with the actions that move a *cornered* leg forward first (each part in its own order):
         a leg whose shank, knee or thigh would reach the terrain if it stood where it is for
         ``CORNERED_LOOKAHEAD_STEPS`` more steps of the commanded motion (a hind foot behind a higher top, the
         body moving on over it). The network knows nothing of heights and may keep such a leg down until it
-        touches. Actions that put a cornered leg further back are not promoted (that would corner it more)."""
+        touches. Actions that put a cornered leg further back are not promoted (that would corner it more).
+        ``grid()`` makes the (4, cells_per_leg, 2) candidate grid (only needed when a leg is cornered)."""
         lookahead_s = CORNERED_LOOKAHEAD_STEPS * self.gait.step_duration_s
         ahead = base_xy + self.hip_xy_base @ to_world.T + cmd_world * lookahead_s
         clear = self.footholds.stance_clear(terrain, feet_xy, tops, ahead, yaw_rad)
         if clear.all():
             return order
-        action_legs, action_cells = self.gait.action_cells
-        legs = action_legs[order]  # (K, legs per step)
-        forward = to_world[:, 0]
-        progress = (cells[legs, action_cells[order]] - feet_xy[legs]) @ forward  # (K, legs per step)
-        urgent = (~clear[legs] & (progress >= -CORNERED_BACKSTEP_M)).any(axis=1)
+        # Per grid cell (leg * cells_per_leg + cell): a cornered leg's cell no further back than the backstep.
+        cells = grid()  # (4, cells_per_leg, 2)
+        forward_x, forward_y = to_world[:, 0].tolist()
+        progress = (cells[:, :, 0] - feet_xy[:, 0, None]) * forward_x + (cells[:, :, 1] - feet_xy[:, 1, None]) * forward_y
+        promote = ((progress >= -CORNERED_BACKSTEP_M) & ~clear[:, None]).ravel()
+        landing = promote[self._actions.flat_array[order]]  # (K, legs per step)
+        urgent = landing[:, 0] if landing.shape[1] == 1 else np.logical_or.reduce(landing, axis=1)
         return np.concatenate([order[urgent], order[~urgent]])
 
     def _height_check(self, terrain: Terrain, feet_xy: np.ndarray, hips_xy_world: np.ndarray, tops_z: np.ndarray,
@@ -557,6 +542,17 @@ class ContactNetPlanner:
         return check
 
 
+def _ground_xy(terrain: Terrain) -> Callable[[float, float], float]:
+    """``terrain.ground_z`` of one point (x, y) in Python floats, on a terrain with several levels: the same answer."""
+    height_xy, surface_z = terrain.height_locator().height_xy, terrain.surface_z
+
+    def ground_xy(x: float, y: float) -> float:
+        z = height_xy(x, y)
+        return surface_z if z != z else z  # (NaN: no top)
+
+    return ground_xy
+
+
 class FixedGaitPlanner(ContactNetPlanner):
     """The paper's fixed-gait baseline: the same network, restricted to a prescribed cyclic leg order (walk:
     HL, FL, HR, FR; trot: alternating diagonal pairs). Only the footholds are chosen (the best safe cell of
@@ -568,17 +564,16 @@ class FixedGaitPlanner(ContactNetPlanner):
                  margin_m: float | None = None) -> None:
         super().__init__(gait, robot, model, margin_m)
         self._next_group = 0
+        self._may_stand = False  # the cyclic baseline always steps
 
     def reset(self) -> None:
         super().reset()
         self._next_group = 0
 
-    def _order(self, scores: np.ndarray, step_index: int) -> np.ndarray:
+    def _group_range(self, step_index: int) -> tuple[int, int]:
         cyclic = self.gait.cyclic_order
-        group = cyclic[(self._next_group + step_index) % len(cyclic)]
-        first = group * self.gait.actions_per_group
-        own = scores[first : first + self.gait.actions_per_group]
-        return first + np.argsort(-own, kind="stable")
+        first = cyclic[(self._next_group + step_index) % len(cyclic)] * self._actions_per_group
+        return first, first + self._actions_per_group
 
     def _advance(self) -> None:
         self._next_group = (self._next_group + 1) % len(self.gait.cyclic_order)

@@ -13,6 +13,7 @@ import dataclasses
 import numpy as np
 
 from contactnet.gait import GaitSpec
+from contactnet.ranking import PlannedStep
 
 
 def split_stand(gait: GaitSpec, order: np.ndarray) -> tuple[np.ndarray, int | None]:
@@ -35,4 +36,12 @@ def prefer_stand(gait: GaitSpec, step, stand_position: int | None):  # noqa: ANN
                                rank=stand_position, discarded=stand_position, safe=True)
 
 
-__all__ = ["prefer_stand", "split_stand"]
+def stand_step(gait: GaitSpec, costs: np.ndarray, stand_cost: float) -> PlannedStep:
+    """Standing, chosen from a network's costs (lower first; ``costs`` the N_a stepping actions'): its rank is
+    how many stepping actions cost no more (they come before it in a stable sort; all of them were unusable)."""
+    rank = int(np.count_nonzero(costs <= stand_cost))
+    return PlannedStep(legs=(), footholds_xy_world=np.zeros((0, 2)), action_index=gait.stand_index, rank=rank,
+                       discarded=rank)
+
+
+__all__ = ["prefer_stand", "split_stand", "stand_step"]

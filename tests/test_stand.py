@@ -58,3 +58,72 @@ def test_oracle_stands_still_with_a_zero_command_and_walks_off_when_commanded(ro
         assert any(r.legs for r in loco.records[standing:standing + 2])
         summary = loco.summary()
         assert not summary["fell"] and summary["useless_steps"] == 0
+
+
+class _StandModel:
+    """A stand-in model with N_a + 1 outputs: fixed random scores, standing's set by the test."""
+
+    def __init__(self, gait, seed: int, stand_score: float) -> None:
+        self.gait, self.n_actions, self.path = gait.name, gait.n_choices, "<stand>"
+        self._scores = np.random.default_rng(seed).uniform(0.0, 1.0, gait.n_choices)
+        self._scores[gait.stand_index] = stand_score
+
+    def scores(self, u):
+        return self._scores.copy()
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
+@pytest.mark.parametrize("terrain_name", ["flat", "random", "random_heights"])
+def test_contactnet_stands_exactly_when_standing_outranks_the_first_usable_step(robot, gait, terrain_name):
+    """The fast planner against the plain rule on the same scores: with a stand-capable model, step 1 stands iff
+    standing's score beats the step a model without the stand output takes (the first usable one), unless a leg
+    is cornered (terrain with heights: then it steps); the fixed gait never stands."""
+    from contactnet.bench.planner import planning_contexts
+    from contactnet.planner import ContactNetPlanner, FixedGaitPlanner
+    from contactnet.terrain import resolve
+
+    terrain = flat() if terrain_name == "flat" else resolve(terrain_name, removed=100, seed=3)
+    stood = stepped = 0
+    for k, ctx in enumerate(planning_contexts(gait, terrain, robot.description, 12, seed=k_seed(terrain_name))):
+        cornered = _cornered(ContactNetPlanner(gait, robot.description, _StandModel(gait, 0, 0.0)), ctx)
+        for stand_score in (0.2, 0.5, 0.8, 0.97, 1.5):
+            model = _StandModel(gait, seed=k, stand_score=stand_score)
+            without = _StandModel(gait, seed=k, stand_score=-1.0)  # standing last: never chosen over a safe step
+            plain = ContactNetPlanner(gait, robot.description, without).plan(ctx)[0]
+            chosen = ContactNetPlanner(gait, robot.description, model).plan(ctx)[0]
+            fixed = FixedGaitPlanner(gait, robot.description, model).plan(ctx)[0]
+            assert fixed.legs != ()
+            if cornered:
+                assert chosen.legs == plain.legs and chosen.action_index == plain.action_index
+                stepped += 1
+            elif plain.action_index is not None and stand_score > model.scores(None)[plain.action_index]:
+                assert chosen.legs == () and chosen.action_index == gait.stand_index
+                assert chosen.rank == int(np.count_nonzero(model.scores(None)[:gait.n_actions] >= stand_score))
+                stood += 1
+            elif plain.action_index is None:  # nothing usable: standing beats a step in place
+                assert chosen.legs == ()
+                stood += 1
+            else:
+                assert chosen.action_index == plain.action_index and chosen.legs == plain.legs
+                np.testing.assert_array_equal(chosen.footholds_xy_world, plain.footholds_xy_world)
+                stepped += 1
+    assert stood > 0 and stepped > 0
+
+
+def _cornered(planner, ctx) -> bool:  # noqa: ANN001
+    """Whether a leg is cornered at step 1 (``ContactNetPlanner._swing_cornered_legs_first``'s test)."""
+    from contactnet.planner import CORNERED_LOOKAHEAD_STEPS
+
+    if not planner.footholds.applies(ctx.terrain):
+        return False
+    c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
+    to_world = np.array([[c, -s], [s, c]])
+    feet_xy = np.asarray(ctx.foot_pos_world, dtype=float)[:, :2]
+    ahead = (np.asarray(ctx.base_xy_world) + planner.hip_xy_base @ to_world.T
+             + (to_world @ np.asarray(ctx.vel_cmd_xy)) * CORNERED_LOOKAHEAD_STEPS * planner.gait.step_duration_s)
+    return not planner.footholds.stance_clear(ctx.terrain, feet_xy, ctx.terrain.ground_z(feet_xy), ahead,
+                                              ctx.yaw_rad).all()
+
+
+def k_seed(name: str) -> int:
+    return {"flat": 1, "random": 2, "random_heights": 3}[name]

@@ -188,6 +188,11 @@ class Terrain:
         points, _ = _as_points(points_xy)
         return self._locator(margin).covers(points)
 
+    def safe_locator(self, margin: float = 0.0) -> PointLocator:
+        """The point locator behind :meth:`is_safe` with ``margin`` (cached): its ``covers_xy`` answers for one
+        point given as two floats, without numpy arrays (the planner's walk down a ranking)."""
+        return self._locator(margin)
+
     def height_at(self, points_xy: Any, outside: float = np.nan) -> np.ndarray:
         """World z (metres) of the highest top covering each point, ``outside`` where there is none.
 
@@ -215,6 +220,11 @@ class Terrain:
         points, single = _as_points(points_xy)
         heights = self._height_locator().upper_heights(points, float(outside))
         return heights.reshape(()) if single else heights
+
+    def height_locator(self) -> HeightLocator | None:
+        """The raster behind :meth:`height_at` and :meth:`height_bound` with several levels (built on first use,
+        cached), None with one level; its ``upper_heights_of`` takes points coordinate first."""
+        return self._height_locator() if self._heights else None
 
     def ground_z(self, points_xy: Any) -> np.ndarray:
         """World z (metres) to measure heights from: the top where steppable, else ``surface_z``.

@@ -12,7 +12,8 @@ The answers are therefore exact with respect to shapely.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
@@ -24,6 +25,9 @@ RASTER_TARGET_CELLS = 1 << 20  # capped by max_side=1000 per axis: 1.5 mm cells 
 _OUTSIDE, _INSIDE, _BOUNDARY = 0, 1, 2
 _intersects_xy = getattr(shapely.lib, "intersects_xy", shapely.intersects_xy)
 """shapely's ufunc without its Python wrapper (saves ~2 us per call); same semantics, uses preparation."""
+_FEW_BOUNDARY_POINTS = 8
+"""``HeightLocator.heights``: up to this many points next to outlines are asked of their cells' regions one by one
+(an STRtree query costs a fixed ~50 us)."""
 _SMALL_QUERY = 16
 """Batches up to this size go straight to shapely (a raster lookup costs a fixed ~10 numpy calls; shapely's
 cost per point grows with the number of holes, so larger batches, e.g. the trot's 36 cells, use the raster)."""
@@ -94,6 +98,17 @@ class PointLocator:
     clamp_hi: float  # n - 0.5
     strides: np.ndarray  # (2,) intp: (1, n)
     codes: np.ndarray  # (n * n,) uint8, row-major; empty for an empty region
+    # The same as Python objects, for scalar lookups (``covers_xy``).
+    code_bytes: bytes = field(init=False, repr=False, compare=False)
+    _first_col: float = field(init=False, repr=False, compare=False)
+    _first_row: float = field(init=False, repr=False, compare=False)
+    _side: int = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "code_bytes", self.codes.tobytes())
+        object.__setattr__(self, "_first_col", float(self.first_cell[0]))
+        object.__setattr__(self, "_first_row", float(self.first_cell[1]))
+        object.__setattr__(self, "_side", int(self.strides[1]))
 
     @classmethod
     def build(cls, geometry: BaseGeometry, target_cells: int = RASTER_TARGET_CELLS, max_side: int = 1000,
@@ -131,6 +146,27 @@ class PointLocator:
             result[on_boundary] = _intersects_xy(self.geometry, points[:, 0], points[:, 1])
         return result
 
+    def covers_xy(self, x: float, y: float) -> bool:
+        """``covers`` of one point given as two Python floats, without numpy arrays (a fraction of a microsecond
+        unless the point is in a BOUNDARY cell): the planner's walk down a ranking, one candidate at a time. The
+        same arithmetic as ``covers``, so the same answer."""
+        if not self.code_bytes:
+            return False
+        col = x * self.inv_cell - self._first_col
+        row = y * self.inv_cell - self._first_row
+        if not col > 0.0:  # also NaN, as np.fmax does
+            col = 0.0
+        elif col > self.clamp_hi:
+            col = self.clamp_hi
+        if not row > 0.0:
+            row = 0.0
+        elif row > self.clamp_hi:
+            row = self.clamp_hi
+        code = self.code_bytes[int(col) + int(row) * self._side]
+        if code == _BOUNDARY:
+            return bool(_intersects_xy(self.geometry, x, y))
+        return code == _INSIDE
+
 
 @dataclass(frozen=True)
 class HeightLocator:
@@ -140,8 +176,9 @@ class HeightLocator:
     not BOUNDARY form 4-connected components, and no outline passes through a component (the segment
     between two neighbouring centres stays inside the two cells' boxes), so every point of a component
     is covered by the same regions. One point per component is asked of shapely when the raster is
-    built; a query then costs a cell lookup, and a shapely question (an STRtree of the regions'
-    bounding boxes, then the point in the few candidates) only for points in BOUNDARY cells.
+    built; a query then costs a cell lookup, and a shapely question only for points in BOUNDARY cells:
+    for a few, each asked of the regions its cell's padded box touches (listed when the raster is built),
+    for many, an STRtree of the regions' bounding boxes, then the point in the few candidates.
     """
 
     geometries: np.ndarray  # (R,) prepared polygons, the regions
@@ -151,9 +188,15 @@ class HeightLocator:
     first_cell: np.ndarray  # (2,) float
     clamp_hi: float
     strides: np.ndarray  # (2,) intp
-    codes: np.ndarray  # (n * n,) int32: 0 no top, k + 1 the k-th of the distinct tops, -1 BOUNDARY
+    codes: np.ndarray  # (n * n,) int32: 0 no top, k + 1 the k-th of the distinct tops, -2 - b the b-th BOUNDARY cell
     code_z: np.ndarray  # (distinct tops + 1,) float: NaN, then the distinct tops ascending
     upper_codes: np.ndarray  # (n * n,) int32: ``codes`` with each BOUNDARY cell's highest top touching it
+    starts: np.ndarray  # (B + 1,) int32: the b-th BOUNDARY cell's regions are candidates[starts[b]:starts[b + 1]]
+    candidates: np.ndarray  # int32
+    _code_z_below: np.ndarray = field(init=False, repr=False, compare=False)  # code_z, -inf for no top
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_code_z_below", np.concatenate([[-math.inf], self.code_z[1:]]))
 
     @classmethod
     def build(cls, geometries: np.ndarray, tops_z: np.ndarray, target_cells: int = RASTER_TARGET_CELLS,
@@ -171,9 +214,10 @@ class HeightLocator:
         component_code = np.where(np.isnan(top), 0, np.searchsorted(code_z[1:], top) + 1).astype(np.int32)
         side = max(frame.n_cols, frame.n_rows)
         codes = np.zeros((side, side), dtype=np.int32)
-        codes[: frame.n_rows, : frame.n_cols] = np.where(boundary, -1, component_code[labels])
-        # Upper bounds: each BOUNDARY cell gets the highest top of the regions its padded box touches.
+        codes[: frame.n_rows, : frame.n_cols] = component_code[labels]
+        # Each BOUNDARY cell: the regions its padded box touches, and the highest of their tops (upper bounds).
         rows, cols = np.nonzero(boundary)
+        codes[rows, cols] = -2 - np.arange(len(rows), dtype=np.int32)
         x0 = (frame.first[0] + cols) * frame.cell_m - pad_m
         y0 = (frame.first[1] + rows) * frame.cell_m - pad_m
         width = frame.cell_m + 2.0 * pad_m
@@ -182,8 +226,11 @@ class HeightLocator:
         np.maximum.at(highest, cell, tops_z[region])
         upper = codes.copy()
         upper[rows, cols] = np.where(np.isfinite(highest), np.searchsorted(code_z[1:], highest) + 1, 0)
+        order = np.lexsort((region, cell))
+        starts = np.searchsorted(cell[order], np.arange(len(rows) + 1)).astype(np.int32)
         return cls(geometries, tops_z, tree, frame.inv_cell, frame.first.astype(float), side - 0.5,
-                   np.array([1, side], dtype=np.intp), codes.ravel(), code_z, upper.ravel())
+                   np.array([1, side], dtype=np.intp), codes.ravel(), code_z, upper.ravel(), starts,
+                   region[order].astype(np.int32))
 
     def heights(self, points_xy_world: np.ndarray, outside: float = np.nan) -> np.ndarray:
         """Float (N,): the highest top covering each point of (N, 2) (boundaries count), ``outside`` for none."""
@@ -193,14 +240,40 @@ class HeightLocator:
         np.fmin(cell, self.clamp_hi, out=cell)
         code = self.codes.take(cell.astype(np.intp) @ self.strides)
         on_boundary = (code < 0).nonzero()[0]
+        boundary_cells = code[on_boundary]
         code[on_boundary] = 0
         result = self.code_z.take(code)
-        if on_boundary.size:
+        if on_boundary.size > _FEW_BOUNDARY_POINTS:
             result[on_boundary] = _highest_top(self.tree, self.geometries, self.tops_z,
                                                points_xy_world.take(on_boundary, axis=0))
+        elif on_boundary.size:
+            for i, cell_code, (x, y) in zip(on_boundary.tolist(), boundary_cells.tolist(),
+                                            points_xy_world[on_boundary].tolist(), strict=True):
+                result[i] = self._highest_top_xy(-2 - cell_code, x, y)
         if not math.isnan(outside):
             result[np.isnan(result)] = outside
         return result
+
+    def height_xy(self, x: float, y: float) -> float:
+        """``heights`` of one point given as two Python floats (NaN for no top): the same answer."""
+        col = x * self.inv_cell - self.first_cell[0]
+        row = y * self.inv_cell - self.first_cell[1]
+        if not col > 0.0:  # also NaN, as np.fmax does
+            col = 0.0
+        elif col > self.clamp_hi:
+            col = self.clamp_hi
+        if not row > 0.0:
+            row = 0.0
+        elif row > self.clamp_hi:
+            row = self.clamp_hi
+        code = int(self.codes[int(col) + int(row) * int(self.strides[1])])
+        return float(self.code_z[code]) if code >= 0 else self._highest_top_xy(-2 - code, x, y)
+
+    def _highest_top_xy(self, boundary_cell: int, x: float, y: float) -> float:
+        """The highest top of the regions covering (x, y), in the ``boundary_cell``-th BOUNDARY cell; NaN for none."""
+        candidates = self.candidates[self.starts[boundary_cell]: self.starts[boundary_cell + 1]]
+        hit = _intersects_xy(self.geometries[candidates], x, y)
+        return float(self.tops_z[candidates[hit]].max()) if hit.any() else math.nan
 
 
     def upper_heights(self, points_xy_world: np.ndarray, outside: float = np.nan) -> np.ndarray:
@@ -214,6 +287,123 @@ class HeightLocator:
         if not math.isnan(outside):
             result[np.isnan(result)] = outside
         return result
+
+    def upper_heights_of(self, points_xy_world: np.ndarray, outside: float = -math.inf) -> np.ndarray:
+        """``upper_heights`` of points given coordinate first, (2, ...) -> (...): numpy's loops run along the
+        long axes (the checks of ``contactnet.footholds`` look up hundreds of points at once)."""
+        shape = points_xy_world.shape[1:]
+        cell = points_xy_world * self.inv_cell
+        cell -= self.first_cell.reshape((2,) + (1,) * len(shape))
+        np.fmax(cell, 0.0, out=cell)
+        np.fmin(cell, self.clamp_hi, out=cell)
+        index = cell.astype(np.intp)
+        if math.isnan(outside):
+            code_z = self.code_z
+        elif outside == -math.inf:
+            code_z = self._code_z_below
+        else:
+            code_z = np.concatenate([[outside], self.code_z[1:]])
+        return code_z.take(self.upper_codes.take(index[0] + index[1] * int(self.strides[1])))
+
+
+@dataclass(frozen=True)
+class CoverLocator:
+    """Which of some polygons covers a point, the one with the highest top where several do: its index, -1 for
+    none (``contactnet.terrain.top_parts.TopParts.part_at``), exactly, from a raster.
+
+    The raster of :class:`HeightLocator` (whose argument this borrows: the non-BOUNDARY cells form components
+    no outline crosses, each answered once by ``exact`` when the raster is built), stored as a rectangle, with
+    each BOUNDARY cell's candidates: the polygons its padded box touches. A point in a BOUNDARY cell is asked of
+    those polygons alone (``shapely.intersects_xy``), or of ``exact`` (the STRtree) when two of them have the
+    same top. ``index_xy`` answers one point given as two Python floats without numpy arrays."""
+
+    polygons: np.ndarray  # (P,) prepared polygons
+    tops_z: np.ndarray  # (P,) float
+    exact: Callable[[np.ndarray], np.ndarray]  # (N, 2) -> (N,) int, the same answer from the polygons themselves
+    inv_cell: float
+    first_cell: np.ndarray  # (2,) float: (col0, row0)
+    clamp_hi: np.ndarray  # (2,) float: (n_cols - 0.5, n_rows - 0.5)
+    n_cols: int
+    codes: np.ndarray  # (n_rows * n_cols,) int32: the index, -1 for none, -2 - k for the k-th BOUNDARY cell
+    starts: np.ndarray  # (K + 1,) int32: the k-th BOUNDARY cell's candidates are candidates[starts[k]:starts[k + 1]]
+    candidates: np.ndarray  # int32
+    # The same as Python objects, for scalar lookups (``index_xy``).
+    _views: tuple = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_views", (
+            float(self.first_cell[0]), float(self.first_cell[1]), float(self.clamp_hi[0]), float(self.clamp_hi[1]),
+            memoryview(self.codes), memoryview(self.starts), memoryview(self.candidates), list(self.polygons),
+            self.tops_z.tolist()))
+
+    @classmethod
+    def build(cls, polygons: np.ndarray, tops_z: np.ndarray, exact: Callable[[np.ndarray], np.ndarray],
+              target_cells: int = RASTER_TARGET_CELLS, max_side: int = 4000, pad_m: float = 1e-9) -> CoverLocator:
+        """``polygons`` (P,) with their tops (P,) and the exact answer ``exact``; P >= 1."""
+        shapely.prepare(polygons)
+        frame = _Frame.around(tuple(shapely.total_bounds(polygons)), target_cells, max_side)
+        boundary = frame.boundary(shapely.get_rings(polygons), pad_m)
+        labels, representative = label_components(~boundary)
+        component = np.asarray(exact(np.column_stack(frame.centres(*representative.T))), dtype=np.int32)
+        codes = np.where(boundary, 0, component[labels]).astype(np.int32)
+        rows, cols = np.nonzero(boundary)
+        codes[rows, cols] = -2 - np.arange(len(rows), dtype=np.int32)
+        x0 = (frame.first[0] + cols) * frame.cell_m - pad_m
+        y0 = (frame.first[1] + rows) * frame.cell_m - pad_m
+        width = frame.cell_m + 2.0 * pad_m
+        cell, polygon = shapely.STRtree(polygons).query(shapely.box(x0, y0, x0 + width, y0 + width),
+                                                        predicate="intersects")
+        order = np.lexsort((polygon, cell))
+        starts = np.searchsorted(cell[order], np.arange(len(rows) + 1)).astype(np.int32)
+        return cls(polygons, np.asarray(tops_z, dtype=float), exact, frame.inv_cell, frame.first.astype(float),
+                   np.array([frame.n_cols - 0.5, frame.n_rows - 0.5]), frame.n_cols, codes.ravel(), starts,
+                   polygon[order].astype(np.int32))
+
+    def indices(self, points_xy_world: np.ndarray) -> np.ndarray:
+        """(N,) intp: the answer for each point of (N, 2)."""
+        return self.indices_of(np.ascontiguousarray(points_xy_world.T))
+
+    def indices_of(self, points_xy_world: np.ndarray) -> np.ndarray:
+        """(N,) intp: the answer for each point given coordinate first, (2, N) (numpy's loops run along N)."""
+        cell = points_xy_world * self.inv_cell
+        cell -= self.first_cell[:, None]
+        np.fmax(cell, 0.0, out=cell)  # also maps NaN onto the border, which covers nothing
+        np.fmin(cell, self.clamp_hi[:, None], out=cell)
+        index = cell.astype(np.intp)
+        result = self.codes.take(index[0] + index[1] * self.n_cols).astype(np.intp)
+        on_boundary = (result <= -2).nonzero()[0]
+        if on_boundary.size > _FEW_BOUNDARY_POINTS:
+            result[on_boundary] = self.exact(points_xy_world[:, on_boundary].T)
+        else:
+            for i, x, y in zip(on_boundary.tolist(), *points_xy_world[:, on_boundary].tolist(), strict=True):
+                result[i] = self.index_xy(x, y)
+        return result
+
+    def index_xy(self, x: float, y: float) -> int:
+        """The answer for one point given as two Python floats (the same arithmetic as ``indices``)."""
+        first_col, first_row, hi_col, hi_row, codes, starts, candidates, polygons, tops = self._views
+        col = x * self.inv_cell - first_col
+        row = y * self.inv_cell - first_row
+        if not col > 0.0:  # also NaN, as np.fmax does
+            col = 0.0
+        elif col > hi_col:
+            col = hi_col
+        if not row > 0.0:
+            row = 0.0
+        elif row > hi_row:
+            row = hi_row
+        code = codes[int(col) + int(row) * self.n_cols]
+        if code >= -1:
+            return code
+        best, best_z, tie = -1, -math.inf, False
+        for j in range(starts[-2 - code], starts[-1 - code]):
+            polygon = candidates[j]
+            if _intersects_xy(polygons[polygon], x, y):
+                if tops[polygon] > best_z:
+                    best, best_z, tie = polygon, tops[polygon], False
+                elif tops[polygon] == best_z:
+                    tie = True
+        return int(self.exact(np.array([[x, y]]))[0]) if tie else best
 
 
 def _highest_top(tree: shapely.STRtree, geometries: np.ndarray, tops_z: np.ndarray,

@@ -9,12 +9,14 @@ to its edges: the largest disk that fits on it. A foot is safest at the centre o
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 
 from contactnet.terrain.levels import Level
+from contactnet.terrain.locate import CoverLocator
 
 INSCRIBED_TOLERANCE_M = 0.001
 
@@ -39,8 +41,28 @@ class TopParts:
         shapely.prepare(polygons)
         return cls(polygons, tops, centres, np.asarray(inradius, dtype=float), shapely.STRtree(polygons))
 
+    @functools.cached_property
+    def locator(self) -> CoverLocator:
+        """``part_at`` from a raster (``contactnet.terrain.locate.CoverLocator``), built on first use: a cell
+        lookup per point, the parts themselves only next to their outlines; ``locator.index_xy(x, y)`` for one
+        point."""
+        return CoverLocator.build(self.polygons, self.tops_z, self.part_at_exact)
+
+    @functools.cached_property
+    def lists(self) -> tuple[list[list[float]], list[float]]:
+        """The centres [[x, y], ...] and the inradii as Python lists (for walks in Python floats)."""
+        return self.centres_xy.tolist(), self.inradius_m.tolist()
+
     def part_at(self, points_xy: np.ndarray) -> np.ndarray:
-        """(N,) int: the part under each point (N, 2), the highest where parts meet; -1 over holes."""
+        """(N,) int: the part under each point (N, 2), the highest where parts meet; -1 over holes. The same as
+        ``part_at_exact``, from the raster (``locator``)."""
+        points = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+        if not len(self.polygons):
+            return np.full(len(points), -1, dtype=np.intp)
+        return self.locator.indices(points)
+
+    def part_at_exact(self, points_xy: np.ndarray) -> np.ndarray:
+        """``part_at`` from the polygons themselves (an STRtree query and point-in-polygon tests)."""
         points = np.asarray(points_xy, dtype=float).reshape(-1, 2)
         result = np.full(len(points), -1, dtype=np.intp)
         finite = np.isfinite(points).all(axis=1).nonzero()[0]

@@ -1,0 +1,318 @@
+"""The planner's fast paths (issue 15, item 4) against slow, obvious references, on many random states and
+terrains, flat and with heights: the ContactNet and fixed-gait plans (``OneLevelWalk``, ``HeightsWalk``), the
+candidate view, the height checks' batch (``FootholdChecker.usable``) against their one-by-one form
+(``evaluate``), and the rasters' scalar and cached lookups against the exact geometry."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import shapely
+from helpers import save_random_models
+
+import contactnet.ranking
+from contactnet.bench.planner import planning_contexts
+from contactnet.footholds import FootholdChecker
+from contactnet.gait import TROT, WALK
+from contactnet.ground import support_height
+from contactnet.network_input import network_input_one
+from contactnet.planner import (
+    CORNERED_BACKSTEP_M,
+    CORNERED_LOOKAHEAD_STEPS,
+    ContactNetPlanner,
+    FixedGaitPlanner,
+    PlanningContext,
+    touchdown_times_s,
+)
+from contactnet.registry import make_planner
+from contactnet.terrain import Terrain, random_field, random_heights, resolve
+
+
+@pytest.fixture(scope="module")
+def models(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("models")
+    save_random_models(folder)
+    return {"walk": folder / "walk.pt", "trot": folder / "trot.pt"}
+
+
+def _rotation(yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s], [s, c]])
+
+
+def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int | None = None) -> list[tuple]:
+    """The plan as the planner's docs define it, the slow and obvious way: numpy state, the network's stable
+    ranking of minus its scores, every step's whole candidate grid (small tops' cells centred on terrain with
+    heights), and one action at a time down the ranking until its landing points are all safe
+    (``Terrain.is_safe``) and, with heights, pass every check of ``FootholdChecker.evaluate``; on terrain with
+    heights the first step's ranking puts the actions that move a cornered leg first. ``group``: the fixed
+    gait's first group. Returns (legs, action, rank, footholds) per step, (None, ...) for a step in place (and
+    stops there)."""
+    gait, terrain, checker = planner.gait, ctx.terrain, planner.footholds
+    heights = checker.applies(terrain)
+    to_world = _rotation(ctx.yaw_rad)
+    hips_world = planner.hip_ref_xy_base @ to_world.T
+    offsets_world = gait.cell_offsets_xy @ to_world.T
+    feet = np.array(ctx.foot_pos_world, dtype=float)[:, :2]
+    com, vel = np.array(ctx.com_pos_world, dtype=float), np.array(ctx.com_vel_world, dtype=float)
+    base = np.array(ctx.base_xy_world, dtype=float)
+    cmd_world = to_world @ ctx.vel_cmd_xy
+    shift = cmd_world * gait.step_duration_s
+    tops = terrain.ground_z(feet)
+    hips_touchdown = planner.hip_xy_base @ to_world.T + cmd_world * touchdown_times_s(gait)[0]
+    action_legs, action_cells = gait.action_cells
+    steps = []
+    for j in range(gait.steps_per_plan):
+        scores = planner.model.scores(network_input_one(feet, com, vel, np.asarray(ctx.vel_cmd_xy, dtype=float),
+                                                        ctx.yaw_rad, support_height(terrain, feet)))
+        order = list(np.argsort(-np.asarray(scores), kind="stable"))
+        if group is not None:
+            own = gait.cyclic_order[(group + j) % len(gait.cyclic_order)]
+            order = [a for a in order if a // gait.actions_per_group == own]
+        cells = (base + hips_world)[:, None, :] + offsets_world[None]
+        if heights:
+            cells = checker.centred(terrain, cells.reshape(-1, 2)).reshape(cells.shape)
+            if j == 0:  # a cornered leg: its shin would reach the terrain a few steps of motion ahead
+                ahead = base + planner.hip_xy_base @ to_world.T + cmd_world * (
+                    CORNERED_LOOKAHEAD_STEPS * gait.step_duration_s)
+                clear = checker.stance_clear(terrain, feet, tops, ahead, ctx.yaw_rad)
+                urgent = [any(not clear[leg] and (cells[leg, cell] - feet[leg]) @ to_world[:, 0] >= -CORNERED_BACKSTEP_M
+                              for leg, cell in zip(action_legs[a], action_cells[a], strict=True)) for a in order]
+                order = [a for a, u in zip(order, urgent, strict=True) if u] + [
+                    a for a, u in zip(order, urgent, strict=True) if not u]
+        chosen = None
+        for rank, action in enumerate(order):
+            legs = action_legs[action]
+            points = cells[legs, action_cells[action]]
+            if not terrain.is_safe(points, planner.margin_m).all():
+                continue
+            if heights:
+                checks = checker.evaluate(terrain, legs, points, feet[legs], (base + hips_touchdown)[legs], tops,
+                                          ctx.yaw_rad)
+                if not all(value.all() for value in checks.values()):
+                    continue
+            chosen = (tuple(int(leg) for leg in legs), int(action), rank, points)
+            break
+        if chosen is None:
+            steps.append((None, None, None, None))
+            break
+        steps.append(chosen)
+        feet[list(chosen[0])] = chosen[3]
+        tops = terrain.ground_z(feet)
+        com[:2] += shift
+        com[2] = support_height(terrain, feet) + ctx.com_height_ref_m
+        base += shift
+        vel = np.array([cmd_world[0], cmd_world[1], 0.0])
+    return steps
+
+
+def _compare(planner, contexts, fixed: bool = False) -> dict[str, int]:
+    """Plan every context with the planner and the reference; the same steps. Counts what was seen."""
+    seen = {"plans": 0, "deep": 0, "in_place": 0}
+    for k, ctx in enumerate(contexts):
+        group = planner._next_group if fixed else None
+        fast = planner.plan(ctx)
+        slow = reference_plan(planner, ctx, group)
+        seen["plans"] += 1
+        for step, (legs, action, rank, points) in zip(fast, slow, strict=False):
+            if action is None:
+                assert step.action_index is None, (k, step)
+                seen["in_place"] += 1
+                break
+            assert (step.legs, step.action_index, step.rank, step.discarded) == (legs, action, rank, rank), (k, step)
+            np.testing.assert_array_equal(step.footholds_xy_world, points)
+            seen["deep"] += rank >= 8
+    return seen
+
+
+FLAT = [("random 0", lambda: random_field(0, 0)), ("random 100", lambda: random_field(100, 1)),
+        ("random 220", lambda: random_field(220, 2)), ("stepping_stones", lambda: resolve("stepping_stones")),
+        ("narrow_stones", lambda: resolve("narrow_stones"))]
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+@pytest.mark.parametrize("name", ["contactnet", "fixed"])
+def test_one_level_plans_match_the_reference(robot, models, gait, name):
+    planner = make_planner(name, gait, robot, model=models[gait.name])
+    seen = {"plans": 0, "deep": 0, "in_place": 0}
+    for _label, terrain in FLAT:
+        for seed in (0, 1):
+            contexts = planning_contexts(gait, terrain(), robot.description, 15, seed=seed)
+            for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
+                seen[key] += value
+    assert seen["plans"] == 150 and seen["deep"] > 0, seen  # some choices lie deep in the ranking
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_one_level_whole_grid_past_the_walk(robot, models, gait, monkeypatch):
+    """Past ``RANK_WALK`` actions tried one at a time, the whole grid at once: the same plans (the walk tried 2)."""
+    monkeypatch.setattr(contactnet.ranking, "RANK_WALK", 2)
+    planner = make_planner("contactnet", gait, robot, model=models[gait.name])
+    seen = _compare(planner, planning_contexts(gait, random_field(220, 2), robot.description, 20, seed=7))
+    assert seen["plans"] == 20 and seen["deep"] > 0, seen
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_one_level_above_the_surface_and_in_place(robot, models, gait):
+    """A terrain whose every top is 5 cm above its surface_z (the feet's support is measured from the tops, and
+    over a hole from surface_z), and a terrain where no candidate is safe (steps in place)."""
+    raised = random_field(150, 3).to_dict()
+    for region in raised["regions"]:
+        region["z"] = 0.05
+    terrain = Terrain.from_dict(raised)
+    assert len(terrain.levels) == 1 and terrain.levels[0][0] != terrain.surface_z
+    planner = make_planner("contactnet", gait, robot, model=models[gait.name])
+    assert _compare(planner, planning_contexts(gait, terrain, robot.description, 20, seed=4))["plans"] == 20
+    islands = Terrain.from_dict({"name": "islands", "start": [0.0, 0.0], "goal_x": 3.0, "regions": [
+        {"shape": "circle", "center": [float(x), 0.0], "radius": 0.005} for x in np.arange(0.0, 2.0, 0.4)]})
+    seen = _compare(planner, planning_contexts(gait, islands, robot.description, 5, seed=0))
+    assert seen["in_place"] == 5
+
+
+class _Tied:
+    """A stand-in model: scores with many ties (and NaN when asked), so the ranking's tie rule matters."""
+
+    def __init__(self, gait, nan: bool = False) -> None:
+        self.gait, self.n_actions, self.path = gait.name, gait.n_actions, "<tied>"
+        self._scores = np.round(np.random.default_rng(3).normal(size=gait.n_actions), 0)
+        if nan:
+            self._scores[::7] = np.nan
+
+    def scores(self, u):
+        return self._scores
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+@pytest.mark.parametrize("nan", [False, True], ids=["ties", "nan"])
+def test_ties_and_nan_scores_rank_as_a_stable_sort(robot, gait, nan):
+    planner = ContactNetPlanner(gait, robot.description, _Tied(gait, nan))
+    for terrain in (random_field(150, 5), random_heights(60, 5)):
+        assert _compare(planner, planning_contexts(gait, terrain, robot.description, 15, seed=2))["plans"] == 15
+
+
+HEIGHTS = [("random_heights 0", lambda: random_heights(0, 0)), ("random_heights 100", lambda: random_heights(100, 1)),
+           ("random_heights 12 cm", lambda: random_heights(40, 2, 0.12)), ("stairs", lambda: resolve("stairs")),
+           ("raised_stones", lambda: resolve("raised_stones"))]
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+@pytest.mark.parametrize("name", ["contactnet", "fixed"])
+def test_plans_with_heights_match_the_reference(robot, models, gait, name):
+    planner = make_planner(name, gait, robot, model=models[gait.name])
+    assert isinstance(planner, FixedGaitPlanner) == (name == "fixed")
+    seen = {"plans": 0, "deep": 0, "in_place": 0}
+    for _, terrain in HEIGHTS:
+        contexts = planning_contexts(gait, terrain(), robot.description, 8, seed=1)
+        for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
+            seen[key] += value
+    assert seen["plans"] == 40 and seen["deep"] > 0, seen
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_the_candidate_view_marks_the_cells_the_reference_would_take(robot, models, gait):
+    """The view (built lazily) shows every used cell's safety as the slow checks see it, flat and with heights."""
+    planner = make_planner("contactnet", gait, robot, model=models[gait.name])
+    checker = planner.footholds
+    for terrain in (random_field(100, 1), random_heights(80, 0), resolve("stairs")):
+        for ctx in planning_contexts(gait, terrain, robot.description, 4, seed=6):
+            step = planner.plan(ctx)[0]
+            view = planner.last_candidates
+            safe = terrain.is_safe(view.xy_world, planner.margin_m)
+            if checker.applies(terrain):
+                hips = ctx.base_xy_world + robot.description.hip_pos_base[:, :2] @ _rotation(ctx.yaw_rad).T + (
+                    _rotation(ctx.yaw_rad) @ ctx.vel_cmd_xy * touchdown_times_s(gait)[0])
+                feet, tops = ctx.foot_pos_world[:, :2], terrain.ground_z(ctx.foot_pos_world[:, :2])
+                checks = checker.evaluate(terrain, view.leg, view.xy_world, feet[view.leg], hips[view.leg], tops,
+                                          ctx.yaw_rad)
+                safe &= np.logical_and.reduce(list(checks.values()))
+            np.testing.assert_array_equal(view.safe, safe)
+            if step.action_index is not None:
+                assert view.safe[list(view.chosen)].all() and view.rank[list(view.chosen)].min() <= step.rank
+
+
+@pytest.mark.parametrize("knees", [True, False], ids=["knees", "no-knees"])
+def test_the_batched_height_checks_are_the_checks_one_by_one(robot, knees):
+    """``usable`` (the planner's batch, with the parts and centres it knows) == every check of ``evaluate``, on
+    random landings around random stances (Solo12's knees point both ways; without knee positions the shin is
+    checked on both sides of the foot)."""
+    description = robot.description if knees else dataclasses.replace(robot.description, knee_pos_base=None)
+    rng = np.random.default_rng(11)
+    checked = usable_seen = 0
+    for terrain in (random_heights(0, 0), random_heights(120, 5), random_heights(60, 7, 0.12), resolve("stairs"),
+                    resolve("raised_stones")):  # (tops within +-12 cm: steps past what the swing clears)
+        parts = terrain.top_parts()
+        checker = FootholdChecker(description)
+        b = terrain.bounds
+        for _ in range(40):
+            yaw = rng.uniform(-0.4, 0.4)
+            base = np.array([rng.uniform(b[0] + 0.2, b[2] - 0.2), rng.uniform(-0.1, 0.1)])
+            feet = base + robot.description.foot_nominal_base[:, :2] @ _rotation(yaw).T + rng.uniform(-0.05, 0.05, (4, 2))
+            hips = base + robot.description.hip_pos_base[:, :2] @ _rotation(yaw).T + rng.uniform(-0.02, 0.02, 2)
+            tops = terrain.ground_z(feet)
+            legs = rng.integers(0, 4, 30)
+            raw = feet[legs] + rng.uniform(-0.15, 0.15, (30, 2))
+            landing = checker.centred(terrain, raw)
+            at_centre = np.any(landing != raw, axis=1)
+            part = parts.part_at(raw)
+            every = checker.evaluate(terrain, legs, landing, feet[legs], hips[legs], tops, yaw)
+            expected = np.logical_and.reduce(list(every.values()))
+            for fast in (checker.usable(terrain, legs, landing, feet[legs], hips[legs], tops, yaw),
+                         checker.usable(terrain, legs, landing, feet[legs], hips[legs], tops, yaw, part=part,
+                                        at_centre=at_centre)):
+                np.testing.assert_array_equal(fast, expected)
+            checked += len(legs)
+            usable_seen += int(expected.sum())
+    assert usable_seen > 0.1 * checked and usable_seen < 0.9 * checked
+
+
+def test_scalar_and_raster_lookups_are_the_exact_answers():
+    """``PointLocator.covers_xy``, ``TopParts.part_at`` (a raster, ``CoverLocator``), ``HeightLocator.heights`` with
+    few points next to an outline and ``height_xy``: the same answers as shapely, also on the outlines."""
+    rng = np.random.default_rng(5)
+    for terrain in (random_field(100, 0), random_heights(80, 0), resolve("stairs"), resolve("stepping_stones")):
+        b = terrain.bounds
+        points = np.column_stack([rng.uniform(b[0] - 0.05, b[2] + 0.05, 4000), rng.uniform(b[1] - 0.05, b[3] + 0.05, 4000)])
+        on_edges = np.column_stack([np.round(rng.uniform(b[0], b[2], 1000) / 0.025) * 0.025,
+                                    rng.uniform(b[1], b[3], 1000)])  # the squares' edges lie on this grid
+        points = np.concatenate([points, on_edges, [[np.nan, 0.0], [np.inf, 0.0]]])
+        for margin in (0.0, 0.008):
+            locator = terrain.safe_locator(margin)
+            exact = shapely.intersects_xy(locator.geometry, points[:, 0], points[:, 1])
+            np.testing.assert_array_equal([locator.covers_xy(x, y) for x, y in points.tolist()], exact)
+        if len(terrain.levels) > 1:
+            parts = terrain.top_parts()
+            exact = parts.part_at_exact(points)
+            np.testing.assert_array_equal(parts.part_at(points), exact)
+            np.testing.assert_array_equal([parts.locator.index_xy(x, y) for x, y in points.tolist()], exact)
+            heights = terrain.height_locator()
+            many = heights.heights(points)  # many points next to outlines: the STRtree
+            few = np.concatenate([heights.heights(points[i:i + 3]) for i in range(0, len(points), 3)])
+            one = np.array([heights.height_xy(x, y) for x, y in points.tolist()])
+            np.testing.assert_array_equal(few, many)
+            np.testing.assert_array_equal(one, many)
+
+
+def test_the_batched_swing_check_at_its_limit(robot):
+    """A ridge between lift-off and landing, from below to above what the swing clears (``max_step_m``): the
+    batch and the checks one by one agree at every height, and the swing check alone decides some landings."""
+    checker = FootholdChecker(robot.description)
+    limit = checker.checks.max_step_m
+    decided = 0
+    for ridge_z in np.arange(limit - 0.02, limit + 0.025, 0.0025):
+        terrain = Terrain.from_dict({"name": "ridge", "start": [0.0, 0.0], "goal_x": 1.0, "regions": [
+            {"shape": "rect", "center": [0.5, 0.0], "size": [2.0, 1.0]},
+            {"shape": "rect", "center": [0.5, 0.16], "size": [2.0, 0.01], "z": float(ridge_z)}]})
+        legs = np.zeros(9, dtype=np.intp)  # FL, stepping sideways over the ridge (y 0.16), lift-off at y 0.12
+        landing = np.column_stack([np.linspace(0.40, 0.60, 9), np.full(9, 0.20)])
+        liftoff = landing - [0.0, 0.08]
+        hips = landing + [0.0, -0.03]
+        tops = np.zeros(4)
+        every = checker.evaluate(terrain, legs, landing, liftoff, hips, tops, 0.0)
+        expected = np.logical_and.reduce(list(every.values()))
+        np.testing.assert_array_equal(checker.usable(terrain, legs, landing, liftoff, hips, tops, 0.0), expected)
+        others = np.logical_and.reduce([value for name, value in every.items() if name != "step"])
+        decided += int((others & ~every["step"]).sum())
+        assert every["step"].all() == (ridge_z <= limit + 1e-9)
+    assert decided > 0
