@@ -107,10 +107,14 @@ class SimState:
     foot_contact: np.ndarray  # (4,) bool, FL FR HL HR touching the terrain
     foot_force_world: np.ndarray = field(repr=False)  # (4, 3) contact force on each foot
     base_rot_world: np.ndarray | None = field(default=None, repr=False)  # (3, 3); None: from the quaternion
+    _rpy: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def rpy(self) -> np.ndarray:
-        return quat_to_rpy(self.base_quat_world)
+        """(3,) base roll, pitch, yaw (rad), computed at the first read (the same array after that: read only)."""
+        if self._rpy is None:
+            self._rpy = quat_to_rpy(self.base_quat_world)
+        return self._rpy
 
     def q_pinocchio(self) -> np.ndarray:
         """(19,) pinocchio configuration."""
@@ -168,6 +172,7 @@ class Simulator:
         self.config = config
         description = robot.description
         self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float)
+        self._neg_torque_limit_nm = -self.torque_limit_nm
         self.fall_base_height_m = (description.fall_base_height_m if config.fall_base_height_m is None
                                    else float(config.fall_base_height_m))
         self._pb = pybullet
@@ -314,8 +319,7 @@ class Simulator:
     def step(self, tau: np.ndarray) -> None:
         """Apply joint torques (N m, pinocchio order; clipped to the motor limit) for one time step."""
         pb, cid = self._pb, self._cid
-        limit = self.torque_limit_nm
-        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), -limit), limit)
+        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), self._neg_torque_limit_nm), self.torque_limit_nm)
         pb.setJointMotorControlArray(
             self.robot_id, self.joint_ids, pb.TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=cid
         )
@@ -331,11 +335,10 @@ class Simulator:
     def state(self, with_contacts: bool = True) -> SimState:
         """Read the sensors. `with_contacts=False` skips the foot-contact query (about 15 us) for
         loops that do not need it; contacts then read as all False."""
-        pb, cid = self._pb, self._cid
-        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
-        lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
-        q_tuple, v_tuple, _, _ = zip(*pb.getJointStates(self.robot_id, self.joint_ids, physicsClientId=cid), strict=True)
-        q = np.array(q_tuple)
+        pb, cid, robot = self._pb, self._cid, self.robot_id
+        pos, quat = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
+        lin, ang = pb.getBaseVelocity(robot, physicsClientId=cid)
+        q_tuple, v_tuple, _, _ = zip(*pb.getJointStates(robot, self.joint_ids, physicsClientId=cid), strict=True)
         v_true = np.array(v_tuple)
         v = v_true
         if self.config.joint_vel_noise_var > 0:
@@ -344,19 +347,8 @@ class Simulator:
             contact, force = self._foot_contacts()
         else:
             contact, force = np.zeros(4, dtype=bool), np.zeros((4, 3))
-        return SimState(
-            t_s=self.t_s,
-            base_pos_world=np.array(pos),
-            base_quat_world=np.array(quat),
-            base_lin_vel_world=np.array(lin),
-            base_ang_vel_world=np.array(ang),
-            joint_pos=q,
-            joint_vel=v,
-            joint_vel_true=v_true,
-            foot_contact=contact,
-            foot_force_world=force,
-            base_rot_world=np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3),
-        )
+        return SimState(self.t_s, np.array(pos), np.array(quat), np.array(lin), np.array(ang), np.array(q_tuple), v,
+                        v_true, contact, force, np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3))
 
     def _contact_points(self) -> tuple:
         return self._pb.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id, physicsClientId=self._cid)
