@@ -237,18 +237,25 @@ class WholeBodyController:
         grasp = self._grasp
         weighted = grasp * stance_f[self._leg_of_column]
         _, solved, _ = dposv(dot(weighted, grasp.T) + self._regularization, np.concatenate((force_fb, torque_fb)))
-        forces = target.forces + dot(weighted.T, solved).reshape(4, 3)
-        # Into the friction pyramid (``clip_to_friction_pyramid``, in place), zero on swing feet.
-        fz = forces[:, 2]
-        np.minimum(np.maximum(fz, g.fz_min_n, out=fz), g.fz_max_n, out=fz)
-        limit = g.mu * forces[:, 2:3]
-        fxy = forces[:, :2]
-        np.minimum(np.maximum(fxy, -limit, out=fxy), limit, out=fxy)
-        forces *= stance_f[:, None]
-
-        # 2-3. Stance legs push with the forces (tau = -J^T f); swing legs track their trajectory.
-        foot_force = self._kp_swing * (target.swing_pos - feet) + self._kd_swing * (target.swing_vel - dot(jac, v))
-        foot_force[stance] = -forces[stance]
+        # 2-3. Stance legs push with the forces (tau = -J^T f), kept in the friction pyramid (as
+        #    ``clip_to_friction_pyramid``, on Python floats: four legs; zero on swing feet); swing legs track their
+        #    trajectory.
+        f_swing = self._kp_swing * (target.swing_pos - feet) + self._kd_swing * (target.swing_vel - dot(jac, v))
+        mu, fz_min, fz_max = g.mu, g.fz_min_n, g.fz_max_n
+        rows, pushes = [], []
+        wanted = (target.forces + dot(weighted.T, solved).reshape(4, 3)).tolist()
+        for (fx, fy, fz), down, swing_force in zip(wanted, stance.tolist(), f_swing.tolist(), strict=True):
+            if down:
+                fz = min(max(fz, fz_min), fz_max)
+                limit = mu * fz
+                fx, fy = min(max(fx, -limit), limit), min(max(fy, -limit), limit)
+                rows.append((fx, fy, fz))
+                pushes.append((-fx, -fy, -fz))
+            else:
+                rows.append((0.0, 0.0, 0.0))
+                pushes.append(swing_force)
+        forces = np.array(rows)
+        foot_force = np.array(pushes)
         tau = dot(jac.reshape(12, -1)[:, 6:].T, foot_force.ravel()) - g.kd_joint * v[6:]  # 4. joint damping
 
         self.last_forces = forces
