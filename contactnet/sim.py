@@ -185,6 +185,7 @@ class Simulator:
         self.pushes: list[Push] = []
         self.t_s = 0.0
         self.steps = 0
+        self._highest_ground: tuple[Terrain, float] | None = None  # (terrain, its highest ground z), for fall_reason
 
         self.terrain_id = self._load_terrain()
         self.robot_id = self.client.loadURDF(
@@ -415,9 +416,15 @@ class Simulator:
     def fall_reason(self, state: SimState | None = None) -> str | None:
         """Why the robot counts as fallen now, or None: base too low, too tilted, or a shin/body contact."""
         s = state or self.state()
-        height = s.base_pos_world[2] - float(self.terrain.ground_z(s.base_pos_world[:2]))
-        if height < self.fall_base_height_m:
-            return f"base height {height:.3f} m below {self.fall_base_height_m} m"
+        # The height above the highest ground anywhere bounds the height above the ground here from below: when it
+        # clears the limit, the terrain need not be asked (the check runs every few milliseconds).
+        terrain = self.terrain
+        if self._highest_ground is None or self._highest_ground[0] is not terrain:
+            self._highest_ground = (terrain, max(terrain.surface_z, *(z for z, _ in terrain.levels)))
+        if float(s.base_pos_world[2]) - self._highest_ground[1] < self.fall_base_height_m:
+            height = s.base_pos_world[2] - float(terrain.ground_z(s.base_pos_world[:2]))
+            if height < self.fall_base_height_m:
+                return f"base height {height:.3f} m below {self.fall_base_height_m} m"
         roll, pitch, _ = s.rpy
         if max(abs(roll), abs(pitch)) > self.config.fall_tilt_rad:
             return f"base tilted (roll {roll:.2f}, pitch {pitch:.2f} rad)"
