@@ -123,8 +123,8 @@ class SimState:
     def v_pinocchio(self) -> np.ndarray:
         """(18,) pinocchio velocity: base velocities in the base frame, then measured joint velocities."""
         rot = quat_to_matrix(self.base_quat_world) if self.base_rot_world is None else self.base_rot_world
-        base_vel_world = np.concatenate([self.base_lin_vel_world, self.base_ang_vel_world]).reshape(2, 3)
-        return np.concatenate([(base_vel_world @ rot).ravel(), self.joint_vel])
+        base_vel_world = np.array((self.base_lin_vel_world, self.base_ang_vel_world))  # (2, 3)
+        return np.concatenate((np.dot(base_vel_world, rot).ravel(), self.joint_vel))
 
 
 @contextlib.contextmanager
