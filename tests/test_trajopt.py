@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -327,6 +328,11 @@ def test_buffered_qp_call_gives_the_casadi_call_numbers(optimizers, desc: RobotD
         for name in ("x", "f", "lam_x", "lam_g"):
             np.testing.assert_array_equal(buffered[name], np.asarray(direct[name]).ravel())
         assert status == ocp.cold.stats()["return_status"] == "solved"
+    # An optimizer still pickles (its buffers are made anew) and solves the same.
+    problem = typical_problems(desc)[0]
+    copy = pickle.loads(pickle.dumps(optimizers[("auto", 24)]))
+    np.testing.assert_array_equal(copy.solve(problem, warm_start=False).x,
+                                  optimizers[("auto", 24)].solve(problem, warm_start=False).x)
 
 
 def test_non_finite_input_returns_an_error_status(optimizers, desc: RobotDescription) -> None:

@@ -264,6 +264,12 @@ class _BufferedCall:
         """The function's statistics of the last call (``Function.stats``)."""
         return self._buffer.stats()
 
+    def __getstate__(self) -> dict:  # pickled as its function; the buffers are made anew
+        return {"function": self.function}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["function"])
+
 
 #: Options of the casadi qpsol plugins (quiet, tight enough to agree with the interior-point method).
 _QPSOL_OPTIONS: dict[str, dict] = {
