@@ -162,6 +162,11 @@ class _CasadiOcp:
             )
         self._call = _BufferedCall(self.cold) if kind == "qp" else None
         self.previous: dict | None = None
+        # Constant parts of the arguments (``_arguments``): force bounds of a stance foot, constraint bounds.
+        self._stance_force_lo = np.array([-np.inf, -np.inf, 0.0])
+        self._stance_force_hi = np.array([np.inf, np.inf, model.fz_max_n])
+        stage_g_lo = np.concatenate([np.zeros(NX), np.full(4 * N_LEGS, -np.inf)])  # dynamics = 0, pyramid <= 0
+        self._lbg, self._ubg = np.tile(stage_g_lo, n), np.zeros(n * len(stage_g_lo))
 
     def _arguments(self, problem: ProblemBatch) -> dict[str, np.ndarray]:
         """Parameters, bounds and the reference initial guess of a (heading-frame) problem (batch of 1)."""
@@ -181,18 +186,19 @@ class _CasadiOcp:
                 p_bar.ravel(),
             ]
         )
-        f_lo = np.where(contact[..., None], [-np.inf, -np.inf, 0.0], 0.0).reshape(n, NU)
-        f_hi = np.where(contact[..., None], [np.inf, np.inf, model.fz_max_n], 0.0).reshape(n, NU)
-        x_lo, x_hi = np.full((n, NX), -np.inf), np.full((n, NX), np.inf)
-        x_lo[:, 2] = x_ref[1:, 2] - model.com_height_band_m
-        x_hi[:, 2] = x_ref[1:, 2] + model.com_height_band_m
-        stage_g_lo = np.r_[np.zeros(NX), np.full(4 * N_LEGS, -np.inf)]
+        # Bounds, stage-wise [f_k, x_{k+1}]: forces of stance feet in 0 <= f_z <= fz_max (swing feet: 0), the CoM
+        # height within its band.
+        lbx, ubx = np.full((n, NU + NX), -np.inf), np.full((n, NU + NX), np.inf)
+        lbx[:, :NU] = np.where(contact[..., None], self._stance_force_lo, 0.0).reshape(n, NU)
+        ubx[:, :NU] = np.where(contact[..., None], self._stance_force_hi, 0.0).reshape(n, NU)
+        lbx[:, NU + 2] = x_ref[1:, 2] - model.com_height_band_m
+        ubx[:, NU + 2] = x_ref[1:, 2] + model.com_height_band_m
         return {
             "p": p,
-            "lbx": np.concatenate([f_lo, x_lo], axis=1).ravel(),
-            "ubx": np.concatenate([f_hi, x_hi], axis=1).ravel(),
-            "lbg": np.tile(stage_g_lo, n),
-            "ubg": np.zeros(n * len(stage_g_lo)),
+            "lbx": lbx.ravel(),
+            "ubx": ubx.ravel(),
+            "lbg": self._lbg,
+            "ubg": self._ubg,
             "x0": np.concatenate([f_ref, x_ref[1:]], axis=1).ravel(),
         }
 
