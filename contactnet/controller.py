@@ -14,6 +14,7 @@ Kinematics and Jacobians come from pinocchio on the measured state.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -65,10 +66,15 @@ class SwingTrajectory:
     @property
     def apex_z(self) -> float:
         """World z of the foot centre at mid-swing."""
+        return self._constants[6]
+
+    @functools.cached_property
+    def _constants(self) -> tuple[float, ...]:
+        """(x0, y0, z0, x1, y1, z1, apex_z) as Python floats, computed at the first use (``sample`` runs at 1 kHz)."""
         top = max(float(self.start_world[2]), float(self.end_world[2]))
         if self.clear_z_m is not None:
             top = max(top, float(self.clear_z_m))
-        return top + self.height_m
+        return (*self.start_world.tolist(), *self.end_world.tolist(), top + self.height_m)
 
     def sample(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration (world frame) at time t_s (clamped to the swing).
@@ -76,8 +82,7 @@ class SwingTrajectory:
         Computed on Python floats (it runs at 1 kHz for every swinging foot)."""
         duration = self.t1_s - self.t0_s
         s = min(max((t_s - self.t0_s) / duration, 0.0), 1.0)
-        x0, y0, z0 = self.start_world.tolist()
-        x1, y1, z1 = self.end_world.tolist()
+        x0, y0, z0, x1, y1, z1, apex = self._constants
         dx, dy = x1 - x0, y1 - y0
         # Horizontal: the projection of a semi-ellipse swept at a constant angular rate (between the
         # vertical parts at both ends, if any).
@@ -95,7 +100,6 @@ class SwingTrajectory:
         ddh = 0.0 if still else 0.5 * math.pi**2 * cos_theta / moving**2
         # Vertical: a quintic up to the apex, then a quintic down (zero velocity and acceleration at
         # lift-off, apex and touchdown), on top of a linear blend of the two end heights.
-        apex = self.apex_z
         t_half = 0.5 * duration
         if s < 0.5:
             tau, rise, base, sign = 2.0 * s, apex - z0, z0, 1.0
@@ -180,7 +184,13 @@ class WholeBodyController:
                 unit[j] = 1.0
                 self._skew_map[:, 3 * leg : 3 * leg + 3, 3 * leg + j] = skew(unit)
         self._skew_map = self._skew_map.reshape(36, 12)
+        self._grasp_lower = self._grasp[3:].reshape(-1)  # a view: writing it fills the grasp map
         self._leg_of_column = np.repeat(np.arange(4), 3)
+        self._neg_torque_limit_nm = -self.torque_limit_nm
+        self._frame_jacobian = pin.getFrameJacobian
+        self._frame_placement = pin.updateFramePlacement
+        self._local_world_aligned = pin.LOCAL_WORLD_ALIGNED
+        self._rpy_to_matrix = pin.rpy.rpyToMatrix
         # Filled by the last call, for viewers and tests.
         self.last_forces = np.zeros((4, 3))
         self.last_foot_pos = np.zeros((4, 3))
@@ -197,36 +207,58 @@ class WholeBodyController:
         return np.array(com), np.array(data.vcom[0]), feet, jacobians
 
     def torques(self, q: np.ndarray, v: np.ndarray, target: ControlTarget) -> np.ndarray:
-        """Joint torques (12,), saturated, for configuration q (19,) and velocity v (18,) (pinocchio)."""
+        """Joint torques (12,), saturated, for configuration q (19,) and velocity v (18,) (pinocchio).
+
+        Runs at 1 kHz: the kinematics of ``kinematics`` with one forward-kinematics pass, and as few numpy
+        operations on small arrays as the steps allow (each costs about as much as its arithmetic)."""
         g = self.gains
-        com, vcom, feet, jac = self.kinematics(q, v)
-        rot = self.data.oMi[1].rotation  # base orientation (forward kinematics ran above)
-        omega_world = rot @ v[3:6]
-        stance = np.asarray(target.stance, dtype=float)
+        pin, model, data = self._pin, self.model, self.data
+        com = pin.centerOfMass(model, data, q, v)  # forward kinematics with velocities, then the CoM
+        vcom = np.array(data.vcom[0])
+        pin.computeJointJacobians(model, data)  # on that forward kinematics
+        # The feet's Jacobians and positions (written out: a comprehension costs a function call per tick).
+        jacobian, placement, frame = self._frame_jacobian, self._frame_placement, self._local_world_aligned
+        f0, f1, f2, f3 = self.foot_ids
+        jac = np.array([jacobian(model, data, f0, frame), jacobian(model, data, f1, frame),
+                        jacobian(model, data, f2, frame), jacobian(model, data, f3, frame)])[:, :3]
+        feet = np.array([placement(model, data, f0).translation, placement(model, data, f1).translation,
+                         placement(model, data, f2).translation, placement(model, data, f3).translation])
+        rot = data.oMi[1].rotation  # base orientation
+        stance = np.asarray(target.stance, dtype=bool)
+        stance_f = stance.astype(float)
+        dot = np.dot  # about half the overhead of ``@`` on arrays this small
 
         # 1. Centroidal feedback wrench, spread over the stance feet by weighted least squares:
         #    delta = S G^T (G S G^T + eps I)^-1 wrench, with S the stance mask, G the 6 x 12 grasp map.
         force_fb = self._kp_com * (target.com_pos - com) + self._kd_com * (target.com_vel - vcom)
-        rot_err = self._pin.log3(self._pin.rpy.rpyToMatrix(target.rpy) @ rot.T)
-        torque_fb = self._kp_rot * rot_err + self._kd_rot * (target.ang_vel - omega_world)
-        lever = feet - com
+        rot_err = pin.log3(dot(self._rpy_to_matrix(target.rpy), rot.T))
+        torque_fb = self._kp_rot * rot_err + self._kd_rot * (target.ang_vel - dot(rot, v[3:6]))
+        self._grasp_lower[:] = dot(self._skew_map, (feet - com).ravel())  # the levers' cross-product matrices
         grasp = self._grasp
-        grasp[3:] = (self._skew_map @ lever.ravel()).reshape(3, 12)
-        weighted = grasp * stance[self._leg_of_column]
-        lhs = weighted @ grasp.T + self._regularization
-        _, solved, _ = dposv(lhs, np.concatenate([force_fb, torque_fb]))  # lhs is SPD (regularized)
-        delta = (weighted.T @ solved).reshape(4, 3)
-        forces = clip_to_friction_pyramid(target.forces + delta, g.mu, g.fz_min_n, g.fz_max_n)
-        forces *= stance[:, None]
-
-        # 2-3. Stance legs push with the forces (tau = -J^T f); swing legs track their trajectory.
-        foot_vel = jac @ v  # (4, 3)
-        f_swing = self._kp_swing * (target.swing_pos - feet) + self._kd_swing * (target.swing_vel - foot_vel)
-        foot_force = np.where(stance[:, None] > 0, -forces, f_swing)
-        tau = jac.reshape(12, -1)[:, 6:].T @ foot_force.ravel() - g.kd_joint * v[6:]  # 4. joint damping
+        weighted = grasp * stance_f[self._leg_of_column]
+        _, solved, _ = dposv(dot(weighted, grasp.T) + self._regularization, np.concatenate((force_fb, torque_fb)))
+        # 2-3. Stance legs push with the forces (tau = -J^T f), kept in the friction pyramid (as
+        #    ``clip_to_friction_pyramid``, on Python floats: four legs; zero on swing feet); swing legs track their
+        #    trajectory.
+        f_swing = self._kp_swing * (target.swing_pos - feet) + self._kd_swing * (target.swing_vel - dot(jac, v))
+        mu, fz_min, fz_max = g.mu, g.fz_min_n, g.fz_max_n
+        rows, pushes = [], []
+        wanted = (target.forces + dot(weighted.T, solved).reshape(4, 3)).tolist()
+        for (fx, fy, fz), down, swing_force in zip(wanted, stance.tolist(), f_swing.tolist(), strict=True):
+            if down:
+                fz = min(max(fz, fz_min), fz_max)
+                limit = mu * fz
+                fx, fy = min(max(fx, -limit), limit), min(max(fy, -limit), limit)
+                rows.append((fx, fy, fz))
+                pushes.append((-fx, -fy, -fz))
+            else:
+                rows.append((0.0, 0.0, 0.0))
+                pushes.append(swing_force)
+        forces = np.array(rows)
+        foot_force = np.array(pushes)
+        tau = dot(jac.reshape(12, -1)[:, 6:].T, foot_force.ravel()) - g.kd_joint * v[6:]  # 4. joint damping
 
         self.last_forces = forces
         self.last_foot_pos = feet
         self.last_com = com
-        limit = self.torque_limit_nm
-        return np.minimum(np.maximum(tau, -limit), limit)  # 5. saturation
+        return np.minimum(np.maximum(tau, self._neg_torque_limit_nm), self.torque_limit_nm)  # 5. saturation

@@ -89,12 +89,14 @@ def quat_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
 
 
 def quat_to_rpy(quat_xyzw: np.ndarray) -> np.ndarray:
-    """Roll, pitch, yaw (ZYX Euler angles) of a unit quaternion, rad."""
-    x, y, z, w = quat_xyzw
-    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
+    """Roll, pitch, yaw (ZYX Euler angles) of a unit quaternion, rad.
+
+    The products on Python floats (the same IEEE arithmetic as on numpy scalars, a tenth of the cost), the
+    angles from numpy's arctan2 and arcsin."""
+    x, y, z, w = (float(c) for c in quat_xyzw)
+    roll_yaw = np.arctan2([2 * (w * x + y * z), 2 * (w * z + x * y)], [1 - 2 * (x * x + y * y), 1 - 2 * (y * y + z * z)])
+    pitch = np.arcsin(min(max(2 * (w * y - z * x), -1.0), 1.0))
+    return np.array([roll_yaw[0], pitch, roll_yaw[1]])
 
 
 def yaw_to_quat(yaw_rad: float) -> np.ndarray:

@@ -429,8 +429,9 @@ class Locomotion:
         stance = plan.contact[min(node_in_plan, len(plan.contact) - 1)].copy()
         swing_pos = self.controller.last_foot_pos.copy()
         swing_vel = np.zeros((4, 3))
+        in_stance = stance.tolist()
         for leg, swing in plan.swings.items():
-            if not stance[leg]:
+            if not in_stance[leg]:
                 swing_pos[leg], swing_vel[leg], _ = swing.sample(t_s)
         if self._adapt_touchdown and plan.swings:
             self._adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel)

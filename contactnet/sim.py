@@ -107,10 +107,14 @@ class SimState:
     foot_contact: np.ndarray  # (4,) bool, FL FR HL HR touching the terrain
     foot_force_world: np.ndarray = field(repr=False)  # (4, 3) contact force on each foot
     base_rot_world: np.ndarray | None = field(default=None, repr=False)  # (3, 3); None: from the quaternion
+    _rpy: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def rpy(self) -> np.ndarray:
-        return quat_to_rpy(self.base_quat_world)
+        """(3,) base roll, pitch, yaw (rad), computed at the first read (the same array after that: read only)."""
+        if self._rpy is None:
+            self._rpy = quat_to_rpy(self.base_quat_world)
+        return self._rpy
 
     def q_pinocchio(self) -> np.ndarray:
         """(19,) pinocchio configuration."""
@@ -119,8 +123,8 @@ class SimState:
     def v_pinocchio(self) -> np.ndarray:
         """(18,) pinocchio velocity: base velocities in the base frame, then measured joint velocities."""
         rot = quat_to_matrix(self.base_quat_world) if self.base_rot_world is None else self.base_rot_world
-        base_vel_world = np.concatenate([self.base_lin_vel_world, self.base_ang_vel_world]).reshape(2, 3)
-        return np.concatenate([(base_vel_world @ rot).ravel(), self.joint_vel])
+        base_vel_world = np.array((self.base_lin_vel_world, self.base_ang_vel_world))  # (2, 3)
+        return np.concatenate((np.dot(base_vel_world, rot).ravel(), self.joint_vel))
 
 
 @contextlib.contextmanager
@@ -168,6 +172,7 @@ class Simulator:
         self.config = config
         description = robot.description
         self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float)
+        self._neg_torque_limit_nm = -self.torque_limit_nm
         self.fall_base_height_m = (description.fall_base_height_m if config.fall_base_height_m is None
                                    else float(config.fall_base_height_m))
         self._pb = pybullet
@@ -180,6 +185,7 @@ class Simulator:
         self.pushes: list[Push] = []
         self.t_s = 0.0
         self.steps = 0
+        self._highest_ground: tuple[Terrain, float] | None = None  # (terrain, its highest ground z), for fall_reason
 
         self.terrain_id = self._load_terrain()
         self.robot_id = self.client.loadURDF(
@@ -314,8 +320,7 @@ class Simulator:
     def step(self, tau: np.ndarray) -> None:
         """Apply joint torques (N m, pinocchio order; clipped to the motor limit) for one time step."""
         pb, cid = self._pb, self._cid
-        limit = self.torque_limit_nm
-        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), -limit), limit)
+        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), self._neg_torque_limit_nm), self.torque_limit_nm)
         pb.setJointMotorControlArray(
             self.robot_id, self.joint_ids, pb.TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=cid
         )
@@ -331,11 +336,10 @@ class Simulator:
     def state(self, with_contacts: bool = True) -> SimState:
         """Read the sensors. `with_contacts=False` skips the foot-contact query (about 15 us) for
         loops that do not need it; contacts then read as all False."""
-        pb, cid = self._pb, self._cid
-        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
-        lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
-        q_tuple, v_tuple, _, _ = zip(*pb.getJointStates(self.robot_id, self.joint_ids, physicsClientId=cid), strict=True)
-        q = np.array(q_tuple)
+        pb, cid, robot = self._pb, self._cid, self.robot_id
+        pos, quat = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
+        lin, ang = pb.getBaseVelocity(robot, physicsClientId=cid)
+        q_tuple, v_tuple, _, _ = zip(*pb.getJointStates(robot, self.joint_ids, physicsClientId=cid), strict=True)
         v_true = np.array(v_tuple)
         v = v_true
         if self.config.joint_vel_noise_var > 0:
@@ -344,19 +348,8 @@ class Simulator:
             contact, force = self._foot_contacts()
         else:
             contact, force = np.zeros(4, dtype=bool), np.zeros((4, 3))
-        return SimState(
-            t_s=self.t_s,
-            base_pos_world=np.array(pos),
-            base_quat_world=np.array(quat),
-            base_lin_vel_world=np.array(lin),
-            base_ang_vel_world=np.array(ang),
-            joint_pos=q,
-            joint_vel=v,
-            joint_vel_true=v_true,
-            foot_contact=contact,
-            foot_force_world=force,
-            base_rot_world=np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3),
-        )
+        return SimState(self.t_s, np.array(pos), np.array(quat), np.array(lin), np.array(ang), np.array(q_tuple), v,
+                        v_true, contact, force, np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3))
 
     def _contact_points(self) -> tuple:
         return self._pb.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id, physicsClientId=self._cid)
@@ -423,9 +416,15 @@ class Simulator:
     def fall_reason(self, state: SimState | None = None) -> str | None:
         """Why the robot counts as fallen now, or None: base too low, too tilted, or a shin/body contact."""
         s = state or self.state()
-        height = s.base_pos_world[2] - float(self.terrain.ground_z(s.base_pos_world[:2]))
-        if height < self.fall_base_height_m:
-            return f"base height {height:.3f} m below {self.fall_base_height_m} m"
+        # The height above the highest ground anywhere bounds the height above the ground here from below: when it
+        # clears the limit, the terrain need not be asked (the check runs every few milliseconds).
+        terrain = self.terrain
+        if self._highest_ground is None or self._highest_ground[0] is not terrain:
+            self._highest_ground = (terrain, max(terrain.surface_z, *(z for z, _ in terrain.levels)))
+        if float(s.base_pos_world[2]) - self._highest_ground[1] < self.fall_base_height_m:
+            height = s.base_pos_world[2] - float(terrain.ground_z(s.base_pos_world[:2]))
+            if height < self.fall_base_height_m:
+                return f"base height {height:.3f} m below {self.fall_base_height_m} m"
         roll, pitch, _ = s.rpy
         if max(abs(roll), abs(pitch)) > self.config.fall_tilt_rad:
             return f"base tilted (roll {roll:.2f}, pitch {pitch:.2f} rad)"

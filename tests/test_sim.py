@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from contactnet.sim import BodyContact, Push, SimConfig, Simulator, describe_body_contacts, standing_torques
-from contactnet.terrain import flat, random_field, resolve
+from contactnet.terrain import Terrain, flat, random_field, resolve
 
 
 def stand(sim: Simulator, seconds: float, target: np.ndarray | None = None) -> None:
@@ -94,6 +94,19 @@ def test_falling_into_a_hole_is_a_fall(robot):
         stand(sim, 0.5)
         reason = sim.fall_reason()
         assert reason is not None and "base height" in reason
+
+
+def test_base_height_is_measured_from_the_ground_under_it(robot):
+    """A top 0.3 m high elsewhere does not make a robot standing on the low ground fall, nor hide a low base."""
+    terrain = Terrain.from_dict({"name": "low_and_high", "start": [0.0, 0.0], "goal_x": 1.0, "regions": [
+        {"shape": "rect", "center": [0.0, 0.0], "size": [0.8, 0.6]},
+        {"shape": "rect", "center": [1.0, 0.0], "size": [0.2, 0.2], "z": 0.3}]})
+    with Simulator(robot, terrain) as sim:
+        assert sim.fall_reason(sim.reset()) is None
+        limit = sim.fall_base_height_m
+        assert sim.fall_reason(sim.reset(base_height_m=limit + 0.005)) is None
+        reason = sim.fall_reason(sim.reset(base_height_m=limit - 0.005))
+        assert reason is not None and reason.startswith("base height")
 
 
 def test_body_contact_and_tilt_are_falls(flat_sim):

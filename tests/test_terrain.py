@@ -24,6 +24,7 @@ from contactnet import terrain as T
 from contactnet.bench.terrain import benchmark_is_safe
 from contactnet.robots import load_robot
 from contactnet.terrain import Terrain, TerrainError
+from contactnet.terrain.locate import PointLocator
 
 REPO_TERRAINS = Path(__file__).resolve().parent.parent / "terrains"
 ROBOT = load_robot("solo12").description  # the scenes are checked against the robot they were made for
@@ -333,6 +334,23 @@ def test_is_safe_matches_pointwise_shapely(name: str, margin: float) -> None:
     # small batches take the direct shapely path; they must agree too
     small = np.concatenate([terrain.is_safe(points_xy_world[i:i + 7], margin) for i in range(0, 70, 7)])
     assert np.array_equal(small, safe[:70])
+
+
+@pytest.mark.parametrize("name", ["random_80_0", "narrow_stones", "stars"])
+def test_point_raster_classifies_every_cell_centre_as_shapely(name: str) -> None:
+    """The raster asks shapely about one cell per connected component of non-BOUNDARY cells: each such cell
+    must get the code its own centre gets from shapely."""
+    from contactnet.terrain.locate import _BOUNDARY, _INSIDE, _OUTSIDE, _Frame
+
+    region = TERRAIN_FACTORIES[name]().safe_region(FOOT_RADIUS_M)
+    locator = PointLocator.build(region, target_cells=1 << 16)
+    frame = _Frame.around(region.bounds, 1 << 16, 1000)
+    side = round(locator.clamp_hi + 0.5)
+    codes = locator.codes.reshape(side, side)[: frame.n_rows, : frame.n_cols]
+    rows, cols = np.nonzero(codes != _BOUNDARY)
+    inside = shapely.contains_xy(region, *frame.centres(rows, cols))
+    np.testing.assert_array_equal(codes[rows, cols], np.where(inside, _INSIDE, _OUTSIDE))
+    assert (codes == _INSIDE).any() and (codes == _OUTSIDE).any() and (codes == _BOUNDARY).any()
 
 
 @pytest.mark.parametrize("margin", [FOOT_RADIUS_M, 0.04])

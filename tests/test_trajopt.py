@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -313,6 +314,25 @@ def test_no_support_is_infeasible_without_raising(optimizers, desc: RobotDescrip
     assert not sol.success
     assert sol.status == "infeasible"
     assert sol.cost == math.inf
+
+
+def test_buffered_qp_call_gives_the_casadi_call_numbers(optimizers, desc: RobotDescription) -> None:
+    """The MPC's QP is evaluated through casadi's Function.buffer (no DM conversions): the very numbers of
+    calling the function, and its statistics."""
+    ocp = optimizers[("auto", 24)]._ocp
+    for problem in typical_problems(desc)[:4]:  # the three-step (24-node) ones
+        args = ocp._arguments(ProblemBatch.of([problem], 24).in_heading_frame())
+        buffered = ocp._call(**args)
+        status = ocp._call.stats()["return_status"]
+        direct = ocp.cold(**args)
+        for name in ("x", "f", "lam_x", "lam_g"):
+            np.testing.assert_array_equal(buffered[name], np.asarray(direct[name]).ravel())
+        assert status == ocp.cold.stats()["return_status"] == "solved"
+    # An optimizer still pickles (its buffers are made anew) and solves the same.
+    problem = typical_problems(desc)[0]
+    copy = pickle.loads(pickle.dumps(optimizers[("auto", 24)]))
+    np.testing.assert_array_equal(copy.solve(problem, warm_start=False).x,
+                                  optimizers[("auto", 24)].solve(problem, warm_start=False).x)
 
 
 def test_non_finite_input_returns_an_error_status(optimizers, desc: RobotDescription) -> None:

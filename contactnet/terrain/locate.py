@@ -86,7 +86,8 @@ class PointLocator:
     Cell (col, row) covers ``[col0 + col, col0 + col + 1) * cell_m`` along x (likewise y, from
     ``row0``); a point's cell is ``floor(xy / cell_m - (col0, row0))``. A cell is BOUNDARY when its
     box padded by ``pad_m`` may touch the region's boundary; every other cell is entirely inside or
-    entirely outside, decided by its centre. The padding keeps the answer exact when a point's
+    entirely outside, decided by its centre, and so is each 4-connected component of them (the build asks
+    shapely about one centre per component, as :class:`HeightLocator`). The padding keeps the answer exact when a point's
     computed cell is off by one through floating-point rounding. The raster is stored as an
     ``n x n`` square (unused rows/cols OUTSIDE) so one scalar clamp to the outermost cells, which
     are always OUTSIDE, handles points off the raster and non-finite points.
@@ -121,10 +122,12 @@ class PointLocator:
         n_rows, n_cols = boundary.shape
         side = max(n_cols, n_rows)
         codes = np.full((side, side), _OUTSIDE, dtype=np.uint8)
-        rows, cols = np.nonzero(~boundary)
-        centre_x, centre_y = frame.centres(rows, cols)
-        codes[rows, cols] = np.where(shapely.contains_xy(geometry, centre_x, centre_y), _INSIDE, _OUTSIDE)
-        codes[:n_rows, :n_cols][boundary] = _BOUNDARY
+        # No outline passes through a 4-connected component of non-BOUNDARY cells (see HeightLocator): the
+        # centre of one cell per component decides for all of it.
+        labels, representative = label_components(~boundary)
+        centre_x, centre_y = frame.centres(*representative.T)
+        component_code = np.where(shapely.contains_xy(geometry, centre_x, centre_y), _INSIDE, _OUTSIDE)
+        codes[:n_rows, :n_cols] = np.where(boundary, _BOUNDARY, component_code.astype(np.uint8)[labels])
         return cls(geometry, frame.inv_cell, frame.first.astype(float), side - 0.5,
                    np.array([1, side], dtype=np.intp), codes.ravel())
 

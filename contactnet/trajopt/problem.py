@@ -189,7 +189,8 @@ class ProblemBatch:
 
     def finite(self) -> np.ndarray:
         """(B,) True where every number is finite."""
-        scalars = np.isfinite(np.c_[self.x0, self.ref_xy, self.vel, self.height, self.yaw, self.pitch]).all(axis=1)
+        scalars = np.isfinite(np.concatenate((self.x0, self.ref_xy, self.vel, self.height, self.yaw[:, None], self.pitch),
+                                             axis=1)).all(axis=1)
         return np.isfinite(self.feet).all(axis=(1, 2, 3)) & scalars
 
     def rotations(self) -> np.ndarray:
@@ -198,7 +199,9 @@ class ProblemBatch:
 
     def origins(self) -> np.ndarray:
         """Heading-frame origins (B, 3): the current CoM xy."""
-        return np.c_[self.x0[:, 0:2], np.zeros(len(self))]
+        origins = np.zeros((len(self), 3))
+        origins[:, 0:2] = self.x0[:, 0:2]
+        return origins
 
     def in_heading_frame(self) -> ProblemBatch:
         """The problems expressed in their heading frames (reference yaw 0, CoM xy at the origin)."""
