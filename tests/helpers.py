@@ -29,7 +29,8 @@ def default_sigint() -> None:
 def save_random_models(folder, stand: bool = False) -> None:
     """walk.pt and trot.pt with random weights, so the web tests do not depend on the shipped models:
     the ContactNet planner then ranks candidates at random, and still takes the first safe one. ``stand``: with
-    N_a + 1 outputs (the stand choice too, `GaitSpec.n_choices`), so the planner may stand."""
+    N_a + 1 outputs (the stand choice too, `GaitSpec.n_choices`), the stand output biased to rank first, so the
+    planner stands at every step horizon (as a trained model should with a zero command on flat ground)."""
     import numpy as np
     import torch
 
@@ -41,8 +42,11 @@ def save_random_models(folder, stand: bool = False) -> None:
     for gait in ("walk", "trot"):
         torch.manual_seed(0)
         spec = registry.gait_by_name(gait)
-        save_model(folder / f"{gait}.pt", ContactNet(spec.n_choices if stand else spec.n_actions).eval(),
-                   Normalizer.fit(u), {"gait": gait})
+        net = ContactNet(spec.n_choices if stand else spec.n_actions).eval()
+        if stand:
+            with torch.no_grad():
+                net.layers[-1].bias[spec.stand_index] += 100.0
+        save_model(folder / f"{gait}.pt", net, Normalizer.fit(u), {"gait": gait})
 
 
 # ---- the browser tests (real Debian chromium driven by playwright) ----------------------------------------

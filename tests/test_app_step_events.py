@@ -61,6 +61,30 @@ def test_an_oracle_that_stands_is_shown_standing(robot):
                                            abs=gait.step_duration_s + 1e-9)
 
 
+def test_a_contactnet_model_that_stands_is_shown_standing(robot, tmp_path):
+    """A model with N_a + 1 outputs (the stand choice) that ranks standing first: the ContactNet planner stands,
+    its candidates keep their ranking with no disk chosen, and the scene marks the stand."""
+    save_random_models(tmp_path, stand=True)
+    gait = registry.gait_by_name("trot")
+    planner, active, _ = default_planner_factory("contactnet", gait, robot, model_dir=tmp_path)
+    assert active == "contactnet"
+    with Locomotion(robot, flat(), gait, planner, SimConfig(), vel_cmd_xy=(0.0, 0.0)) as loco:
+        tracker = ViewTracker(robot, loco.terrain, gait)
+        while loco.t_s < 0.8:
+            loco.advance(20)
+            view = view_of(loco, tracker)
+    assert is_stand(view.snapshot) and view.counts.stand_steps >= 2 and view.snapshot.steps == 0
+    assert view.snapshot.planned_steps[0].action_index == gait.stand_index
+    assert view.candidates.rank is not None and view.candidates.chosen == ()  # ranked, none chosen
+    server = quiet_viser_server()
+    try:
+        scene = LiveScene(server, robot)
+        scene.update(view)
+        assert scene.marks.standing and scene.marks.stand_label.visible
+    finally:
+        stop_quietly(server)
+
+
 def test_a_walk_is_not_standing(robot):
     gait = registry.gait_by_name("walk")
     with Locomotion(robot, flat(), gait, registry.make_planner("heuristic", gait, robot), SimConfig(),
