@@ -18,7 +18,7 @@ from pydantic import (
 )
 
 from app.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
-from app.view import LiveView, RunSummary, status_line
+from app.view import LiveView, RunSummary, is_stand, status_line
 from contactnet import registry
 
 
@@ -116,7 +116,7 @@ def settings_command_model() -> type[BaseModel]:
     return create_model(
         "SettingsCommand",
         __base__=_Strict,
-        __doc__="Any subset of the session settings. Gait, planner and noise restart the robot.",
+        __doc__="Any subset of the session settings. Gait, planner and noise restart the robot; retarget does not.",
         gait=(Literal[registry.gait_names()] | None, None),  # type: ignore[valid-type]
         planner=(Literal[registry.planner_names()] | None, None),  # type: ignore[valid-type]
         noise=(
@@ -126,6 +126,12 @@ def settings_command_model() -> type[BaseModel]:
         loop=(
             bool | None,
             Field(None, description="start the next run a few seconds after the goal or a fall"),
+        ),
+        retarget=(
+            bool | None,
+            Field(None, description="swing retargeting: during a swing, when the measured velocity is off the command "
+                  "(a push), the swinging legs' landing is ranked again and may move (ContactNet and fixed planners; "
+                  "off by default, as in the paper; no restart)"),
         ),
         speed=(
             float | None,
@@ -206,6 +212,10 @@ class RunReport(BaseModel):
     gait: str = Field(description="the gait")
     planner: str = Field(description="the planner actually used")
     compare: list[RunResult] | None = Field(description="the other robots' results in compare mode, else null")
+    stand_steps: int = Field(description="step horizons the planner chose to stand (all four feet down), a count")
+    useless_steps: int = Field(description="steps whose feet landed less than 2 cm from where they lifted off, "
+                               "a count")
+    swing_retargets: int = Field(description="swings whose landing moved during the swing, a count")
 
 
 class NoticeModel(BaseModel):
@@ -269,7 +279,17 @@ class State(BaseModel):
     com_velocity: Float3 = Field(description="m/s, centre-of-mass velocity (world)")
     stance: Bool4 = Field(description="planned stance per leg (FL, FR, HL, HR)")
     foot_contact: Bool4 = Field(description="measured contact per leg (FL, FR, HL, HR)")
-    steps: int = Field(description="steps taken in this run")
+    steps: int = Field(description="steps taken in this run (step horizons in which legs swung; stands not counted)")
+    standing: bool = Field(description="the planner chose to stand for the current step horizon (all four feet "
+                           "down): a choice, not a pause")
+    stand_steps: int = Field(description="step horizons of this run the planner chose to stand, a count (each lasts "
+                             "the gait's step duration)")
+    useless_steps: int = Field(description="steps of this run whose feet landed less than 2 cm from where they lifted "
+                               "off, a count (known one step horizon after the step)")
+    swing_retargets: int = Field(description="swings of this run whose landing moved during the swing, a count "
+                                 "(only while retarget is on)")
+    retarget: bool = Field(description="swing retargeting is on (POST /api/settings {\"retarget\": true}); off by "
+                           "default")
     rank_chosen: int | None = Field(description="ranking position of the step being taken (ranking planners)")
     last_planner_ms: float = Field(description="ms, the last planner call")
     last_trajopt_ms: float = Field(description="ms, the last trajectory optimization")
@@ -321,6 +341,7 @@ def _run_report(run: RunSummary | None) -> RunReport | None:
         index=run.index, t_s=run.t_s, steps=run.steps, rank_mean=run.rank_mean, rank_max=run.rank_max,
         success=run.success, reason=run.reason, x=run.reached_x_m, terrain=run.terrain, gait=run.gait,
         planner=run.planner, compare=None if run.compare is None else [_result(r) for r in run.compare],
+        stand_steps=run.stand_steps, useless_steps=run.useless_steps, swing_retargets=run.swing_retargets,
     )
 
 
@@ -378,6 +399,11 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         stance=tuple(bool(v) for v in snap.stance),
         foot_contact=tuple(bool(v) for v in snap.foot_contact),
         steps=snap.steps,
+        standing=is_stand(snap),
+        stand_steps=view.counts.stand_steps,
+        useless_steps=view.counts.useless_steps,
+        swing_retargets=view.counts.swing_retargets,
+        retarget=s.retarget,
         rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
         last_planner_ms=snap.last_planner_ms,
         last_trajopt_ms=snap.last_trajopt_ms,

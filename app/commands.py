@@ -79,6 +79,14 @@ class SetNoise:
 
 
 @dataclass(frozen=True)
+class SetRetarget:
+    """Swing retargeting (`contactnet.retarget`) on or off: a swing's landing may move during the swing when the
+    measured velocity is off the command (a push). Applied at once, without a restart."""
+
+    on: bool
+
+
+@dataclass(frozen=True)
 class SetTerrain:
     """Put the robot on a new terrain (back at its start, paused); forgets the edit history."""
 
@@ -145,6 +153,7 @@ Command = (
     | SetGait
     | SetPlanner
     | SetNoise
+    | SetRetarget
     | SetTerrain
     | EditTerrain
     | UndoTerrainEdit

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from app.planners import PlannerFactory
 from app.view import CompareResult, CompareRobot
 from contactnet.gait import GaitSpec
-from contactnet.locomotion import Locomotion, Snapshot
+from contactnet.locomotion import Locomotion, LocomotionConfig, Snapshot
 from contactnet.robots import Robot
 from contactnet.sim import Push, SimConfig
 from contactnet.terrain import Terrain
@@ -55,13 +55,14 @@ class CompareRobots:
         planner_factory: PlannerFactory,
         sim_config: SimConfig,
         vel_cmd_xy: tuple[float, float],
+        config: LocomotionConfig = LocomotionConfig(),
     ):
         self.robot = robot
         self.others: list[_Other] = []
         try:
             for name in planners:
                 planner, active, _ = planner_factory(name, gait, robot)
-                loco = Locomotion(robot, terrain, gait, planner, sim_config, vel_cmd_xy=vel_cmd_xy)
+                loco = Locomotion(robot, terrain, gait, planner, sim_config, config=config, vel_cmd_xy=vel_cmd_xy)
                 self.others.append(_Other(name, active, loco))
         except BaseException:
             self.close()

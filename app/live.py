@@ -17,7 +17,8 @@ service in front of them; see docs/architecture.md).
 Runs (`app/runs.py`): the robot waits for the first viewer, counts down so the scene is drawn before it
 moves, and after the goal or a fall (summed up in a `RunSummary`) the loop starts the next run. Changes that
 restart the robot say so in a `Notice` (a toast); terrain edits away from the robot need no restart.
-Compare mode (`SetCompare`) runs other planners' robots beside the main one (`app/compare.py`).
+Compare mode (`SetCompare`) runs other planners' robots beside the main one (`app/compare.py`). Swing
+retargeting (`SetRetarget`, `contactnet.retarget`) is turned on or off in every robot without a restart.
 
 Real-time pacing: the thread advances the simulation in chunks of at most `chunk_ticks` (10 ms)
 toward `anchor_sim + speed * (wall - anchor_wall)` and sleeps when it is ahead, which also lets
@@ -56,6 +57,7 @@ from app.commands import (
     SetNoise,
     SetPaused,
     SetPlanner,
+    SetRetarget,
     SetSpeed,
     SetTerrain,
     SetVelocity,
@@ -64,14 +66,15 @@ from app.commands import (
     ViewerConnected,
     check_command,
 )
-from app.compare import CompareRobots, end_of, rank_stats
+from app.compare import CompareRobots, end_of
 from app.editor import EditHistory, to_terrain
 from app.pacing import Pacing, PacingStats
 from app.planners import PlannerFactory, default_planner_factory
-from app.runs import COMPARE_GRACE_S, RunClock
+from app.runs import RunClock, run_summary
 from app.settings import VELOCITY_LIMIT_M_S, ServeSettings
+from app.step_events import loco_config, use_retarget
 from app.terrain_change import change_is_away
-from app.view import LiveView, Notice, RunSummary, SessionStatus, ViewTracker
+from app.view import LiveView, Notice, SessionStatus, ViewTracker
 from contactnet import registry
 from contactnet.locomotion import Locomotion
 from contactnet.robots import load_robot
@@ -177,6 +180,7 @@ class LiveSession:
             self._terrain_version = 0
             self._gait_name, self._planner_name = settings.gait, settings.planner
             self._noise = settings.noise
+            self._retarget = settings.retarget
             self._vel = (settings.vx_m_s, settings.vy_m_s)
             self._speed = settings.sim_speed
             self._paused = settings.paused
@@ -214,12 +218,13 @@ class LiveSession:
         gait = registry.gait_by_name(self._gait_name)
         planner, active, note = self._planner_factory(self._planner_name, gait, self._robot)
         sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0)
-        loco = Locomotion(self._robot, self._terrain, gait, planner, sim_config, vel_cmd_xy=self._vel)
+        config = loco_config(self._retarget)
+        loco = Locomotion(self._robot, self._terrain, gait, planner, sim_config, config=config, vel_cmd_xy=self._vel)
         try:
             compare = (
                 CompareRobots(
                     self._compare_planners[1:], self._robot, self._terrain, gait, self._planner_factory,
-                    sim_config, self._vel,
+                    sim_config, self._vel, config,
                 )
                 if self._compare_planners
                 else None
@@ -306,24 +311,9 @@ class LiveSession:
         ended = [self._done is not None] + (self._compare.ended if self._compare is not None else [])
         if not self._runs.should_end(ended, self._clock_s):
             return
-        loco = self._loco
-        mean, worst = rank_stats(loco)
-        self._runs.end(
-            RunSummary(
-                index=self._runs.runs + 1,
-                t_s=loco.t_s,
-                steps=loco.steps_taken,
-                rank_mean=mean,
-                rank_max=worst,
-                success=self._done == "goal reached",
-                reason=self._done or f"stopped: still walking {COMPARE_GRACE_S:g} s after the other robot ended",
-                reached_x_m=float(loco.snapshot().q[0]),
-                terrain=self._terrain_label,
-                gait=self._gait_name,
-                planner=self._planner_active,
-                compare=self._compare.results() if self._compare is not None else None,
-            )
-        )
+        compare = self._compare.results() if self._compare is not None else None
+        self._runs.end(run_summary(self._loco, self._runs.runs + 1, self._done, self._terrain_label, self._gait_name,
+                                   self._planner_active, compare))
 
     def _count_down(self) -> None:
         """While the robot stands: start it when the first viewer's count-down ends, start the next run
@@ -391,7 +381,8 @@ class LiveSession:
             )
         elif isinstance(command, ApplyPush):
             if not self._running:  # the clock stands still: the push would act later, or never
-                raise CommandConflict(f"cannot push now: the robot is {self._not_running_reason()}")
+                why = self._runs.held_because(self._error, self._done)
+                raise CommandConflict(f"cannot push now: the robot is {why}")
             push = Push(
                 t0_s=loco.t_s,
                 duration_s=float(command.duration_s),
@@ -438,6 +429,13 @@ class LiveSession:
                     self._compare_planners = compare
                     raise
                 self._notify(f"Planner set to {self._planner_active}: the robot restarted from the start.")
+        elif isinstance(command, SetRetarget):
+            if bool(command.on) != self._retarget:
+                self._retarget = bool(command.on)
+                for loco in self._locos():
+                    use_retarget(loco, self._retarget)
+                self._notify(f"Swing retargeting {'on: a pushed swing may land elsewhere' if command.on else 'off'}"
+                             " (ContactNet and fixed planners; no restart).")
         elif isinstance(command, SetNoise):
             if bool(command.on) != self._noise:
                 self._rebuild(noise=bool(command.on))
@@ -495,8 +493,7 @@ class LiveSession:
         restarting the robot (paused, so several edits can be made before it walks again)."""
         terrain = to_terrain(data)
         label = self._edited_label()
-        locos = [self._loco] + ([o.loco for o in self._compare.others] if self._compare is not None else [])
-        if change_is_away(self._terrain, terrain, self._robot, [loco.snapshot() for loco in locos]):
+        if change_is_away(self._terrain, terrain, self._robot, [loco.snapshot() for loco in self._locos()]):
             self._loco.replace_terrain(terrain)
             if self._compare is not None:
                 self._compare.replace_terrain(terrain)
@@ -510,16 +507,9 @@ class LiveSession:
             self._notify(f"Terrain {what} near the robot: it restarted from the start and waits - press Run.",
                          "warning")
 
-    def _not_running_reason(self) -> str:
-        if self._error is not None:
-            return "stopped by an error (reset it)"
-        if self._runs.over:
-            return f"done ({self._done or 'stopped'}): reset it first"
-        if self._runs.waiting:
-            return "waiting for a browser to open the 3D view: open it or run the robot first"
-        if self._runs.start_at is not None:
-            return "about to start: push it once it walks"
-        return "paused: run it first"
+    def _locos(self) -> list[Locomotion]:
+        """The main robot's Locomotion, then compare mode's others."""
+        return [self._loco] + ([o.loco for o in self._compare.others] if self._compare is not None else [])
 
     def _edited_label(self) -> str:
         return f"{self._terrain_base_label} (edited)"
@@ -553,7 +543,7 @@ class LiveSession:
     def _publish(self) -> None:
         loco = self._loco
         snap = loco.snapshot()
-        parts = self._tracker.update(snap)
+        parts = self._tracker.update(snap, loco)
         wall = time.perf_counter()
         rtf = self.stats.real_time_factor(wall)
         t = loco.t_s
@@ -576,6 +566,7 @@ class LiveSession:
             pushes=len(self._pushes),
             error=self._error,
             robot=self._robot.name,
+            retarget=self._retarget,
         )
         self._seq += 1
         self._view = LiveView(

@@ -249,6 +249,7 @@ def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
         noise=loco.sim.config.joint_vel_noise_var > 0,
         pushes=len(loco.sim.pushes),
         robot=loco.robot.name,
+        retarget=loco.config.retarget is not None,
     )
     start_x, goal_x = float(loco.terrain.start_xy[0]), float(loco.terrain.goal_x)
     span = goal_x - start_x
@@ -267,7 +268,7 @@ def view_of(loco, tracker: ViewTracker, label: str = "") -> LiveView:
         push_force_world=push_force,
         wall_time_s=time.monotonic(),
         run=run,
-        **tracker.update(snap),
+        **tracker.update(snap, loco),
     )
 
 

@@ -3,7 +3,8 @@
 `RunClock` is the bookkeeping of `app/live.py`'s session thread (one owner, no locks): it waits for the
 first viewer (or an explicit start), counts down before the robot moves so the scene is drawn first, ends a
 run when every robot ended (compare mode: or `COMPARE_GRACE_S` after the first), keeps the finished runs'
-count and the last `RunSummary`, and with the loop on counts down to the next run.
+count and the last `RunSummary` (`run_summary` sums a robot's run up), and with the loop on counts down to
+the next run.
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ import time
 
 import numpy as np
 
+from app.compare import CompareResult, rank_stats
 from app.view import RunInfo, RunSummary
+from contactnet.locomotion import Locomotion
 
 #: In compare mode, a run ends this many simulated seconds after its first robot finished (the others may
 #: stand still forever).
@@ -87,6 +90,19 @@ class RunClock:
             return "restart"
         return None
 
+    def held_because(self, error: str | None, done: str | None) -> str:
+        """Why a robot that is not running does not (for a refused command): ``error`` stopped the session,
+        the run ended as ``done``, it waits for a viewer or its count-down, or it is paused."""
+        if error is not None:
+            return "stopped by an error (reset it)"
+        if self.over:
+            return f"done ({done or 'stopped'}): reset it first"
+        if self.waiting:
+            return "waiting for a browser to open the 3D view: open it or run the robot first"
+        if self.start_at is not None:
+            return "about to start: push it once it walks"
+        return "paused: run it first"
+
     @property
     def counting_down(self) -> bool:
         return self.start_at is not None or self.restart_at is not None
@@ -105,3 +121,28 @@ class RunClock:
             start_x_m=start_x_m,
             goal_x_m=goal_x_m,
         )
+
+
+def run_summary(loco: Locomotion, index: int, done: str | None, terrain: str, gait: str, planner: str,
+                compare: tuple[CompareResult, ...] | None) -> RunSummary:
+    """The `RunSummary` of run ``index`` of the main robot ``loco``, which ended as ``done`` ("goal reached",
+    "fell: ...", or None: still walking when the compare grace ran out)."""
+    mean, worst = rank_stats(loco)
+    records = loco.records
+    return RunSummary(
+        index=index,
+        t_s=loco.t_s,
+        steps=loco.steps_taken,
+        rank_mean=mean,
+        rank_max=worst,
+        success=done == "goal reached",
+        reason=done or f"stopped: still walking {COMPARE_GRACE_S:g} s after the other robot ended",
+        reached_x_m=float(loco.snapshot().q[0]),
+        terrain=terrain,
+        gait=gait,
+        planner=planner,
+        compare=compare,
+        stand_steps=sum(r.stand for r in records),
+        useless_steps=sum(r.useless for r in records),
+        swing_retargets=loco.swing_retargets,
+    )

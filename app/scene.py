@@ -1,6 +1,6 @@
 """The 3D scene of a live session in viser: the robot on the terrain, candidate disks, planned steps,
-CoM paths and force arrows, and in compare mode the other robots as translucent ghosts
-(`app/robot_display.py`). `LiveScene.update(view)` draws one `LiveView`. A click on a candidate disk
+CoM paths and force arrows, the planner's stand horizons and swing retargets (`app/scene_marks.py`), and in
+compare mode the other robots as translucent ghosts (`app/robot_display.py`). `LiveScene.update(view)` draws one `LiveView`. A click on a candidate disk
 says what the planner knew of it (viser 1.1 reports clicks on scene nodes, not hovers).
 
 Cheap updates matter (the simulation shares the process and the GIL): every node is created once
@@ -24,6 +24,7 @@ import trimesh
 import viser
 
 from app.robot_display import CompareGhosts, RobotDisplay
+from app.scene_marks import StepMarks
 from app.view import CandidateView, LiveView
 from contactnet.robots import Robot
 from contactnet.terrain import Terrain
@@ -263,6 +264,7 @@ class LiveScene:
         self.robot = RobotDisplay(server, robot)
         self.leg_names = tuple(robot.description.leg_names)
         self.ghosts = CompareGhosts(server, robot, self.robot.display)
+        self.marks = StepMarks(server, self.foot_radius_m)
         disk = trimesh.creation.cylinder(radius=DISK_RADIUS_M, height=DISK_HEIGHT_M, sections=20)
         self.disks = scene.add_batched_meshes_simple(
             "/plan/candidates",
@@ -330,6 +332,7 @@ class LiveScene:
                 self._com_plan_last = com_plan
                 self.planned_com.points = _segments(_on_ground(com_plan, view.terrain, 0.004))
             self._draw_com_path(view.com_path, view.terrain)
+            self.marks.update(view)
             self.ghosts.update(view)
 
     # ---- pieces ------------------------------------------------------------------------------------

@@ -53,6 +53,7 @@ from app.commands import (
     SetNoise,
     SetPaused,
     SetPlanner,
+    SetRetarget,
     SetSpeed,
     SetVelocity,
 )
@@ -263,7 +264,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
 
     @api.post("/api/settings", response_model=State, tags=["session"], responses=responses(*session_command))
     def settings(body: SettingsCommand) -> State:
-        """Change gait, planner, noise (each restarts the robot), simulation speed and loop."""
+        """Change gait, planner, noise (each restarts the robot), simulation speed, loop and swing retargeting."""
         if body.speed is not None:
             run(SetSpeed(body.speed))
         if body.loop is not None:
@@ -274,6 +275,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
             run(SetPlanner(body.planner))
         if body.noise is not None:
             run(SetNoise(body.noise))
+        if body.retarget is not None:
+            run(SetRetarget(body.retarget))
         return app.state()
 
     @api.post(

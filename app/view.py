@@ -1,21 +1,23 @@
 """What viewers see of a session: `LiveView`, one immutable picture (world frame, SI units), and
 `ViewTracker`, which turns successive `Snapshot`s of one Locomotion into the parts of a LiveView that
-need history (CoM path, gait-schedule history, the candidate footholds of the current step, planner
-timings). Nothing here knows about viser: `app/scene.py` draws a `LiveView`, `app/recordings.py`
-records it, `app/live.py` publishes one after every chunk of simulation.
+need history (CoM path, gait-schedule history with the planner's stand horizons, the candidate footholds of
+the current step, planner timings, the step counts and swing retargets of `app/step_events.py`). Nothing here
+knows about viser: `app/scene.py` draws a `LiveView`, `app/recordings.py` records it, `app/live.py` publishes
+one after every chunk of simulation.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from app.step_events import RetargetFlash, StepCounts, StepEvents
 from contactnet.gait import GaitSpec
-from contactnet.locomotion import Snapshot
+from contactnet.locomotion import Locomotion, Snapshot
 from contactnet.robots import Robot
 from contactnet.terrain import Terrain
 
@@ -23,6 +25,8 @@ HISTORY_NODES = 125  # gait-schedule history shown: 125 nodes of 40 ms = 5 s
 COM_PATH_POINTS = 4000
 COM_PATH_STEP_M = 0.005
 TIMING_PLANS = 120
+#: The status line's state while the planner stands (a choice, unlike a pause).
+STANDING = "standing (planner's choice)"
 
 
 @dataclass(frozen=True)
@@ -55,6 +59,7 @@ class SessionStatus:
     pushes: int  # pushes applied since the last (re)start
     error: str | None = None
     robot: str = ""  # the robot's registry name
+    retarget: bool = False  # swing retargeting is on (`contactnet.retarget`)
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,9 @@ class RunSummary:
     gait: str
     planner: str
     compare: tuple[CompareResult, ...] | None = None
+    stand_steps: int = 0  # step horizons the planner chose to stand
+    useless_steps: int = 0  # steps whose feet landed less than 2 cm from lift-off
+    swing_retargets: int = 0
 
 
 @dataclass(frozen=True)
@@ -153,6 +161,11 @@ class LiveView:
     #: the other robots of compare mode (the main robot runs the first planner), None when it is off
     compare: tuple[CompareRobot, ...] | None = None
     session_id: str = ""
+    #: per node of stance_history: the planner had chosen to stand for that step horizon
+    stand_history: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    planned_stand: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # (H,) per node of the plan
+    counts: StepCounts = StepCounts()
+    retarget_flashes: tuple[RetargetFlash, ...] = ()  # the swings retargeted in the last FLASH_S, oldest first
 
 
 class ViewTracker:
@@ -166,7 +179,12 @@ class ViewTracker:
         self.reset()
 
     def reset(self) -> None:
-        self._steps_seen = -1
+        self._plans_seen = -1
+        self._events = StepEvents()
+        self._counts = StepCounts()
+        self._standing: deque[bool] = deque(maxlen=HISTORY_NODES)
+        self._stand_array = np.zeros(0, dtype=bool)
+        self._planned_stand = np.zeros(0, dtype=bool)
         self._candidates: CandidateView | None = None
         self._com_buffer = np.zeros((256, 3))
         self._com_n = 0
@@ -178,13 +196,18 @@ class ViewTracker:
         self._planned_contact = np.ones((0, 4), dtype=bool)
         self._plan_t0_s = 0.0
 
-    def update(self, snap: Snapshot) -> dict[str, Any]:
-        """The LiveView fields derived from `snap` (arrays are fresh or unchanged objects)."""
+    def update(self, snap: Snapshot, loco: Locomotion | None = None) -> dict[str, Any]:
+        """The LiveView fields derived from `snap` (arrays are fresh or unchanged objects) and, given the
+        Locomotion it is a snapshot of, its step counts and retargets (`app.step_events`)."""
         gait = self.gait
         q = snap.q
         foot_pos = self.robot.foot_positions_world(q)
-        if snap.steps != self._steps_seen:
-            self._steps_seen = snap.steps
+        flashes: tuple[RetargetFlash, ...] = ()
+        if loco is not None:
+            self._counts, flashes = self._events.update(loco)
+        plans = self._counts.plans if loco is not None else snap.steps  # stands are plans too (not steps)
+        if plans != self._plans_seen:
+            self._plans_seen = plans
             if snap.planned_steps:
                 self._candidates = self._candidate_view(snap)
                 self._timing.append((snap.t_s, snap.last_planner_ms, snap.last_trajopt_ms))
@@ -192,13 +215,17 @@ class ViewTracker:
                 step_s = gait.step_duration_s
                 self._plan_t0_s = math.floor(snap.t_s / step_s + 1e-6) * step_s
                 self._planned_contact = gait.horizon_contact([s.legs for s in snap.planned_steps])
+                self._planned_stand = np.repeat([not s.legs for s in snap.planned_steps], gait.nodes_per_step)
         node = int(snap.t_s / gait.node_dt_s + 1e-6)
         if node != self._last_node:
             first = node if self._last_node < 0 else self._last_node + 1
+            standing = is_stand(snap)
             for _ in range(first, node + 1):
                 self._stance.append(np.asarray(snap.stance, dtype=bool).copy())
+                self._standing.append(standing)
             self._last_node = node
             self._stance_array = np.array(self._stance)
+            self._stand_array = np.array(self._standing, dtype=bool)
         if snap.t_s > 0.0:  # before the first tick the controller has no CoM yet
             self._add_com_point(np.asarray(snap.com_pos, dtype=float))
         return {
@@ -210,6 +237,10 @@ class ViewTracker:
             "planned_contact": self._planned_contact,
             "plan_t0_s": self._plan_t0_s,
             "timing": self._timing_array,
+            "stand_history": self._stand_array,
+            "planned_stand": self._planned_stand,
+            "counts": self._counts,
+            "retarget_flashes": flashes,
         }
 
     def _add_com_point(self, com: np.ndarray) -> None:
@@ -282,6 +313,28 @@ def gait_chart(view: LiveView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return t, np.repeat(past, 2, axis=0), np.repeat(planned, 2, axis=0)
 
 
+def stand_chart(view: LiveView) -> tuple[np.ndarray, np.ndarray]:
+    """The planner's stand horizons on `gait_chart`'s samples: (past (S,), planned (S,)), 1 while it stands."""
+    dt = view.gait.node_dt_s
+    n_past = len(view.stance_history)
+    now_node = view.stance_history_node0 + n_past - 1
+    skip = max(0, now_node + 1 - int(round(view.plan_t0_s / dt)))
+    n_future = len(view.planned_contact[skip:])
+    if n_past + n_future == 0:
+        return np.zeros(2), np.zeros(2)
+    past, planned = np.zeros(n_past + n_future), np.zeros(n_past + n_future)
+    history = view.stand_history[len(view.stand_history) - n_past :] if n_past else view.stand_history[:0]
+    past[n_past - len(history) : n_past] = history
+    future = view.planned_stand[skip : skip + n_future]
+    planned[n_past : n_past + len(future)] = future
+    return np.repeat(past, 2), np.repeat(planned, 2)
+
+
+def is_stand(snap: Snapshot) -> bool:
+    """Is the current step horizon one the planner chose to stand (no leg swings)?"""
+    return bool(snap.planned_steps) and not snap.planned_steps[0].legs
+
+
 def status_line(view: LiveView) -> str:
     """The session's state in one sentence: the header of the page (State.status_text) and the control
     panel both show this, so they never disagree."""
@@ -299,9 +352,11 @@ def status_line(view: LiveView) -> str:
     elif s.paused:
         state = "paused"
     else:
-        state = "walking"
+        state = STANDING if is_stand(snap) else "walking"
     rank = snap.planned_steps[0].rank if snap.planned_steps else None
     parts = [state, f"t {snap.t_s:.1f} s", f"x {snap.q[0]:.2f} m ({100 * run.progress:.0f} %)", f"steps {snap.steps}"]
+    if view.counts.stand_steps:
+        parts.append(f"stood {view.counts.stand_steps}")
     if rank is not None:
         parts.append(f"rank {rank}")
     if run.runs:

@@ -102,6 +102,7 @@ function stateClass(s) {
   if (s.reached_goal) return "state-goal";
   if (s.waiting_for_viewer || (s.starts_in_s ?? null) !== null) return "state-starting";
   if (s.paused) return "state-paused";
+  if (s.standing) return "state-standing";
   return "state-running";
 }
 
@@ -122,6 +123,7 @@ function statusDetail(s) {
   const planner = s.planner === s.planner_active ? s.planner : `${s.planner_active} (instead of ${s.planner})`;
   return `${s.terrain} · ${s.gait} · ${planner} · cmd (${s.vel_cmd[0].toFixed(2)}, ${s.vel_cmd[1].toFixed(2)}) m/s`
     + ` · speed ${s.speed}× · RTF ${s.real_time_factor.toFixed(2)} · pushes ${s.pushes}`
+    + (s.retarget ? ` · retargeting on (${s.swing_retargets ?? 0})` : "")
     + (s.loop === false ? " · loop off" : "") + (s.recording ? " · ● recording" : "");
 }
 

@@ -174,6 +174,10 @@ const Overlays = (() => {
     statRow(stats, "steps", String(run.steps));
     statRow(stats, "rank mean / max", run.rank_mean === null ? "– (no ranking)" : `${fmt(run.rank_mean, 2)} / ${run.rank_max}`,
       "ranking position of the chosen steps: 0 = the planner's first choice");
+    statRow(stats, "stood / useless", `${run.stand_steps} / ${run.useless_steps}`,
+      "step horizons the planner chose to stand (all four feet down) / steps whose feet landed < 2 cm from lift-off");
+    statRow(stats, "swing retargets", String(run.swing_retargets),
+      "swings whose landing moved during the swing (retargeting on)");
     statRow(stats, "reached", `${fmt(run.x ?? run.reached_x_m)} of ${fmt(s.goal_x_m)} m`, "x, forward from the start");
     compareTable(run);
     const looping = s.restart_in_s !== null && s.restart_in_s !== undefined;

@@ -26,9 +26,11 @@ def default_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def save_random_models(folder) -> None:
+def save_random_models(folder, stand: bool = False) -> None:
     """walk.pt and trot.pt with random weights, so the web tests do not depend on the shipped models:
-    the ContactNet planner then ranks candidates at random, and still takes the first safe one."""
+    the ContactNet planner then ranks candidates at random, and still takes the first safe one. ``stand``: with
+    N_a + 1 outputs (the stand choice too, `GaitSpec.n_choices`), the stand output biased to rank first, so the
+    planner stands at every step horizon (as a trained model should with a zero command on flat ground)."""
     import numpy as np
     import torch
 
@@ -39,8 +41,12 @@ def save_random_models(folder) -> None:
     u = rng.normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
     for gait in ("walk", "trot"):
         torch.manual_seed(0)
-        save_model(folder / f"{gait}.pt", ContactNet(registry.gait_by_name(gait).n_actions).eval(), Normalizer.fit(u),
-                   {"gait": gait})
+        spec = registry.gait_by_name(gait)
+        net = ContactNet(spec.n_choices if stand else spec.n_actions).eval()
+        if stand:
+            with torch.no_grad():
+                net.layers[-1].bias[spec.stand_index] += 100.0
+        save_model(folder / f"{gait}.pt", net, Normalizer.fit(u), {"gait": gait})
 
 
 # ---- the browser tests (real Debian chromium driven by playwright) ----------------------------------------
@@ -108,15 +114,16 @@ def viser_client(app):  # noqa: ANN001, ANN201
     return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]
 
 
-def live_app(tmp_path_factory, **settings):  # noqa: ANN001, ANN201
+def live_app(tmp_path_factory, stand_models: bool = False, **settings):  # noqa: ANN001, ANN201
     """A ContactnetApp (the live session and its 3D view on a free loopback port) with shipped-format random
-    models and its own recordings folder; ``settings`` are ServeSettings fields. Close it when done."""
+    models (``stand_models``: that can choose to stand) and its own recordings folder; ``settings`` are
+    ServeSettings fields. Close it when done."""
     from app.recordings import free_port
     from app.server import ContactnetApp
     from app.settings import ServeSettings
 
     models = tmp_path_factory.mktemp("models")
-    save_random_models(models)
+    save_random_models(models, stand=stand_models)
     return ContactnetApp(ServeSettings(viser_port=free_port(), recordings_dir=tmp_path_factory.mktemp("recordings"),
                                        models_dir=models, **settings))
 

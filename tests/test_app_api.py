@@ -386,3 +386,41 @@ def test_serve_command_line(capsys):
     assert "no_such_terrain" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["serve", "--port", "70000"])
+
+
+def test_retargeting_is_a_setting_off_by_default(client, app):
+    """POST /api/settings {"retarget": ...} turns swing retargeting on and off in the live robot, no restart."""
+    properties = client.get("/openapi.json").json()["components"]["schemas"]["SettingsCommand"]["properties"]
+    assert "retarget" in properties and properties["retarget"]["description"]
+    client.post("/api/pause", json={"paused": False})
+    state = client.get("/api/state").json()
+    assert state["retarget"] is False and app.session._loco.config.retarget is None
+    for field in ("stand_steps", "useless_steps", "swing_retargets"):
+        assert isinstance(state[field], int) and state[field] >= 0, field
+    assert isinstance(state["standing"], bool)
+    wait_for(lambda: client.get("/api/state").json()["t_s"] > 0.2, what="the robot to run")
+    state = client.post("/api/settings", json={"retarget": True}).json()
+    assert state["retarget"] is True and app.session._loco.config.retarget is not None
+    assert state["t_s"] > 0.2 and "retargeting on" in state["notices"][-1]["text"].lower()  # no restart
+    response = client.post("/api/settings", json={"retarget": "yes"})
+    assert response.status_code == 422 and ("body", "retarget") in detail_locations(response)
+    assert client.get("/api/state").json()["retarget"] is True
+    state = client.post("/api/settings", json={"retarget": False}).json()
+    assert state["retarget"] is False and app.session._loco.config.retarget is None
+
+
+def test_a_planner_that_stands_shows_in_the_state(client):
+    """Zero command on flat: the oracle stands (by choice); /api/state counts the stands and says so."""
+    client.post("/api/pause", json={"paused": False})
+    client.post("/api/command", json={"vx": 0.0, "vy": 0.0})
+    client.post("/api/settings", json={"planner": "oracle", "gait": "walk"})
+    state = wait_for(lambda: (s := client.get("/api/state").json())["stand_steps"] >= 2 and s, timeout=60,
+                     what="two stand horizons")
+    assert state["standing"] and state["steps"] == 0 and state["useless_steps"] == 0
+    assert state["status_text"].startswith("standing (planner's choice) · ")
+    assert f"stood {state['stand_steps']}" in state["status_text"]
+    client.post("/api/command", json={"vx": 0.1, "vy": 0.0})  # a command: it walks again
+    state = wait_for(lambda: (s := client.get("/api/state").json())["steps"] >= 1 and s, timeout=60, what="a step")
+    assert state["stand_steps"] >= 2  # the run's count stays
+    client.post("/api/command", json={"vx": 0.0, "vy": 0.0})
+    client.post("/api/settings", json={"planner": "heuristic"})

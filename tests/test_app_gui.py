@@ -21,6 +21,7 @@ from viser import _messages as messages
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
+from app.commands import SetRetarget
 from app.recordings import free_port
 from app.server import ContactnetApp
 from app.settings import ServeSettings
@@ -191,6 +192,22 @@ def test_gait_planner_and_noise(app, browser):
     browser.set(panel.gait, "walk")
     wait_for(lambda: (state(app).gait, state(app).planner, state(app).noise) == ("walk", "heuristic", False),
              what="back to walk / heuristic / no noise")
+
+
+def test_the_retarget_switch(app, browser):
+    """The "Retarget swings" checkbox turns swing retargeting on and off without a restart; REST shows in it."""
+    panel = app.viewer.panel.gait_planner
+    assert panel.retarget.value is False and not state(app).retarget  # off by default, like the library
+    browser.set(panel.retarget, True)
+    wait_for(lambda: state(app).retarget, what="retargeting on")
+    assert app.session._loco.config.retarget is not None
+    browser.set(panel.retarget, False)
+    wait_for(lambda: not state(app).retarget, what="retargeting off")
+    assert app.session._loco.config.retarget is None
+    app.session.call(SetRetarget(True))  # from elsewhere (REST): the checkbox follows
+    wait_for(lambda: panel.retarget.value is True, what="the checkbox to follow")
+    app.session.call(SetRetarget(False))
+    wait_for(lambda: panel.retarget.value is False, what="the checkbox to follow back")
 
 
 def test_terrain_picker_files_and_random_field(app, browser):
@@ -432,4 +449,4 @@ def test_status_panel_says_what_the_header_says(app, browser):
     wait_for(lambda: status.text.content.startswith(f"**{status_line(app.session.view)}**"), what="one status")
     assert 0.0 <= status.progress.value <= 100.0
     plots = app.viewer.panel.plots
-    assert plots.gait_plot.axes[1]["values"] == ("FL", "FR", "HL", "HR")
+    assert plots.gait_plot.axes[1]["values"] == ("FL", "FR", "HL", "HR", "stand")  # the legs, then the stand band

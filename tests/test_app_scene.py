@@ -27,6 +27,7 @@ from app.scene import (
     safe_positions,
     shown_rank_color,
 )
+from app.step_events import StepCounts
 from app.view import CandidateView, Notice
 
 pytestmark = pytest.mark.app
@@ -82,10 +83,10 @@ def test_steps_shape_and_plot_history():
     np.testing.assert_array_equal(y, [3, 3, 1, 1, 2])
     history = PlotHistory()
 
-    def view(t_s, steps, rank, vx):
+    def view(t_s, steps, rank, vx, plans=0):
         step = SimpleNamespace(rank=rank)
         snap = SimpleNamespace(t_s=t_s, steps=steps, planned_steps=[step], vel_cmd_xy=(0.1, 0.0), com_vel=(vx, 0.0, 0.0))
-        return SimpleNamespace(snapshot=snap)
+        return SimpleNamespace(snapshot=snap, counts=StepCounts(plans=plans))
 
     for k in range(40):
         history.observe(view(0.05 * k, k // 4, k // 4 % 3, 0.1 + 0.02 * (-1) ** k))
@@ -95,6 +96,8 @@ def test_steps_shape_and_plot_history():
     assert np.abs(smooth[-20:] - 0.1).max() < 0.003 < np.abs(measured - 0.1).max()  # the mean smooths the sway
     history.observe(view(0.0, 0, 0, 0.0))  # a reset starts over
     assert len(history.ranks) == 1 and len(history.velocity) == 1
+    history.observe(view(0.3, 0, 5, 0.0, plans=1))  # a stand horizon: a new plan (with its rank), no new step
+    assert [r for _, r in history.ranks] == [0, 5]
 
 
 class FakeCamera:

@@ -1,16 +1,20 @@
 """The "Robot and planner" folder: which robot runs, its gait, the contact planner, joint-velocity noise,
-and compare mode (a second robot with another planner on the same terrain, drawn as a ghost)."""
+swing retargeting (on or off without a restart), and compare mode (a second robot with another planner on the same terrain, drawn as a ghost)."""
 
 from __future__ import annotations
 
 import viser
 
-from app.commands import SetCompare, SetGait, SetNoise, SetPlanner
+from app.commands import SetCompare, SetGait, SetNoise, SetPlanner, SetRetarget
 from app.live import LiveSession
 from app.panels.common import ChangeTracker, submit
 from app.view import LiveView
 from contactnet import registry
 
+RETARGET_HINT = (
+    "During a swing, when a push throws the robot off its command, rank the swinging legs' landings again and "
+    "move the swing to the new one (it flashes in the 3D view). ContactNet and fixed planners; no restart."
+)
 COMPARE_HINT = "A second robot with this planner walks the same terrain with the same command (a teal ghost)"
 
 
@@ -20,7 +24,8 @@ def compare_label(comparing: bool, other: str) -> str:
 
 
 class GaitPlannerPanel:
-    """Gait and planner dropdowns (the registry's names) and the noise switch; each restarts the robot."""
+    """Gait and planner dropdowns (the registry's names) and the noise switch, each restarting the robot; the
+    retarget switch (no restart)."""
 
     def __init__(self, gui: viser.GuiApi, session: LiveSession, order: float = 40.0):
         self.session = session
@@ -36,6 +41,7 @@ class GaitPlannerPanel:
             self.noise = gui.add_checkbox(
                 "Joint-velocity noise", settings.noise, hint="Gaussian, variance 0.01 (rad/s)^2"
             )
+            self.retarget = gui.add_checkbox("Retarget swings", settings.retarget, hint=RETARGET_HINT)
             others = self._others(settings.planner)
             self.compare_with = gui.add_dropdown(
                 "Compare with", others, initial_value="fixed" if "fixed" in others else others[0], hint=COMPARE_HINT
@@ -60,6 +66,11 @@ class GaitPlannerPanel:
             if event.client is not None:
                 submit(self.session, SetNoise(bool(self.noise.value)), event.client)
 
+        @self.retarget.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetRetarget(bool(self.retarget.value)), event.client)
+
         @self.compare_with.on_update
         def _(event) -> None:
             self.compare_button.label = compare_label(self._comparing, self.compare_with.value)
@@ -77,7 +88,7 @@ class GaitPlannerPanel:
     def refresh(self, view: LiveView) -> None:
         s = view.status
         for key, handle, value in (("gait", self.gait, s.gait), ("planner", self.planner, s.planner),
-                                   ("noise", self.noise, s.noise)):
+                                   ("noise", self.noise, s.noise), ("retarget", self.retarget, s.retarget)):
             if self._seen.changed(key, value):
                 handle.value = value
         others = self._others(s.planner)

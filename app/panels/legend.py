@@ -1,5 +1,5 @@
 """The "Legend" folder, open at the top of the panel: every colour the 3D view uses (taken from
-`app/scene.py` and `app/robot_display.py`, so legend and scene cannot disagree), the ranking's colour
+`app/scene.py`, `app/scene_marks.py` and `app/robot_display.py`, so legend and scene cannot disagree), the ranking's colour
 scale, and what the last clicked candidate disk is (leg, rank, safe or not, score when known)."""
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from app.scene import (
     shown_color,
     shown_rank_color,
 )
+from app.scene_marks import RETARGET_COLOR, STAND_COLOR
 from app.view import LiveView
 
 PICK_HINT = "Click a disk to see its leg, rank and safety."
@@ -48,10 +49,12 @@ def _swatch(kind: str, color, label: str) -> str:  # noqa: ANN001
         "ball": "width:11px;height:11px;border-radius:50%;margin:0 1px;box-shadow:inset -2px -2px 3px rgba(0,0,0,.3)",
         "line": "width:16px;height:3px;margin:5px 0",
         "robot": "width:16px;height:10px;border-radius:3px",
+        "ring": "width:7px;height:7px;border-radius:50%;margin:0 1px",
     }[kind]
+    paint = f"border:3px solid {_css(color)}" if kind == "ring" else f"background:{_css(color)}"
     return (
         '<div style="display:flex;align-items:center;gap:6px;min-width:0">'
-        f'<span style="flex:none;display:inline-block;{shape};background:{_css(color)}"></span>'
+        f'<span style="flex:none;display:inline-block;{shape};{paint}"></span>'
         f'<span style="overflow:hidden;text-overflow:ellipsis">{html.escape(label)}</span></div>'
     )
 
@@ -88,6 +91,8 @@ def legend_html() -> str:
         _swatch("line", PUSH_COLOR, "push"),
         _swatch("line", GOAL_COLOR, "goal line"),
         _swatch("robot", GHOST_COLOR, "compared robot"),
+        _swatch("line", STAND_COLOR, "standing by choice (feet)"),
+        _swatch("ring", RETARGET_COLOR, "swing retargeted (flash)"),
     )
     grid = (
         '<div style="display:grid;grid-template-columns:repeat(auto-fill,minmax(150px,1fr));'

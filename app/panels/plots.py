@@ -1,5 +1,5 @@
 """The "Plots" folder: the gait schedule (one bar per leg, named on the y axis: stance so far, then the
-plan ahead, faded), the rank of the chosen action step by step, the commanded and measured forward
+plan ahead, faded; under them a slate "stand" band where the planner chose to stand), the rank of the chosen action step by step, the commanded and measured forward
 velocity, and the planner's and optimizer's time per plan.
 
 `PlotHistory.observe(view)` runs for every new view (the viewer's scene loop) and keeps the short
@@ -16,10 +16,12 @@ import viser
 import viser.uplot as uplot
 
 from app.panels.common import ChangeTracker
-from app.view import LiveView, gait_chart
+from app.view import LiveView, gait_chart, stand_chart
 from contactnet.robots import LEG_NAMES
 
 LEG_COLORS = ("#e8590c", "#1c7ed6", "#2f9e44", "#ae3ec9")  # FL FR HL HR
+STAND_COLOR = "#495057"  # the planner's stand horizons (slate; the 3D view's stand marks have the same colour)
+STAND_BAND = (-0.55, 0.4)  # the stand band's bottom and height on the gait plot's y axis (leg bars: 0..3.8)
 RANK_STEPS = 80  # steps shown in the rank plot
 VELOCITY_WINDOW_S = 10.0  # seconds shown in the velocity plot
 VELOCITY_SAMPLE_S = 0.05
@@ -61,13 +63,22 @@ def steps_shape(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return tt, yy
 
 
+def _stand_bars() -> tuple[uplot.Series, ...]:
+    """The stand band, done and planned (faded)."""
+    return tuple(
+        uplot.Series(label=label, stroke=STAND_COLOR, width=0, fill=_hex_rgba(STAND_COLOR, alpha),
+                     fillTo=STAND_BAND[0], points={"show": False})
+        for label, alpha in (("stand", 0.85), ("stand plan", 0.3))
+    )
+
+
 class PlotHistory:
     """Rank per step and forward velocities, kept from the views the viewer draws (see the module doc)."""
 
     def __init__(self) -> None:
         self.ranks: deque[tuple[float, int]] = deque(maxlen=RANK_STEPS)
         self.velocity: deque[tuple[float, float, float]] = deque(maxlen=int(VELOCITY_WINDOW_S / VELOCITY_SAMPLE_S) + 1)
-        self._steps = -1
+        self._steps: tuple[int, int] | None = None
         self._t = -1.0
         self.version = 0  # bumps when something was added
 
@@ -77,9 +88,10 @@ class PlotHistory:
         if t < self._t - 1e-9:  # a reset: start over
             self.ranks.clear()
             self.velocity.clear()
-            self._steps, self._t = -1, -1.0
-        if snap.steps != self._steps and snap.planned_steps:
-            self._steps = snap.steps
+            self._steps, self._t = None, -1.0
+        plans = (snap.steps, view.counts.plans)  # stand horizons are plans too (with a rank), not steps
+        if plans != self._steps and snap.planned_steps:
+            self._steps = plans
             rank = snap.planned_steps[0].rank
             if rank is not None:
                 self.ranks.append((t, int(rank)))
@@ -115,17 +127,18 @@ class PlotsPanel:
         self.history = PlotHistory()
         self._drawn_version = -1
         self._next_slow = 0.0
-        bar_mid = tuple(3.4 - i for i in range(4))
+        bar_mid = (*(3.4 - i for i in range(4)), STAND_BAND[0] + 0.5 * STAND_BAND[1])
         with gui.add_folder("Plots", order=order):
             self.gait_plot = gui.add_uplot(
-                data=(np.zeros(2),) + (np.zeros(2),) * 8,
+                data=(np.zeros(2),) + (np.zeros(2),) * 10,
                 series=(uplot.Series(label="t [s]"), *_leg_bars(leg_names, "", 0.85),
-                        *_leg_bars(leg_names, " plan", 0.3)),
-                title="Gait schedule: stance per leg over t [s] (faded: planned)",
-                scales={"x": uplot.Scale(time=False), "y": uplot.Scale(range=(-0.1, 4.0), auto=False)},
+                        *_leg_bars(leg_names, " plan", 0.3), *_stand_bars()),
+                title="Gait schedule: stance per leg over t [s] (faded: planned; stand: the planner chose not to step)",
+                scales={"x": uplot.Scale(time=False),
+                        "y": uplot.Scale(range=(STAND_BAND[0] - 0.1, 4.0), auto=False)},
                 axes=(
                     uplot.Axis(),
-                    uplot.Axis(splits=bar_mid, values=tuple(leg_names), size=34, grid={"show": False},
+                    uplot.Axis(splits=bar_mid, values=(*leg_names, "stand"), size=42, grid={"show": False},
                                ticks={"show": False}),
                 ),
                 legend=uplot.Legend(show=False),
@@ -176,8 +189,11 @@ class PlotsPanel:
         gait_key = (view.stance_history_node0, len(view.stance_history), view.plan_t0_s, id(view.planned_contact))
         if self._seen.changed("gait", gait_key):  # nothing to send while paused
             t, past, planned = gait_chart(view)
+            stood, to_stand = stand_chart(view)
             base = 3.0 - np.arange(4)
-            self.gait_plot.data = (t, *(base + 0.8 * past).T, *(base + 0.8 * planned).T)
+            bottom, height = STAND_BAND
+            self.gait_plot.data = (t, *(base + 0.8 * past).T, *(base + 0.8 * planned).T, bottom + height * stood,
+                                   bottom + height * to_stand)
         now = time.monotonic()
         if now < self._next_slow:
             return

@@ -1,7 +1,8 @@
 """The top of the control panel: one status line (the same sentence the front page's header shows:
 `app.view.status_line`), the run's state (waiting for a browser, starting in N s, the end-of-run card
 with the restart countdown), a progress bar from the start toward the goal, and the details
-(terrain, gait, planner, command, timings, pushes)."""
+(terrain, gait, planner, command, timings, pushes, and what the planner did besides stepping: stand horizons,
+useless steps, swing retargets)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 import viser
 
 from app.panels.common import ChangeTracker
-from app.view import CompareResult, LiveView, RunSummary, status_line
+from app.view import CompareResult, LiveView, RunSummary, is_stand, status_line
 
 
 def _state_word(view: LiveView) -> str:
@@ -30,10 +31,17 @@ def headline(view: LiveView) -> str:
     return f"**{status_line(view)}**"
 
 
+def step_kinds(stand_steps: int, useless_steps: int, swing_retargets: int) -> str:
+    """What the planner did besides stepping, as one phrase."""
+    return f"stood {stand_steps} · useless {useless_steps} · swing retargets {swing_retargets}"
+
+
 def _summary(run: RunSummary) -> str:
-    """A RunSummary as one line: time, steps, ranks, distance (the headline already says how it ended)."""
+    """A RunSummary as two lines: time, steps, ranks, distance (the headline already says how it ended), then
+    stands, useless steps and retargets."""
     rank = "" if run.rank_mean is None else f" · rank mean {run.rank_mean:.1f}, max {run.rank_max}"
-    return f"**Run {run.index}** ({run.planner}): {run.t_s:.1f} s · {run.steps} steps{rank} · x = {run.reached_x_m:.2f} m"
+    return (f"**Run {run.index}** ({run.planner}): {run.t_s:.1f} s · {run.steps} steps{rank} · "
+            f"x = {run.reached_x_m:.2f} m  \n{step_kinds(run.stand_steps, run.useless_steps, run.swing_retargets)}")
 
 
 def _compare_result(result: CompareResult) -> str:
@@ -79,6 +87,9 @@ def details_markdown(view: LiveView) -> str:
         f"steps {snap.steps} · rank chosen {'n/a' if rank is None else rank} · "
         f"plan {snap.last_planner_ms:.2f} ms{mean_plan} · optimizer {snap.last_trajopt_ms:.1f} ms · "
         f"RTF {s.real_time_factor:.2f} · speed {s.speed:.2g}x",
+        f"{'**standing** (the planner chose not to step) · ' if is_stand(snap) else ''}"
+        f"{step_kinds(view.counts.stand_steps, view.counts.useless_steps, view.counts.swing_retargets)} "
+        f"(retargeting {'on' if s.retarget else 'off'})",
     ]
     if np.any(view.push_force_world):
         f = view.push_force_world
