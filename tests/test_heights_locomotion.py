@@ -74,6 +74,8 @@ def test_touchdown_adapts_to_early_and_late_contact(robot):
     with Locomotion(robot, resolve("stairs"), gait, make_planner("contactnet", gait, robot),
                     vel_cmd_xy=(0.05, 0.0)) as loco:
         loco.advance(1)  # plans the first step
+        while not loco.plan.swings:  # the walk may stand first (contactnet.stand): on to its first swing
+            loco.advance(loco.ticks_per_step)
         plan = loco.plan
         (leg, swing), = plan.swings.items()
         duration = swing.t1_s - swing.t0_s
