@@ -24,7 +24,7 @@ import trimesh
 import viser
 
 from app.robot_display import CompareGhosts, RobotDisplay
-from app.scene_marks import StepMarks
+from app.scene_marks import HIDDEN_POS, StepMarks, hidden_mesh_pool
 from app.view import CandidateView, LiveView
 from contactnet.robots import Robot
 from contactnet.terrain import Terrain
@@ -68,7 +68,6 @@ SHOWN_AS = {
 PICK_LABEL_OFFSET_M = 0.05  # a picked disk's label floats this high above it
 #: The default view: from behind and to the right of the robot, looking ahead along +x.
 CAMERA_OFFSET_M = np.array([-0.75, -1.0, 0.85])
-HIDDEN_POS = np.array([0.0, 0.0, -100.0], dtype=np.float32)
 
 
 def rank_fade(position: np.ndarray) -> np.ndarray:
@@ -266,19 +265,7 @@ class LiveScene:
         self.ghosts = CompareGhosts(server, robot, self.robot.display)
         self.marks = StepMarks(server, self.foot_radius_m)
         disk = trimesh.creation.cylinder(radius=DISK_RADIUS_M, height=DISK_HEIGHT_M, sections=20)
-        self.disks = scene.add_batched_meshes_simple(
-            "/plan/candidates",
-            disk.vertices,
-            disk.faces,
-            batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (DISK_POOL, 1)),
-            batched_positions=np.tile(HIDDEN_POS, (DISK_POOL, 1)),
-            batched_scales=np.ones((DISK_POOL, 3), dtype=np.float32),
-            batched_colors=np.tile(SAFE_COLOR, (DISK_POOL, 1)),
-            lod="off",
-            material="toon3",  # flat tones: the standard material washes the colours out toward white
-            cast_shadow=False,
-            receive_shadow=False,  # a toon disk in the robot's shadow turns black
-        )
+        self.disks = hidden_mesh_pool(scene, "/plan/candidates", disk, DISK_POOL, SAFE_COLOR)
         ball = trimesh.creation.icosphere(subdivisions=2, radius=0.018)
         self.steps = scene.add_batched_meshes_simple(
             "/plan/steps",

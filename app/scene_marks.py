@@ -22,7 +22,27 @@ import viser
 from app.step_events import FLASH_S, RetargetFlash
 from app.view import STANDING, LiveView, is_stand
 
-HIDDEN_POS = np.array([0.0, 0.0, -100.0], dtype=np.float32)
+HIDDEN_POS = np.array([0.0, 0.0, -100.0], dtype=np.float32)  # where pooled instances wait, out of sight
+
+
+def hidden_mesh_pool(scene, name: str, mesh: trimesh.Trimesh, pool: int,  # noqa: ANN001 - viser scene API
+                     color: np.ndarray):
+    """``pool`` instances of ``mesh`` (one batched node), all out of sight, in flat toon tones (the standard
+    material washes the colours out toward white) and without shadows (a toon disk in the robot's shadow
+    turns black); the caller moves, scales and colours the ones it shows."""
+    return scene.add_batched_meshes_simple(
+        name,
+        mesh.vertices,
+        mesh.faces,
+        batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (pool, 1)),
+        batched_positions=np.tile(HIDDEN_POS, (pool, 1)),
+        batched_scales=np.ones((pool, 3), dtype=np.float32),
+        batched_colors=np.tile(color, (pool, 1)),
+        lod="off",
+        material="toon3",
+        cast_shadow=False,
+        receive_shadow=False,
+    )
 RING_POOL = 8  # flashes shown at once (a trot retargets two legs at a time)
 RING_RADII_M = (0.024, 0.036)  # inner, outer: around a foot ball (2 cm) and the gold chosen disk
 RING_HEIGHT_M = 0.004
@@ -68,19 +88,7 @@ class StepMarks:
         self.lift_m = ABOVE_GROUND_M - foot_radius_m  # from a foot-ball centre to just above the ground
         self.flash_lift_m = FLASH_ABOVE_GROUND_M - foot_radius_m
         ring = trimesh.creation.annulus(*RING_RADII_M, height=RING_HEIGHT_M, sections=32)
-        self.rings = scene.add_batched_meshes_simple(
-            "/events/retarget/rings",
-            ring.vertices,
-            ring.faces,
-            batched_wxyzs=np.tile([1.0, 0.0, 0.0, 0.0], (RING_POOL, 1)),
-            batched_positions=np.tile(HIDDEN_POS, (RING_POOL, 1)),
-            batched_scales=np.ones((RING_POOL, 3), dtype=np.float32),
-            batched_colors=np.tile(RETARGET_COLOR.astype(np.uint8), (RING_POOL, 1)),
-            lod="off",
-            material="toon3",
-            cast_shadow=False,
-            receive_shadow=False,
-        )
+        self.rings = hidden_mesh_pool(scene, "/events/retarget/rings", ring, RING_POOL, RETARGET_COLOR.astype(np.uint8))
         self.lines = scene.add_line_segments(
             "/events/retarget/lines", np.tile(HIDDEN_POS, (3, 2, 1)), tuple(RETARGET_COLOR.astype(int)),
             thickness=0.006, visible=False,
