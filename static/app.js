@@ -200,7 +200,10 @@ async function pollForever() {
 
 async function toggleCompare() {
   const s = lastState;
-  if (!s) return;
+  if (!s) {
+    Toasts.show("Compare: the live session has not answered yet; try again in a moment", "warning");
+    return;
+  }
   const comparing = Array.isArray(s.compare) && s.compare.length > 0;
   const other = s.planner === "fixed" ? "contactnet" : "fixed";
   await act("Compare", () => post("/api/compare", { planners: comparing ? [] : [s.planner, other] }));
@@ -393,8 +396,35 @@ async function toggleRecording() {
   await loadRecordings();
 }
 
+/** The header and panel controls: they need nothing from the server to be wired. */
+function wireControls() {
+  $("recordings-toggle").addEventListener("click", (event) => {
+    event.preventDefault();
+    const aside = $("recordings");
+    aside.hidden = !aside.hidden;
+    $("recordings-toggle").classList.toggle("active", !aside.hidden);
+    if (!aside.hidden) loadRecordings();
+  });
+  $("recordings-close").addEventListener("click", () => {
+    $("recordings").hidden = true;
+    $("recordings-toggle").classList.remove("active");
+  });
+  $("record-button").addEventListener("click", toggleRecording);
+  $("compare-toggle").addEventListener("click", toggleCompare);
+  $("share-button").addEventListener("click", share);
+  $("menu-toggle").addEventListener("click", () => {
+    const open = document.body.classList.toggle("menu-open");
+    $("menu-toggle").setAttribute("aria-expanded", String(open));
+  });
+  $("nav").addEventListener("click", () => {
+    document.body.classList.remove("menu-open");
+    $("menu-toggle").setAttribute("aria-expanded", "false");
+  });
+}
+
 async function main() {
   Overlays.wire();
+  wireControls();  // before the first request: a click while the page loads already works
   const info = await api("/api/info");
   if (info.robot) $("subtitle").textContent = `acyclic contact planning for ${info.robot}`;
   sessionId = info.session_id || null;
@@ -420,28 +450,7 @@ async function main() {
   showLive();
   $("live-link").addEventListener("click", (event) => { event.preventDefault(); showLive(); });
   $("back-to-live").addEventListener("click", showLive);
-  $("recordings-toggle").addEventListener("click", (event) => {
-    event.preventDefault();
-    const aside = $("recordings");
-    aside.hidden = !aside.hidden;
-    $("recordings-toggle").classList.toggle("active", !aside.hidden);
-    if (!aside.hidden) loadRecordings();
-  });
-  $("recordings-close").addEventListener("click", () => {
-    $("recordings").hidden = true;
-    $("recordings-toggle").classList.remove("active");
-  });
-  $("record-button").addEventListener("click", toggleRecording);
-  $("compare-toggle").addEventListener("click", toggleCompare);
-  $("share-button").addEventListener("click", share);
-  $("menu-toggle").addEventListener("click", () => {
-    const open = document.body.classList.toggle("menu-open");
-    $("menu-toggle").setAttribute("aria-expanded", String(open));
-  });
-  $("nav").addEventListener("click", () => {
-    document.body.classList.remove("menu-open");
-    $("menu-toggle").setAttribute("aria-expanded", "false");
-  });
+  document.body.dataset.ready = "true";  // wired and showing the live session (tests wait for it)
   pollForever();
 }
 

@@ -32,12 +32,18 @@ def live(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def page(live):
-    _, url = live
+def browser():
     with chromium() as browser:
-        page = browser.new_page(viewport={"width": 1400, "height": 900})
-        page.goto(url + "/")
-        yield page
+        yield browser
+
+
+@pytest.fixture(scope="module")
+def page(live, browser):
+    _, url = live
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page.goto(url + "/")
+    page.locator("body[data-ready]").wait_for(timeout=90_000)  # main() wired and showing the live session
+    yield page
 
 
 # Clicks are DOM click events (`dispatch_event`): a pointer click waits for the element to stand still over
@@ -46,10 +52,28 @@ def item(page, text: str):
     return page.locator("#recording-list li", has_text=text)
 
 
+def test_the_recordings_open_while_the_page_still_loads(live, browser):
+    """The header's controls work before the session has answered: here /api/info is held back."""
+    _, url = live
+    slow = browser.new_page(viewport={"width": 1400, "height": 900})
+    held = []
+    slow.route("**/api/info", lambda route: held.append(route))  # not answered until the end of the test
+    try:
+        slow.goto(url + "/", wait_until="domcontentloaded")
+        wait_for(lambda: slow.evaluate("1") and held, what="the page to ask for /api/info")  # (evaluate lets playwright dispatch the route)
+        slow.locator("#recordings-toggle").dispatch_event("click")
+        item(slow, "cli-run.viser").wait_for(timeout=60_000)
+        assert held and slow.locator("body[data-ready]").count() == 0  # main() still waits for /api/info
+        held[0].continue_()
+        slow.locator("body[data-ready]").wait_for(timeout=60_000)
+    finally:
+        slow.close()
+
+
 def test_the_list_shows_what_each_recording_is(live, page):
     page.locator("#recordings-toggle").dispatch_event("click")
     cli = item(page, "cli-run.viser")
-    cli.wait_for(timeout=90_000)  # the first fetch of the list: slow when other jobs load the 2 cores
+    cli.wait_for(timeout=60_000)  # the first fetch of the list: slow when other jobs load the 2 cores
     text = cli.inner_text()
     assert "flat · walk · heuristic" in text and "stopped" in text and "1.0 s" in text
     assert "no metadata" in item(page, "old.viser").inner_text()
