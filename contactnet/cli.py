@@ -275,7 +275,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     return train_command(
         args.gait, args.data, args.out, robot=args.robot, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
         seed=args.seed, split=args.split, threads=args.threads, max_minutes=args.max_minutes,
-        save_partial=args.save_partial, progress=not args.quiet, stand_weight=args.stand_weight,
+        save_partial=args.save_partial, progress=not args.quiet,
     )
 
 
@@ -415,9 +415,6 @@ def build_parser() -> argparse.ArgumentParser:
                        help="70/30 split by whole episodes (default) or by instances (the paper's)")
     train.add_argument("--threads", type=_positive_int("--threads", 256), default=1)
     train.add_argument("--max-minutes", type=_bounded_float("--max-minutes", 0.01, 10**5), default=None)
-    train.add_argument("--stand-weight", type=_bounded_float("--stand-weight", 1e-3, 1e3), default=1.0,
-                       help="weight of the standing output in the squared error (default 1: the paper's MSE; "
-                            "the shipped trot model: 20)")
     train.add_argument("--save-partial", action="store_true", help="on Ctrl-C, save the model trained so far")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(func=cmd_train)

@@ -39,7 +39,7 @@ from contactnet.ranking import (
     step_in_place,
 )
 from contactnet.robots.description import RobotDescription
-from contactnet.stand import prefer_stand, split_stand, stand_step
+from contactnet.stand import network_stands, prefer_stand, split_stand, stand_step
 from contactnet.terrain import Terrain
 
 #: Re-exported: choosing a step from a ranking lives in ``contactnet.ranking``.
@@ -339,9 +339,8 @@ class ContactNetPlanner:
 
     @staticmethod
     def _stands(costs: np.ndarray, stand_cost: float | None, found: tuple | None) -> bool:
-        """Standing ranks above the first usable step (ties go to the step: it comes first in index order), or
-        no step is usable at all (standing is always safe: no foot moves)."""
-        return stand_cost is not None and (found is None or stand_cost < costs[found[1]])
+        """``contactnet.stand.network_stands`` with ``found`` the first usable step (rank, action, ...) or None."""
+        return network_stands(costs, stand_cost, None if found is None else costs[found[1]])
 
     def _costs(self, u: list[float]) -> np.ndarray:
         """Minus the network's scores (N_a, or N_a + 1 with standing last) of the input u (14 floats)."""

@@ -269,11 +269,6 @@ class TrainConfig:
     threads: int = 1
     max_minutes: float | None = None
     eval_every: int = 10  # epochs between train/test top-k evaluations (history, progress bar)
-    #: Weight of the standing output (the last column of a dataset with the stand choice) in the squared error,
-    #: the other outputs weighing 1, all normalised to a mean weight of 1; 1 is the paper's plain MSE. Among 163
-    #: trot outputs standing is one error in 163, and a network trained without more weight on it ranked standing
-    #: first in only 36 % of the states where it is the cheapest choice (see the README).
-    stand_weight: float = 1.0
 
     def __post_init__(self) -> None:
         if self.epochs < 1 or self.batch_size < 1 or self.threads < 1 or self.eval_every < 1:
@@ -286,8 +281,6 @@ class TrainConfig:
             raise ValueError(f"split must be 'episode' or 'instance', got {self.split!r}")
         if self.max_minutes is not None and not self.max_minutes > 0:
             raise ValueError(f"max_minutes must be positive, got {self.max_minutes}")
-        if not (self.stand_weight > 0 and math.isfinite(self.stand_weight)):
-            raise ValueError(f"stand_weight must be positive, got {self.stand_weight}")
 
 
 @dataclass
@@ -312,23 +305,6 @@ class TrainResult:
 
 
 # ---- training ----------------------------------------------------------------------------------
-def _loss(dataset: Dataset, config: TrainConfig) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
-    """The training loss: the paper's MSE, or with ``config.stand_weight`` on the standing column when the
-    dataset ranks standing (N_a + 1 columns) and the weight is not 1."""
-    sizes = _gait_sizes(dataset.gait)
-    has_stand = sizes is not None and dataset.n_actions == sizes[0]
-    if config.stand_weight == 1.0 or not has_stand:
-        return torch.nn.functional.mse_loss
-    weight = torch.ones(dataset.n_actions)
-    weight[-1] = config.stand_weight
-    weight /= weight.mean()
-
-    def weighted_mse(output: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        return ((output - target).square() * weight).mean()
-
-    return weighted_mse
-
-
 class _FlatAdam:
     """Adam over one flat buffer that holds every parameter (the layers' parameters become views).
 
@@ -438,7 +414,7 @@ def train(dataset: Dataset, config: TrainConfig = TrainConfig(), progress: bool 
             model = ContactNet(dataset.n_actions)
             optimizer = _FlatAdam(model, config.lr)
             generator = torch.Generator().manual_seed(config.seed)
-            loss_fn = _loss(dataset, config)
+            loss_fn = torch.nn.functional.mse_loss
             bs = config.batch_size
             bar = tqdm(range(config.epochs), desc=f"train {dataset.gait}", unit="epoch", file=sys.stderr,
                        disable=not progress, dynamic_ncols=True, leave=True)
@@ -520,8 +496,7 @@ def model_metadata(dataset: Dataset, result: TrainResult) -> dict[str, Any]:
         "training": {
             **asdict(config),
             "optimizer": "Adam",
-            "loss": "MSE on rank targets" + ("" if config.stand_weight == 1.0 else
-                                              f", standing's column weighted {config.stand_weight:g}"),
+            "loss": "MSE on rank targets",
             "epochs_done": result.epochs_done,
             "stopped": result.stopped,
             "seconds": round(result.seconds, 3),
@@ -561,8 +536,7 @@ def summary_text(dataset: Dataset, result: TrainResult, out_path: Path | None) -
 def train_command(gait: str, data_dir: str | os.PathLike, out_path: str | os.PathLike, epochs: int = 1000,
                   batch_size: int = 100, lr: float = 1e-3, seed: int = 0, split: str = "episode",
                   train_fraction: float = 0.7, threads: int = 1, max_minutes: float | None = None,
-                  save_partial: bool = False, progress: bool = True, robot: str | None = None,
-                  stand_weight: float = 1.0) -> int:
+                  save_partial: bool = False, progress: bool = True, robot: str | None = None) -> int:
     """`contactnet train`: load DIR, check the gait (and the robot, unless `robot` is None), train, save the
     model file (which records the dataset's robot), print a summary.
 
@@ -579,8 +553,7 @@ def train_command(gait: str, data_dir: str | os.PathLike, out_path: str | os.Pat
         print(f"warning: dataset {data_dir} is incomplete ({dataset.manifest.get('episodes')} of "
               f"{dataset.manifest.get('episodes_planned')} episodes); training on what is there", file=sys.stderr)
     config = TrainConfig(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, split=split,
-                         train_fraction=train_fraction, threads=threads, max_minutes=max_minutes,
-                         stand_weight=stand_weight)
+                         train_fraction=train_fraction, threads=threads, max_minutes=max_minutes)
     print(f"training {gait}: {dataset.n_instances:,} instances from {data_dir}, {epochs} epochs "
           f"(Ctrl-C stops; nothing is saved{'' if not save_partial else ' but the partial model'})", file=sys.stderr)
     result = train(dataset, config, progress=progress, stop_on_interrupt=True)

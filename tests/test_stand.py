@@ -36,6 +36,18 @@ def test_standing_wins_when_it_ranks_above_the_first_safe_step(rank, stand_posit
         assert chosen is step
 
 
+def test_a_network_stands_when_standing_outranks_the_step_or_rounds_to_the_top_rank():
+    from contactnet.stand import network_stands
+
+    costs = -np.linspace(0.0, 0.999, 100)  # minus the outputs of 100 stepping actions, the best 0.999
+    assert not network_stands(costs, None, -0.999)  # a model without the stand output
+    assert network_stands(costs, -0.5, None)  # nothing usable
+    assert network_stands(costs, -0.9, -0.8) and not network_stands(costs, -0.8, -0.9)  # outranks or not
+    assert network_stands(costs, -0.996, -0.999)  # 0.996 >= 1 - 0.5 / 100: the top rank, a step scores higher
+    assert not network_stands(costs, -0.994, -0.999)  # rounds to rank 1
+    assert not network_stands(-np.linspace(0, 0.999, 162), -0.996, -0.999)  # the trot's top rank needs 0.99691
+
+
 def test_gaits_count_standing_as_one_more_choice():
     assert (WALK.n_choices, WALK.stand_index) == (101, 100)
     assert (TROT.n_choices, TROT.stand_index) == (163, 162)
@@ -74,10 +86,11 @@ class _StandModel:
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
 @pytest.mark.parametrize("terrain_name", ["flat", "random", "random_heights"])
-def test_contactnet_stands_exactly_when_standing_outranks_the_first_usable_step(robot, gait, terrain_name):
+def test_contactnet_stands_exactly_when_standing_outranks_the_first_usable_step_or_tops_the_ranking(robot, gait, terrain_name):
     """The fast planner against the plain rule on the same scores: with a stand-capable model, step 1 stands iff
-    standing's score beats the step a model without the stand output takes (the first usable one), unless a leg
-    is cornered (terrain with heights: then it steps); the fixed gait never stands."""
+    standing's score beats the step a model without the stand output takes (the first usable one) or rounds to the
+    top rank (>= 1 - 0.5 / N_a), unless a leg is cornered (terrain with heights: then it steps); the fixed gait
+    never stands."""
     from contactnet.bench.planner import planning_contexts
     from contactnet.planner import ContactNetPlanner, FixedGaitPlanner
     from contactnet.terrain import resolve
@@ -86,7 +99,7 @@ def test_contactnet_stands_exactly_when_standing_outranks_the_first_usable_step(
     stood = stepped = 0
     for k, ctx in enumerate(planning_contexts(gait, terrain, robot.description, 12, seed=k_seed(terrain_name))):
         cornered = _cornered(ContactNetPlanner(gait, robot.description, _StandModel(gait, 0, 0.0)), ctx)
-        for stand_score in (0.2, 0.5, 0.8, 0.97, 1.5):
+        for stand_score in (0.2, 0.5, 0.8, 0.97, 0.9975, 1.5):
             model = _StandModel(gait, seed=k, stand_score=stand_score)
             without = _StandModel(gait, seed=k, stand_score=-1.0)  # standing last: never chosen over a safe step
             plain = ContactNetPlanner(gait, robot.description, without).plan(ctx)[0]
@@ -96,7 +109,8 @@ def test_contactnet_stands_exactly_when_standing_outranks_the_first_usable_step(
             if cornered:
                 assert chosen.legs == plain.legs and chosen.action_index == plain.action_index
                 stepped += 1
-            elif plain.action_index is not None and stand_score > model.scores(None)[plain.action_index]:
+            elif plain.action_index is not None and (stand_score > model.scores(None)[plain.action_index]
+                                                     or stand_score >= 1.0 - 0.5 / gait.n_actions):
                 assert chosen.legs == () and chosen.action_index == gait.stand_index
                 assert chosen.rank == int(np.count_nonzero(model.scores(None)[:gait.n_actions] >= stand_score))
                 stood += 1

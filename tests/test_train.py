@@ -10,7 +10,7 @@ import pytest
 import torch
 
 import contactnet.train as train_module
-from contactnet.network import INPUT_NAMES, ContactNet, ModelFileError, load_model, rank_targets, topk_accuracy
+from contactnet.network import INPUT_NAMES, ContactNet, ModelFileError, load_model, topk_accuracy
 from contactnet.train import (
     DATASET_FORMAT,
     Dataset,
@@ -207,38 +207,8 @@ def test_training_drops_all_infeasible_rows_and_time_limit(walk_data):
     assert result.counts["train_instances"] + result.counts["test_instances"] == len(u) - 10
 
 
-def test_the_stand_weight_weighs_the_standing_column():
-    """``stand_weight`` against the squared error written out: the standing column (the last of a dataset with the
-    stand choice) weighs ``stand_weight``, the others 1, normalised to a mean weight of 1; weight 1, or a dataset
-    without standing, is the paper's plain MSE. Training with a large weight fits that column better."""
-    from contactnet.train import _loss
-
-    u, V, episode = synthetic()
-    with_stand = np.column_stack([V, np.where(u[:, 0] > 0, 0.0, 10.0)]).astype(np.float32)  # standing: 101st
-    stand_data = Dataset.from_arrays(u, with_stand, episode, gait="walk")
-    out, target = torch.rand(7, 101), torch.rand(7, 101)
-    weight = np.ones(101)
-    weight[-1] = 30.0
-    weight /= weight.mean()
-    expected = float(np.mean((out.numpy().astype(float) - target.numpy()) ** 2 * weight))
-    assert float(_loss(stand_data, TrainConfig(stand_weight=30.0))(out, target)) == pytest.approx(expected, rel=1e-5)
-    assert _loss(stand_data, TrainConfig()) is torch.nn.functional.mse_loss
-    plain = Dataset.from_arrays(u, V, episode, gait="walk")  # made before the stand choice: no standing column
-    assert _loss(plain, TrainConfig(stand_weight=30.0)) is torch.nn.functional.mse_loss
-
-    def stand_error(stand_weight: float) -> float:
-        result = train(stand_data, TrainConfig(epochs=10, eval_every=10, stand_weight=stand_weight), progress=False)
-        x = torch.tensor(result.normalizer.normalize(u), dtype=torch.float32)
-        with torch.no_grad():
-            scores = result.model(x).numpy()
-        return float(np.mean((scores[:, -1] - rank_targets(with_stand)[:, -1]) ** 2))
-
-    assert stand_error(50.0) < 0.5 * stand_error(1.0)
-
-
 def test_train_config_validation():
-    for bad in ({"epochs": 0}, {"lr": 0.0}, {"train_fraction": 1.0}, {"split": "random"}, {"max_minutes": 0},
-                {"stand_weight": 0.0}, {"stand_weight": float("inf")}):
+    for bad in ({"epochs": 0}, {"lr": 0.0}, {"train_fraction": 1.0}, {"split": "random"}, {"max_minutes": 0}):
         with pytest.raises(ValueError):
             TrainConfig(**bad)
 
