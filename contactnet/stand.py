@@ -9,9 +9,9 @@ A network ranks less sharply than the cost: its outputs regress the rank targets
 N_a + 1 choices, 1 - 1/N_a for the next, ...), so near the top of the ranking two choices a rank apart differ
 by less than the network's error. A network planner therefore also stands when the network puts standing at the
 top rank (its output rounds to it, ``network_stands``), even if a step scores a little higher: standing moves
-nothing and is always safe. Without this tie rule the shipped trot model (163 outputs) ranked standing first in
-36 % of the dataset's states where standing is the cheapest choice and never stood with a zero command; with it
-58 % (and stands in 2.9 % of the states where a step is cheaper, against 1.0 %).
+nothing and is always safe. Without this tie rule a trot model with the stand choice (163 outputs) ranked
+standing first in 36 % of its dataset's states where standing is the cheapest choice and never stood with a zero
+command; with it 58 % (and stands in 2.9 % of the states where a step is cheaper, against 1.0 %).
 """
 
 from __future__ import annotations

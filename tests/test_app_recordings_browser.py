@@ -60,7 +60,8 @@ def test_the_recordings_open_while_the_page_still_loads(live, browser):
     slow.route("**/api/info", lambda route: held.append(route))  # not answered until the end of the test
     try:
         slow.goto(url + "/", wait_until="domcontentloaded")
-        wait_for(lambda: slow.evaluate("1") and held, what="the page to ask for /api/info")  # (evaluate lets playwright dispatch the route)
+        # (evaluate lets playwright dispatch the route to the handler)
+        wait_for(lambda: slow.evaluate("1") and held, what="the page to ask for /api/info")
         slow.locator("#recordings-toggle").dispatch_event("click")
         item(slow, "cli-run.viser").wait_for(timeout=60_000)
         assert held and slow.locator("body[data-ready]").count() == 0  # main() still waits for /api/info

@@ -353,8 +353,8 @@ def test_7b_the_hash_covers_the_normalizer_and_the_robot_but_not_the_training_fa
 
 
 def _without_hash(shipped: Path, folder: Path) -> Path:
-    """A copy of a shipped model as files were saved before models carried a content hash (the trot's until it
-    was retrained with the stand choice; users may still have such files)."""
+    """A copy of a shipped model as files were saved before models carried a content hash (as the shipped trot
+    model still is; users may have such files)."""
     payload = torch.load(shipped, weights_only=True)
     payload.pop("content_hash", None)
     path = folder / f"{shipped.stem}-nohash.pt"

@@ -86,7 +86,8 @@ class _StandModel:
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
 @pytest.mark.parametrize("terrain_name", ["flat", "random", "random_heights"])
-def test_contactnet_stands_exactly_when_standing_outranks_the_first_usable_step_or_tops_the_ranking(robot, gait, terrain_name):
+def test_contactnet_stands_when_standing_outranks_the_first_usable_step_or_tops_the_ranking(robot, gait,
+                                                                                            terrain_name):
     """The fast planner against the plain rule on the same scores: with a stand-capable model, step 1 stands iff
     standing's score beats the step a model without the stand output takes (the first usable one) or rounds to the
     top rank (>= 1 - 0.5 / N_a), unless a leg is cornered (terrain with heights: then it steps); the fixed gait
