@@ -8,7 +8,6 @@ from functools import partial
 
 import numpy as np
 import pytest
-from helpers import save_random_models
 
 from app.commands import (
     ApplyPush,
@@ -29,13 +28,6 @@ from contactnet import registry
 from contactnet.terrain import flat, stepping_stones
 
 pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
-
-
-@pytest.fixture(scope="module")
-def random_models(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("models")
-    save_random_models(folder)
-    return folder
 
 
 @pytest.fixture(scope="module")

@@ -30,13 +30,6 @@ from contactnet.terrain import flat
 pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
 
 
-@pytest.fixture(scope="module")
-def random_models(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("models")
-    save_random_models(folder)
-    return folder
-
-
 def test_an_oracle_that_stands_is_shown_standing(robot):
     """Zero command on flat: the oracle stands from its first step (walk); the views say so everywhere."""
     gait = registry.gait_by_name("walk")
