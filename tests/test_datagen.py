@@ -123,14 +123,20 @@ def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
                                start_new_session=True, preexec_fn=default_sigint)
     manifest_path = out / "manifest.json"
     deadline = time.monotonic() + 240
+    episodes_at_interrupt = 0
     while time.monotonic() < deadline:
-        if manifest_path.exists() and json.loads(manifest_path.read_text())["episodes"] >= 1:
-            break
+        if manifest_path.exists():
+            episodes_at_interrupt = json.loads(manifest_path.read_text())["episodes"]
+            if episodes_at_interrupt >= 1:
+                break
         assert process.poll() is None, process.communicate()
         time.sleep(0.2)
     os.killpg(process.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers included
-    _, err = process.communicate(timeout=60)
-    assert process.returncode == 130, err
+    out_text, err = process.communicate(timeout=60)
+    # (Once in CI the run ended with 0, all 40 episodes done: the message says whether the interrupt came late or
+    # was lost.)
+    assert process.returncode == 130, (f"exit {process.returncode}; {episodes_at_interrupt} of 40 episodes stored "
+                                       f"when interrupted; stdout {out_text!r}; stderr {err!r}")
     assert "resume" in err and "Traceback" not in err
     manifest = json.loads(manifest_path.read_text())
     assert 1 <= manifest["episodes"] < 40 and not manifest["complete"]
