@@ -18,12 +18,15 @@ def wait_for(predicate, timeout: float = 20.0, what: str = "condition", poll_s: 
 
 
 def default_sigint() -> None:
-    """``preexec_fn`` of a subprocess a test will Ctrl-C: SIGINT back to its default. A shell starts background
-    jobs (e.g. ``make test &``) with SIGINT ignored, the children inherit that, and Python then installs no
-    KeyboardInterrupt handler, so the signal the test sends would do nothing."""
+    """``preexec_fn`` of a subprocess a test will Ctrl-C: SIGINT back to its default and unblocked. A shell starts
+    background jobs (e.g. ``make test &``) with SIGINT ignored, the children inherit that, and Python then installs
+    no KeyboardInterrupt handler; and a thread of the test process that blocks signals (a library's) leaves them
+    blocked in the children it forks, across exec: either way the signal the test sends would do nothing (in CI a
+    datagen run once finished all its episodes after the Ctrl-C)."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def save_random_models(folder, stand: bool = False) -> None:

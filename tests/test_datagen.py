@@ -136,7 +136,8 @@ def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
     # (Once in CI the run ended with 0, all 40 episodes done: the message says whether the interrupt came late or
     # was lost.)
     assert process.returncode == 130, (f"exit {process.returncode}; {episodes_at_interrupt} of 40 episodes stored "
-                                       f"when interrupted; stdout {out_text!r}; stderr {err!r}")
+                                       f"when interrupted; stdout {out_text!r}; stderr {err!r}; SIGINT blocked "
+                                       f"in this process: {signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, [])}")
     assert "resume" in err and "Traceback" not in err
     manifest = json.loads(manifest_path.read_text())
     assert 1 <= manifest["episodes"] < 40 and not manifest["complete"]
