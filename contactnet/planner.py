@@ -397,7 +397,7 @@ class ContactNetPlanner:
             costs, stand_cost = self._split_stand(costs_of(network_input_values(feet, com, vel, cmd, cos_yaw, sin_yaw,
                                                                                 ground_z)))
             order = self._ranking(costs, j)
-            found = walk.first_safe(j, costs, self._best(costs, j), order)
+            found = walk.first_safe(j, costs, self._best(costs, j), order, self._group_range(j))
             if self._stands(costs, stand_cost, found):
                 step, points = stand_step(gait, costs, stand_cost), []
             elif found is None:  # nothing safe: step in place

@@ -6,6 +6,7 @@ ranking (``CandidateRanking``)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -195,6 +196,8 @@ class CandidateRanking:
 
 #: ``OneLevelWalk``: how many of the best actions are tried one at a time before the whole candidate grid at once.
 RANK_WALK = 32
+#: ``OneLevelWalk``: how many unsafe cells the walk without a sort rules out before it sorts the ranking.
+ELIMINATIONS = 24
 
 
 @dataclass(frozen=True)
@@ -210,13 +213,18 @@ class ActionCells:
     group: list[tuple[int, ...]]
     flat_array: np.ndarray
     incidence: np.ndarray
+    using: list[np.ndarray]  # per grid cell: the actions that land a leg on it
+    leg_cell: list[tuple[int, int]]  # per grid cell: (leg, cell of the leg's grid)
 
     @classmethod
     def of(cls, gait: GaitSpec) -> ActionCells:
         legs, cells = gait.action_cells
         flat = legs * gait.cells_per_leg + cells
         group = [gait.swing_groups[a // gait.actions_per_group] for a in range(gait.n_actions)]
-        return cls(gait.cells_per_leg, gait.legs_per_step, flat.tolist(), group, flat, gait.action_cell_incidence)
+        incidence = gait.action_cell_incidence
+        using = [np.flatnonzero(incidence[:, cell]) for cell in range(incidence.shape[1])]
+        leg_cell = [divmod(cell, gait.cells_per_leg) for cell in range(incidence.shape[1])]
+        return cls(gait.cells_per_leg, gait.legs_per_step, flat.tolist(), group, flat, incidence, using, leg_cell)
 
 
 class OneLevelWalk:
@@ -224,16 +232,22 @@ class OneLevelWalk:
 
     The best action (``argmin`` of the costs, no sort) is tried first, one landing point at a time
     (``PointLocator.covers_xy``: a raster lookup in Python floats, no numpy array per point): usually it is safe.
-    Otherwise the next ``RANK_WALK`` actions of the ranking likewise, each landing point asked once; past them,
-    the whole candidate grid at once (one raster lookup), so that a choice deep in the ranking costs no more
-    than that. The same choice as ``first_safe_step`` and the same floats: a landing point is (base + hip
-    reference) + cell offset, added in that order as there. ``bases`` are the base XY of the plan's steps."""
+    Otherwise the walk goes on without sorting: an unsafe landing point rules out every action that uses its
+    cell (a trot cell is shared by 9 actions), and the next ``argmin`` of what is left is tried, up to
+    ``ELIMINATIONS`` unsafe cells. Only past them (or with a cost that is not finite) is the ranking sorted and
+    walked, ``RANK_WALK`` actions one at a time, each landing point asked once, then the whole candidate grid at
+    once (one raster lookup), so that a choice deep in the ranking costs no more than that. The same choice as
+    ``first_safe_step`` (``argmin`` takes the first of equal costs, as the stable sort does) and the same floats:
+    a landing point is (base + hip reference) + cell offset, added in that order as there. ``bases`` are the base
+    XY of the plan's steps."""
 
     def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, hips_world: np.ndarray,
                  offsets_world: np.ndarray, bases: list[list[float]]) -> None:
+        self.using = actions.using
         self.action_flat, self.flat_lists = actions.flat_array, actions.flat
         self.incidence, self.legs_per_step = actions.incidence, actions.legs_per_step
         self.n_cells = actions.cells_per_leg
+        self.leg_cell = actions.leg_cell
         self.locator = terrain.safe_locator(margin_m)
         self.covers = self.locator.covers_xy
         self.hips_world, self.offsets_world, self.bases = hips_world, offsets_world, bases
@@ -244,16 +258,17 @@ class OneLevelWalk:
         base_xy = np.array(self.bases[step])
         return lambda: (base_xy + self.hips_world)[:, None, :] + self.offsets_world[None]
 
-    def first_safe(self, step: int, costs: np.ndarray, best: int,
-                   order: Callable[[], np.ndarray]) -> tuple[int, int, list[list[float]]] | None:
+    def first_safe(self, step: int, costs: np.ndarray, best: int, order: Callable[[], np.ndarray],
+                   span: tuple[int, int] | None = None) -> tuple[int, int, list[list[float]]] | None:
         """(rank, action, its landing points [[x, y], ...]) of the first action of the ranking ``order()`` whose
-        landing points are all safe, None if there is none; ``best`` is ``order()[0]`` unless a cost is NaN."""
+        landing points are all safe, None if there is none; ``best`` is ``order()[0]`` unless a cost is NaN.
+        ``span`` (first, stop): the ranking holds the actions ``first..stop - 1`` only (default all)."""
         base_x, base_y = self.bases[step]
         known: list[list[float] | bool | None] = [None] * (4 * self.n_cells)  # per grid cell: [x, y] if safe
-        if costs[best] == costs[best]:  # (NaN: argmin returns the first NaN, argsort puts them last)
-            points = self._safe_points(best, base_x, base_y, known)
-            if points is not None:
-                return 0, best, points
+        if math.isfinite(costs[best]):  # (NaN: argmin returns the first NaN, argsort puts them last)
+            found = self._eliminate(costs, best, span or (0, len(costs)), base_x, base_y, known)
+            if found is not None:
+                return found
         ranking = order()
         flat_lists, resolve = self.flat_lists, self._resolve
         for rank, action in enumerate(ranking[:RANK_WALK].tolist()):
@@ -277,18 +292,45 @@ class OneLevelWalk:
         action = int(ranking[rank])
         return rank, action, cells[self.action_flat[action]].tolist()
 
-    def _safe_points(self, action: int, base_x: float, base_y: float,
-                     known: list[list[float] | bool | None]) -> list[list[float]] | None:
-        """The landing points of ``action`` if they are all safe, else None; ``known``: the cells asked so far."""
-        points = []
-        for flat in self.flat_lists[action]:
-            xy = known[flat]
-            if xy is None:
-                xy = self._resolve(flat, base_x, base_y, known)
-            if xy is False:
+    def _eliminate(self, costs: np.ndarray, best: int, span: tuple[int, int], base_x: float, base_y: float,
+                   known: list[list[float] | bool | None]) -> tuple[int, int, list[list[float]]] | None:
+        """The walk without a sort (see the class doc) from the finite ``best``: the choice, or None when it gave up
+        (``ELIMINATIONS`` unsafe cells, or a cost left that is not finite) and the sorted walk must decide."""
+        flat_lists, using, leg_cell, covers = self.flat_lists, self.using, self.leg_cell, self.covers
+        hips, offsets = self.hips, self.offsets
+        action, left = best, None
+        for _ in range(ELIMINATIONS + 1):
+            points = []
+            for flat in flat_lists[action]:
+                xy = known[flat]
+                if xy is None:  # _resolve, inlined
+                    leg, cell = leg_cell[flat]
+                    hip, offset = hips[leg], offsets[cell]
+                    x, y = (base_x + hip[0]) + offset[0], (base_y + hip[1]) + offset[1]
+                    xy = known[flat] = [x, y] if covers(x, y) else False
+                if xy is False:
+                    break
+                points.append(xy)
+            else:
+                if action == best:
+                    return 0, best, points
+                # its place in the stable ranking: the cheaper actions and the equal ones before it (all unsafe)
+                first, stop = span
+                cost = costs[action]
+                rank = int(np.count_nonzero(costs[first:stop] < cost)) + int(np.count_nonzero(costs[first:action] == cost))
+                return rank, action, points
+            if left is None:
+                first, stop = span
+                if first == 0 and stop == len(costs):
+                    left = costs.copy()
+                else:
+                    left = np.full(len(costs), np.inf)
+                    left[first:stop] = costs[first:stop]
+            left[using[flat]] = np.inf  # every action landing on the unsafe cell
+            action = int(left.argmin())
+            if not math.isfinite(left[action]):
                 return None
-            points.append(xy)
-        return points
+        return None
 
     def _resolve(self, flat: int, base_x: float, base_y: float,
                  known: list[list[float] | bool | None]) -> list[float] | bool:

@@ -146,8 +146,12 @@ def test_one_level_plans_match_the_reference(robot, models, gait, name):
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
-def test_one_level_whole_grid_past_the_walk(robot, models, gait, monkeypatch):
-    """Past ``RANK_WALK`` actions tried one at a time, the whole grid at once: the same plans (the walk tried 2)."""
+@pytest.mark.parametrize("eliminations", [0, 1, 3])
+def test_one_level_whole_grid_past_the_walk(robot, models, gait, eliminations, monkeypatch):
+    """Past ``ELIMINATIONS`` unsafe cells the ranking is sorted, and past ``RANK_WALK`` actions tried one at a time
+    the whole grid is asked at once: the same plans (the walk without a sort gave up after 0, 1 or 3 unsafe
+    cells, the sorted walk tried 2 actions)."""
+    monkeypatch.setattr(contactnet.ranking, "ELIMINATIONS", eliminations)
     monkeypatch.setattr(contactnet.ranking, "RANK_WALK", 2)
     planner = make_planner("contactnet", gait, robot, model=models[gait.name])
     seen = _compare(planner, planning_contexts(gait, random_field(220, 2), robot.description, 20, seed=7))
@@ -172,22 +176,26 @@ def test_one_level_above_the_surface_and_in_place(robot, models, gait):
 
 
 class _Tied:
-    """A stand-in model: scores with many ties (and NaN when asked), so the ranking's tie rule matters."""
+    """A stand-in model: scores with many ties (and NaN or infinities when asked), so the ranking's tie rule
+    matters."""
 
-    def __init__(self, gait, nan: bool = False) -> None:
+    def __init__(self, gait, odd: str = "") -> None:
         self.gait, self.n_actions, self.path = gait.name, gait.n_actions, "<tied>"
         self._scores = np.round(np.random.default_rng(3).normal(size=gait.n_actions), 0)
-        if nan:
+        if odd == "nan":
             self._scores[::7] = np.nan
+        elif odd == "inf":  # a few best (+inf) and many worst (-inf): the walk without a sort meets them
+            self._scores[::3] = -np.inf
+            self._scores[1::11] = np.inf
 
     def scores(self, u):
         return self._scores
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
-@pytest.mark.parametrize("nan", [False, True], ids=["ties", "nan"])
-def test_ties_and_nan_scores_rank_as_a_stable_sort(robot, gait, nan):
-    planner = ContactNetPlanner(gait, robot.description, _Tied(gait, nan))
+@pytest.mark.parametrize("odd", ["", "nan", "inf"], ids=["ties", "nan", "inf"])
+def test_ties_and_nan_scores_rank_as_a_stable_sort(robot, gait, odd):
+    planner = ContactNetPlanner(gait, robot.description, _Tied(gait, odd))
     for terrain in (random_field(150, 5), random_heights(60, 5)):
         assert _compare(planner, planning_contexts(gait, terrain, robot.description, 15, seed=2))["plans"] == 15
 

@@ -101,15 +101,12 @@ class PointLocator:
     codes: np.ndarray  # (n * n,) uint8, row-major; empty for an empty region
     # The same as Python objects, for scalar lookups (``covers_xy``).
     code_bytes: bytes = field(init=False, repr=False, compare=False)
-    _first_col: float = field(init=False, repr=False, compare=False)
-    _first_row: float = field(init=False, repr=False, compare=False)
-    _side: int = field(init=False, repr=False, compare=False)
+    #: ``covers_xy`` as a function with the raster's constants bound (no attribute lookups: the planner's hot path)
+    covers_xy: Callable[[float, float], bool] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "code_bytes", self.codes.tobytes())
-        object.__setattr__(self, "_first_col", float(self.first_cell[0]))
-        object.__setattr__(self, "_first_row", float(self.first_cell[1]))
-        object.__setattr__(self, "_side", int(self.strides[1]))
+        object.__setattr__(self, "covers_xy", _scalar_covers(self))
 
     @classmethod
     def build(cls, geometry: BaseGeometry, target_cells: int = RASTER_TARGET_CELLS, max_side: int = 1000,
@@ -149,26 +146,36 @@ class PointLocator:
             result[on_boundary] = _intersects_xy(self.geometry, points[:, 0], points[:, 1])
         return result
 
-    def covers_xy(self, x: float, y: float) -> bool:
-        """``covers`` of one point given as two Python floats, without numpy arrays (a fraction of a microsecond
-        unless the point is in a BOUNDARY cell): the planner's walk down a ranking, one candidate at a time. The
-        same arithmetic as ``covers``, so the same answer."""
-        if not self.code_bytes:
-            return False
-        col = x * self.inv_cell - self._first_col
-        row = y * self.inv_cell - self._first_row
+
+
+def _scalar_covers(locator: PointLocator) -> Callable[[float, float], bool]:
+    """``PointLocator.covers_xy``: ``covers`` of one point given as two Python floats, without numpy arrays (a
+    fraction of a microsecond unless the point is in a BOUNDARY cell): the planner's walk down a ranking, one
+    candidate at a time. The same arithmetic as ``covers``, so the same answer."""
+    code_bytes, geometry = locator.code_bytes, locator.geometry
+    if not code_bytes:
+        return lambda x, y: False
+    inv_cell, clamp_hi = float(locator.inv_cell), float(locator.clamp_hi)
+    first_col, first_row = float(locator.first_cell[0]), float(locator.first_cell[1])
+    side = int(locator.strides[1])
+
+    def covers_xy(x: float, y: float) -> bool:
+        col = x * inv_cell - first_col
+        row = y * inv_cell - first_row
         if not col > 0.0:  # also NaN, as np.fmax does
             col = 0.0
-        elif col > self.clamp_hi:
-            col = self.clamp_hi
+        elif col > clamp_hi:
+            col = clamp_hi
         if not row > 0.0:
             row = 0.0
-        elif row > self.clamp_hi:
-            row = self.clamp_hi
-        code = self.code_bytes[int(col) + int(row) * self._side]
+        elif row > clamp_hi:
+            row = clamp_hi
+        code = code_bytes[int(col) + int(row) * side]
         if code == _BOUNDARY:
-            return bool(_intersects_xy(self.geometry, x, y))
+            return bool(_intersects_xy(geometry, x, y))
         return code == _INSIDE
+
+    return covers_xy
 
 
 @dataclass(frozen=True)
