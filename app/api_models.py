@@ -216,6 +216,8 @@ class RunReport(BaseModel):
     useless_steps: int = Field(description="steps whose feet landed less than 2 cm from where they lifted off, "
                                "a count")
     swing_retargets: int = Field(description="swings whose landing moved during the swing, a count")
+    capture_steps: int = Field(description="steps whose candidates moved towards the capture point after a push "
+                               "(the CoM velocity off the command by more than 0.15 m/s), a count")
 
 
 class NoticeModel(BaseModel):
@@ -288,6 +290,8 @@ class State(BaseModel):
                                "off, a count (known one step horizon after the step)")
     swing_retargets: int = Field(description="swings of this run whose landing moved during the swing, a count "
                                  "(only while retarget is on)")
+    capture_steps: int = Field(description="steps of this run whose candidates moved towards the capture point after "
+                               "a push (the CoM velocity off the command by more than 0.15 m/s), a count")
     retarget: bool = Field(description="swing retargeting is on (POST /api/settings {\"retarget\": true}); off by "
                            "default")
     rank_chosen: int | None = Field(description="ranking position of the step being taken (ranking planners)")
@@ -342,6 +346,7 @@ def _run_report(run: RunSummary | None) -> RunReport | None:
         success=run.success, reason=run.reason, x=run.reached_x_m, terrain=run.terrain, gait=run.gait,
         planner=run.planner, compare=None if run.compare is None else [_result(r) for r in run.compare],
         stand_steps=run.stand_steps, useless_steps=run.useless_steps, swing_retargets=run.swing_retargets,
+        capture_steps=run.capture_steps,
     )
 
 
@@ -403,6 +408,7 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         stand_steps=view.counts.stand_steps,
         useless_steps=view.counts.useless_steps,
         swing_retargets=view.counts.swing_retargets,
+        capture_steps=view.counts.capture_steps,
         retarget=s.retarget,
         rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
         last_planner_ms=snap.last_planner_ms,

@@ -145,4 +145,5 @@ def run_summary(loco: Locomotion, index: int, done: str | None, terrain: str, ga
         stand_steps=sum(r.stand for r in records),
         useless_steps=sum(r.useless for r in records),
         swing_retargets=loco.swing_retargets,
+        capture_steps=sum(r.captured for r in records),
     )

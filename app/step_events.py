@@ -43,6 +43,7 @@ class StepCounts:
     stand_steps: int = 0  #: horizons the planner chose to stand (no leg swung)
     useless_steps: int = 0  #: steps whose feet landed less than `USELESS_STEP_M` from lift-off (known a step later)
     swing_retargets: int = 0  #: swings whose landing moved during the swing
+    capture_steps: int = 0  #: steps whose candidates moved towards the capture point after a push
 
 
 def loco_config(retarget: bool, base: LocomotionConfig = LocomotionConfig()) -> LocomotionConfig:
@@ -65,7 +66,7 @@ class StepEvents:
     def reset(self) -> None:
         self._records: object = None  # the Locomotion's records list (a new one after its reset)
         self._closed = 0  # records counted for good (all but the last: its `useless` is known a plan later)
-        self._stand = self._useless = 0
+        self._stand = self._useless = self._captured = 0
         self._flashes: deque[RetargetFlash] = deque(maxlen=FLASHES_KEPT)
         self._seen: deque[tuple[float, int]] = deque(maxlen=4 * FLASHES_KEPT)
 
@@ -79,8 +80,10 @@ class StepEvents:
         for record in records[self._closed : closed]:
             self._stand += record.stand
             self._useless += record.useless
+            self._captured += record.captured
         self._closed = closed
         last_stand = bool(records) and records[-1].stand
+        last_captured = bool(records) and records[-1].captured
         plan = loco.plan
         for leg, swing in (plan.swings.items() if plan is not None else ()):
             if isinstance(swing, RetargetedSwing) and (swing.t_retarget_s, leg) not in self._seen:
@@ -89,7 +92,8 @@ class StepEvents:
                                                    np.array(swing.base.end_world, dtype=float),
                                                    np.array(swing.end_world, dtype=float)))
         now = loco.t_s
-        counts = StepCounts(len(records), self._stand + last_stand, self._useless, loco.swing_retargets)
+        counts = StepCounts(len(records), self._stand + last_stand, self._useless, loco.swing_retargets,
+                            self._captured + last_captured)
         return counts, tuple(f for f in self._flashes if 0.0 <= now - f.t_s < FLASH_S)
 
 

@@ -113,6 +113,7 @@ class RunSummary:
     stand_steps: int = 0  # step horizons the planner chose to stand
     useless_steps: int = 0  # steps whose feet landed less than 2 cm from lift-off
     swing_retargets: int = 0
+    capture_steps: int = 0  # steps whose candidates moved towards the capture point after a push
 
 
 @dataclass(frozen=True)

@@ -339,6 +339,7 @@ class Locomotion:
                 rank=first.rank,
                 discarded=first.discarded,
                 safe_landing=landing_safe,
+                captured=first.captured,
             )
         )
         plan = _Plan(
@@ -540,7 +541,9 @@ class Locomotion:
     def summary(self) -> dict:
         """The `contactnet simulate --json` object (docs/architecture.md, "Contracts"), plus a few diagnostics.
         ``steps`` counts the steps that swung legs; ``stand_steps`` the step horizons the planner chose to stand;
-        ``useless_steps`` the steps whose feet landed less than ``USELESS_STEP_M`` from where they lifted off."""
+        ``useless_steps`` the steps whose feet landed less than ``USELESS_STEP_M`` from where they lifted off;
+        ``capture_steps`` the steps whose candidates moved towards the capture point after a push
+        (``contactnet.capture``)."""
         ranks = [r.rank for r in self.records if r.rank is not None]
         sim_time = float(self.sim.t_s)
         displacement = self._state.base_pos_world[:2] - self.start_xy
@@ -563,6 +566,7 @@ class Locomotion:
             "max_abs_yaw_rad": self.max_abs_yaw_rad,
             "trajopt_failures": self.trajopt_failures,
             "swing_retargets": self.swing_retargets,
+            "capture_steps": sum(r.captured for r in self.records),
             "max_height_change_m": max((r.height_change_m for r in self.records
                                         if not math.isnan(r.height_change_m)), default=0.0),
         }

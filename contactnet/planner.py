@@ -13,6 +13,7 @@ in how they choose; the loop (`locomotion.py`) treats them alike.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -20,6 +21,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from contactnet.capture import DEFAULT_CAPTURE, CaptureConfig, capture_offset
 from contactnet.footholds import FootholdChecker
 from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
@@ -275,13 +277,17 @@ class ContactNetPlanner:
     height the network sees, and the one predicted for steps 2 and 3, follow the tops under the feet. On a
     single-height terrain none of this runs and the plan is today's.
 
+    After a push (the CoM velocity off the command by more than ``capture.velocity_error_m_s``) the first step's
+    candidate grid is shifted towards the capture point (``contactnet.capture``) and the robot does not stand;
+    ``capture=None`` turns this off.
+
     ``model``: a ``contactnet.network.LoadedModel`` of this gait.
     """
 
     name = "contactnet"
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
-                 margin_m: float | None = None) -> None:
+                 margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE) -> None:
         if model.gait != gait.name or model.n_actions not in (gait.n_actions, gait.n_choices):
             raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} outputs), "
                              f"not {gait.name} ({gait.n_choices} choices: {gait.n_actions} actions and standing)")
@@ -290,6 +296,7 @@ class ContactNetPlanner:
         self.model = model
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
+        self.capture = capture
         self.footholds = FootholdChecker(robot)
         self.hip_xy_base = np.array(robot.hip_pos_base[:, :2], dtype=float)
         self.last_candidates: CandidateRanking | None = None
@@ -354,16 +361,20 @@ class ContactNetPlanner:
         hot path); ``tests/test_planner.py`` checks it against ``network_input_of_state`` and ``predicted_state``
         step by step, and ``tests/test_planner_fast.py`` against a plain walk down the ranking, flat and with
         heights."""
+        offset = capture_offset(ctx.com_vel_world, ctx.vel_cmd_world(), self.capture)
         if self.footholds.applies(ctx.terrain):
-            steps = self._plan_with_heights(ctx)
+            steps = self._plan_with_heights(ctx, offset)
         else:
-            steps = self._plan_one_level(ctx)
+            steps = self._plan_one_level(ctx, offset)
+        if offset is not None:
+            steps[0] = dataclasses.replace(steps[0], captured=True)
         self._advance()
         return steps
 
-    def _plan_one_level(self, ctx: PlanningContext) -> list[PlannedStep]:
+    def _plan_one_level(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None) -> list[PlannedStep]:
         """``plan`` on a terrain whose tops are all at one height, where a candidate is usable when it is safe:
-        ``first_safe_step``'s choice, found faster (``OneLevelWalk``)."""
+        ``first_safe_step``'s choice, found faster (``OneLevelWalk``). ``capture_xy``: the first step's grid shift
+        (``contactnet.capture``), None for none."""
         gait, terrain = self.gait, ctx.terrain
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
@@ -390,12 +401,16 @@ class ContactNetPlanner:
             base_x += shift_x
             base_y += shift_y
             bases.append([base_x, base_y])
+        if capture_xy is not None:
+            bases[0] = [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]]
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
         costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):
             costs, stand_cost = self._split_stand(costs_of(network_input_values(feet, com, vel, cmd, cos_yaw, sin_yaw,
                                                                                 ground_z)))
+            if j == 0 and capture_xy is not None:
+                stand_cost = None  # a pushed robot steps
             order = self._ranking(costs, j)
             found = walk.first_safe(j, costs, self._best(costs, j), order, self._group_range(j))
             if self._stands(costs, stand_cost, found):
@@ -418,9 +433,11 @@ class ContactNetPlanner:
             vel = [cmd_world[0], cmd_world[1], 0.0]
         return steps
 
-    def _plan_with_heights(self, ctx: PlanningContext) -> list[PlannedStep]:
+    def _plan_with_heights(self, ctx: PlanningContext,
+                           capture_xy: tuple[float, float] | None = None) -> list[PlannedStep]:
         """``plan`` on a terrain with tops at several heights (see the class doc): ``first_safe_step`` with the
-        height checks, found faster (``HeightsWalk``)."""
+        height checks, found faster (``HeightsWalk``). ``capture_xy``: the first step's grid shift (the hips at
+        touchdown, for the reach check, are not shifted), None for none."""
         gait = self.gait
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
@@ -445,12 +462,16 @@ class ContactNetPlanner:
         bases = [base_xy.tolist()]
         for _ in range(1, self._steps_per_plan):
             bases.append((np.array(bases[-1]) + shift).tolist())
-        walk = HeightsWalk(self._actions, terrain, self.margin_m, self.footholds, hips_world, offsets_world, bases,
-                           ctx.yaw_rad)
+        grid_bases = bases if capture_xy is None else [
+            [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]], *bases[1:]]
+        walk = HeightsWalk(self._actions, terrain, self.margin_m, self.footholds, hips_world, offsets_world,
+                           grid_bases, ctx.yaw_rad)
         steps = []
         for j in range(self._steps_per_plan):
             costs, stand_cost = self._split_stand(self._costs(network_input_values(
                 feet_xy.tolist(), com, vel, cmd, cos_yaw, sin_yaw, ground_z)))
+            if j == 0 and capture_xy is not None:
+                stand_cost = None  # a pushed robot steps
             order = self._order(costs, j)
             hips_xy = np.array(bases[j]) + hips_touchdown
             if j == 0:
@@ -560,8 +581,8 @@ class FixedGaitPlanner(ContactNetPlanner):
     name = "fixed"
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
-                 margin_m: float | None = None) -> None:
-        super().__init__(gait, robot, model, margin_m)
+                 margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE) -> None:
+        super().__init__(gait, robot, model, margin_m, capture)
         self._next_group = 0
         self._may_stand = False  # the cyclic baseline always steps
 

@@ -27,6 +27,7 @@ class PlannedStep:
     rank: int | None = None  # position of the chosen action in the planner's ranking (0 = best)
     discarded: int = 0  # candidates ranked better but rejected as unsafe
     safe: bool = True  # False when the planner knowingly steps where the terrain is unsafe
+    captured: bool = False  # its candidates were shifted towards the capture point after a push (contactnet.capture)
 
 
 SAFETY_CHUNK = 8  # the best actions checked on their own before the whole candidate grid ...

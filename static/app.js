@@ -124,6 +124,7 @@ function statusDetail(s) {
   return `${s.terrain} · ${s.gait} · ${planner} · cmd (${s.vel_cmd[0].toFixed(2)}, ${s.vel_cmd[1].toFixed(2)}) m/s`
     + ` · speed ${s.speed}× · RTF ${s.real_time_factor.toFixed(2)} · pushes ${s.pushes}`
     + (s.retarget ? ` · retargeting on (${s.swing_retargets ?? 0})` : "")
+    + (s.capture_steps ? ` · capture steps ${s.capture_steps}` : "")
     + (s.loop === false ? " · loop off" : "") + (s.recording ? " · ● recording" : "");
 }
 

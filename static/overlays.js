@@ -178,6 +178,8 @@ const Overlays = (() => {
       "step horizons the planner chose to stand (all four feet down) / steps whose feet landed < 2 cm from lift-off");
     statRow(stats, "swing retargets", String(run.swing_retargets),
       "swings whose landing moved during the swing (retargeting on)");
+    statRow(stats, "capture steps", String(run.capture_steps ?? 0),
+      "steps whose candidates moved towards the capture point after a push");
     statRow(stats, "reached", `${fmt(run.x ?? run.reached_x_m)} of ${fmt(s.goal_x_m)} m`, "x, forward from the start");
     compareTable(run);
     const looping = s.restart_in_s !== null && s.restart_in_s !== undefined;

@@ -395,7 +395,7 @@ def test_retargeting_is_a_setting_off_by_default(client, app):
     client.post("/api/pause", json={"paused": False})
     state = client.get("/api/state").json()
     assert state["retarget"] is False and app.session._loco.config.retarget is None
-    for field in ("stand_steps", "useless_steps", "swing_retargets"):
+    for field in ("stand_steps", "useless_steps", "swing_retargets", "capture_steps"):
         assert isinstance(state[field], int) and state[field] >= 0, field
     assert isinstance(state["standing"], bool)
     wait_for(lambda: client.get("/api/state").json()["t_s"] > 0.2, what="the robot to run")

@@ -41,7 +41,8 @@ def test_an_oracle_that_stands_is_shown_standing(robot):
             view = view_of(loco, tracker)
         summary = loco.summary()
     assert summary["stand_steps"] >= 3 and summary["steps"] == 0  # standing: no step taken
-    assert view.counts == StepCounts(len(loco.records), summary["stand_steps"], summary["useless_steps"], 0)
+    assert view.counts == StepCounts(len(loco.records), summary["stand_steps"], summary["useless_steps"], 0,
+                                     summary["capture_steps"])
     assert is_stand(view.snapshot) and status_line(view).startswith(f"{STANDING} · ")
     assert f"stood {summary['stand_steps']}" in status_line(view)
     assert "**standing**" in details_markdown(view) and "retargeting off" in details_markdown(view)

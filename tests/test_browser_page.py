@@ -192,7 +192,7 @@ def test_end_of_run_card_and_the_loop(tool, page):
     assert ("Goal reached" in title) == run["success"]
     assert f"steps{run['steps']}rank" in stats and "rank mean / max" in stats and "time" in stats
     assert f"stood / useless{run['stand_steps']} / {run['useless_steps']}" in stats  # issue 14's counts
-    assert f"swing retargets{run['swing_retargets']}reached" in stats
+    assert f"swing retargets{run['swing_retargets']}capture steps{run['capture_steps']}reached" in stats
     wait_for(lambda: "next run in" in page.locator("#run-next").inner_text(), what="the loop's count-down")
     shot(page, "end_of_run")
 

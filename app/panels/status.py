@@ -31,9 +31,10 @@ def headline(view: LiveView) -> str:
     return f"**{status_line(view)}**"
 
 
-def step_kinds(stand_steps: int, useless_steps: int, swing_retargets: int) -> str:
-    """What the planner did besides stepping, as one phrase."""
-    return f"stood {stand_steps} · useless {useless_steps} · swing retargets {swing_retargets}"
+def step_kinds(stand_steps: int, useless_steps: int, swing_retargets: int, capture_steps: int = 0) -> str:
+    """What the planner did besides stepping, as one phrase (capture steps only once there are some)."""
+    capture = f" · capture steps {capture_steps}" if capture_steps else ""
+    return f"stood {stand_steps} · useless {useless_steps} · swing retargets {swing_retargets}{capture}"
 
 
 def _summary(run: RunSummary) -> str:
@@ -41,7 +42,7 @@ def _summary(run: RunSummary) -> str:
     stands, useless steps and retargets."""
     rank = "" if run.rank_mean is None else f" · rank mean {run.rank_mean:.1f}, max {run.rank_max}"
     return (f"**Run {run.index}** ({run.planner}): {run.t_s:.1f} s · {run.steps} steps{rank} · "
-            f"x = {run.reached_x_m:.2f} m  \n{step_kinds(run.stand_steps, run.useless_steps, run.swing_retargets)}")
+            f"x = {run.reached_x_m:.2f} m  \n{step_kinds(run.stand_steps, run.useless_steps, run.swing_retargets, run.capture_steps)}")
 
 
 def _compare_result(result: CompareResult) -> str:
@@ -77,6 +78,8 @@ def details_markdown(view: LiveView) -> str:
     rank = snap.planned_steps[0].rank if snap.planned_steps else None
     timing = view.timing
     mean_plan = f" (mean {timing[:, 1].mean():.2f})" if len(timing) else ""
+    counts = view.counts
+    kinds = step_kinds(counts.stand_steps, counts.useless_steps, counts.swing_retargets, counts.capture_steps)
     planner = (
         s.planner_active if s.planner == s.planner_active else f"{s.planner_active} (asked: {s.planner})"
     )
@@ -88,7 +91,7 @@ def details_markdown(view: LiveView) -> str:
         f"plan {snap.last_planner_ms:.2f} ms{mean_plan} · optimizer {snap.last_trajopt_ms:.1f} ms · "
         f"RTF {s.real_time_factor:.2f} · speed {s.speed:.2g}x",
         f"{'**standing** (the planner chose not to step) · ' if is_stand(snap) else ''}"
-        f"{step_kinds(view.counts.stand_steps, view.counts.useless_steps, view.counts.swing_retargets)} "
+        f"{kinds} "
         f"(retargeting {'on' if s.retarget else 'off'})",
     ]
     if np.any(view.push_force_world):
