@@ -43,9 +43,10 @@ def _shell(script: str) -> list[str]:
 
 
 def test_jobs_reach_their_keys_in_completion_order_and_done_keys_are_skipped(local_ray, tmp_path):
-    # Job 0 waits for the file job 3 writes (at most 60 s), so it finishes after job 3 on any machine.
+    # Job 0 waits for the file job 3 writes (at most 300 s: a loaded machine can be slow to start Ray workers), so
+    # it finishes after job 3 on any machine.
     marker, ran = tmp_path / "three", tmp_path / "ran"
-    jobs = [Job(0, _shell(f"for i in $(seq 600); do [ -e {marker} ] && break; sleep 0.1; done; echo 0"))]
+    jobs = [Job(0, _shell(f"for i in $(seq 3000); do [ -e {marker} ] && break; sleep 0.1; done; echo 0"))]
     jobs += [Job(k, _shell(f"touch {ran}{k}; echo {k}")) for k in (1, 2, 4)]
     jobs.insert(3, Job(3, _shell(f"touch {marker}; echo 3")))
     seen = []
