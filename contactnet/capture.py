@@ -42,14 +42,17 @@ class CaptureConfig:
 DEFAULT_CAPTURE = CaptureConfig()
 
 
-def capture_offset(com_vel_world: np.ndarray, vel_cmd_world: np.ndarray,
+def capture_offset(com_vel_world: np.ndarray, vel_cmd_xy: np.ndarray, yaw_rad: float,
                    config: CaptureConfig | None) -> tuple[float, float] | None:
     """The shift (x, y, m, world) of the first step's candidate grid, None when the velocity error is within the
-    threshold (or ``config`` is None: capture off)."""
+    threshold (or ``config`` is None: capture off). ``vel_cmd_xy`` is the command in the heading frame (rotated by
+    ``yaw_rad`` here, on Python floats: this runs in every plan)."""
     if config is None:
         return None
-    err_x = float(com_vel_world[0]) - float(vel_cmd_world[0])
-    err_y = float(com_vel_world[1]) - float(vel_cmd_world[1])
+    cmd_x, cmd_y = float(vel_cmd_xy[0]), float(vel_cmd_xy[1])
+    cos_yaw, sin_yaw = math.cos(yaw_rad), math.sin(yaw_rad)
+    err_x = float(com_vel_world[0]) - (cos_yaw * cmd_x - sin_yaw * cmd_y)
+    err_y = float(com_vel_world[1]) - (sin_yaw * cmd_x + cos_yaw * cmd_y)
     if not math.hypot(err_x, err_y) > config.velocity_error_m_s:
         return None
     limit = config.max_offset_m

@@ -361,12 +361,7 @@ class ContactNetPlanner:
         hot path); ``tests/test_planner.py`` checks it against ``network_input_of_state`` and ``predicted_state``
         step by step, and ``tests/test_planner_fast.py`` against a plain walk down the ranking, flat and with
         heights."""
-        offset = None
-        if self.capture is not None:  # the command in the world frame, on Python floats (the hot path)
-            cmd_x, cmd_y = float(ctx.vel_cmd_xy[0]), float(ctx.vel_cmd_xy[1])
-            cos_yaw, sin_yaw = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
-            offset = capture_offset(ctx.com_vel_world, (cos_yaw * cmd_x - sin_yaw * cmd_y,
-                                                        sin_yaw * cmd_x + cos_yaw * cmd_y), self.capture)
+        offset = capture_offset(ctx.com_vel_world, ctx.vel_cmd_xy, ctx.yaw_rad, self.capture)
         if self.footholds.applies(ctx.terrain):
             steps = self._plan_with_heights(ctx, offset)
         else:

@@ -27,13 +27,17 @@ def models(tmp_path_factory):
 def test_the_offset_is_the_clipped_raibert_correction_beyond_the_threshold():
     config = CaptureConfig(velocity_error_m_s=0.15, gain_s=0.15, max_offset_m=0.08)
     cmd = np.array([0.05, 0.0])
-    assert capture_offset(np.array([0.15, 0.1, 0.0]), cmd, config) is None  # |error| 0.141 <= 0.15
-    assert capture_offset(np.array([0.05, 0.4, 0.0]), cmd, None) is None  # off
-    dx, dy = capture_offset(np.array([0.05, 0.4, 0.0]), cmd, config)
+    assert capture_offset(np.array([0.15, 0.1, 0.0]), cmd, 0.0, config) is None  # |error| 0.141 <= 0.15
+    assert capture_offset(np.array([0.05, 0.4, 0.0]), cmd, 0.0, None) is None  # off
+    dx, dy = capture_offset(np.array([0.05, 0.4, 0.0]), cmd, 0.0, config)
     assert dx == 0.0 and dy == pytest.approx(0.06)
-    dx, dy = capture_offset(np.array([-1.0, -0.3, 0.0]), cmd, config)
+    dx, dy = capture_offset(np.array([-1.0, -0.3, 0.0]), cmd, 0.0, config)
     assert dx == -0.08 and dy == pytest.approx(-0.045)  # x clipped to max_offset_m
-    assert capture_offset(np.array([np.nan, 0.0, 0.0]), cmd, config) is None
+    assert capture_offset(np.array([np.nan, 0.0, 0.0]), cmd, 0.0, config) is None
+    # the command is in the heading frame: heading along +y, a command of 0.05 forward is 0.05 along world y
+    assert capture_offset(np.array([0.0, 0.05, 0.0]), cmd, np.pi / 2, config) is None
+    dx, dy = capture_offset(np.array([0.2, 0.0, 0.0]), cmd, np.pi / 2, config)
+    assert dx == pytest.approx(0.03) and dy == pytest.approx(-0.0075)
 
 
 @pytest.mark.parametrize("field", ["velocity_error_m_s", "gain_s", "max_offset_m"])
