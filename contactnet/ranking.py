@@ -315,10 +315,14 @@ class OneLevelWalk:
             else:
                 if action == best:
                     return 0, best, points
-                # its place in the stable ranking: the cheaper actions and the equal ones before it (all unsafe)
+                # its place in the stable ranking: the cheaper actions and the equal ones before it (all unsafe);
+                # the equal ones are counted only when there are any (two numpy calls, not three, as a rule)
                 first, stop = span
-                cost = costs[action]
-                rank = int(np.count_nonzero(costs[first:stop] < cost)) + int(np.count_nonzero(costs[first:action] == cost))
+                cost = costs.item(action)
+                ranked = costs if first == 0 and stop == len(costs) else costs[first:stop]
+                rank = int(np.count_nonzero(ranked < cost))
+                if np.count_nonzero(ranked <= cost) > rank + 1:
+                    rank += int(np.count_nonzero(costs[first:action] == cost))
                 return rank, action, points
             if left is None:
                 first, stop = span
@@ -327,9 +331,9 @@ class OneLevelWalk:
                 else:
                     left = np.full(len(costs), np.inf)
                     left[first:stop] = costs[first:stop]
-            left[using[flat]] = np.inf  # every action landing on the unsafe cell
+            left[using[flat]] = math.inf  # every action landing on the unsafe cell
             action = int(left.argmin())
-            if not math.isfinite(left[action]):
+            if not left.item(action) < math.inf:  # all ruled out, or a NaN cost
                 return None
         return None
 
