@@ -111,7 +111,7 @@ class RecordingPlanner:
 
     name = "recording"
 
-    def __init__(self, oracle):  # noqa: ANN001 - contactnet.planner.OraclePlanner
+    def __init__(self, oracle):  # noqa: ANN001 - contactnet.oracle.OraclePlanner
         self.oracle = oracle
         self.inputs: list[np.ndarray] = []
         self.costs: list[np.ndarray] = []
@@ -134,7 +134,7 @@ class RecordingPlanner:
 
 
 def make_oracle(gait: GaitSpec, robot, evaluated_steps: int = 1):  # noqa: ANN001 - contactnet.robots.Robot
-    from contactnet.planner import OraclePlanner
+    from contactnet.oracle import OraclePlanner
 
     return OraclePlanner(gait, robot.description, evaluated_steps=evaluated_steps)
 

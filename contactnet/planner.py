@@ -7,8 +7,10 @@ in how they choose; the loop (`locomotion.py`) treats them alike.
 - `HeuristicPlanner`: the fixed cyclic gait (walk: HL, FL, HR, FR; trot: alternating diagonal
   pairs) with Raibert-style footholds. Blind to holes. The baseline, and the loop's planner until
   ContactNet is trained.
-- `OraclePlanner`: evaluates the ranking cost V of every action online and takes the cheapest safe
-  one (exact and slow: the teacher of data generation, and a baseline).
+- `ContactNetPlanner`, `FixedGaitPlanner`: the network's ranking, the first safe action (acyclic), or the
+  best safe foothold of the leg whose turn it is (the paper's fixed-gait baseline).
+
+The exact teacher, `OraclePlanner`, lives in `contactnet.oracle`.
 """
 
 from __future__ import annotations
@@ -41,13 +43,21 @@ from contactnet.ranking import (
     step_in_place,
 )
 from contactnet.robots.description import RobotDescription
-from contactnet.stand import network_stands, prefer_stand, split_stand, stand_step
+from contactnet.stand import (
+    DEFAULT_IDLE,
+    IdleConfig,
+    idle_stand_step,
+    is_idle,
+    network_stands,
+    stand_step,
+    useless_swing,
+)
 from contactnet.terrain import Terrain
 
 #: Re-exported: choosing a step from a ranking lives in ``contactnet.ranking``.
 __all__ = [
     "CORNERED_BACKSTEP_M", "CORNERED_LOOKAHEAD_STEPS", "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking",
-    "ContactNetPlanner", "FixedGaitPlanner", "HeuristicPlanner", "LandingCheck", "OraclePlanner", "PlannedStep",
+    "ContactNetPlanner", "FixedGaitPlanner", "HeuristicPlanner", "LandingCheck", "PlannedStep",
     "Planner", "PlanningContext", "cell_grid", "first_safe_step", "step_in_place", "touchdown_times_s",
 ]
 
@@ -139,118 +149,6 @@ class HeuristicPlanner:
         return steps
 
 
-class OraclePlanner:
-    """The exact teacher: evaluate the ranking cost V of every action online and take the cheapest safe one.
-
-    Slow (one batched optimization of all N_a candidates per planned step) but exact: the teacher of data
-    generation and a baseline. Each of the ``gait.steps_per_plan`` steps is chosen from a state: step 1
-    from the measured one, steps 2 and 3 from the state predicted at the end of the previous step horizon
-    (``contactnet.cost.predicted_state``: the CoM moved by the commanded velocity, level, no angular
-    velocity, the previous step's legs on their footholds; the paper's procedure).
-
-    Safe = every swinging leg's landing point inside the steppable terrain shrunk by ``margin_m``. The
-    default, half the foot-ball radius (8 mm), covers the swing controller's touchdown error (a few mm)
-    while keeping the contact point, which is the bottom of the ball, on the surface; a larger margin
-    throws away too many footholds on stepping stones. ``rank`` is the chosen action's position in the
-    ascending-V order (0 = cheapest) and ``discarded`` how many cheaper actions were unsafe (the same
-    number for this planner).
-
-    No safe action at all: the robot steps in place. Swing groups are tried in the order of their
-    cheapest action; the first group whose legs stand on safe ground (margin 0: they already stand
-    there) lifts those legs and puts them back where they are (``action_index=None``, ``rank=None``,
-    ``discarded=N_a``, ``safe=True``): the body keeps moving, so the next plan sees new candidates. Only
-    when no group stands on safe ground does it step in place with the cheapest group and ``safe=False``.
-
-    ``evaluated_steps`` (default all): how many of the plan's steps are chosen by V; later ones only fill
-    the optimizer's horizon (``continue_cyclically``). Data generation evaluates step 1 only, the one
-    it records and executes, which makes it three times cheaper; the next plan starts afresh anyway.
-
-    ``last_costs`` is the ``CostBreakdown`` of step 1 and ``last_state`` its ``CostState``, so data
-    generation can record (u_r, V) without evaluating again.
-    """
-
-    name = "oracle"
-
-    def __init__(
-        self,
-        gait: GaitSpec,
-        robot: RobotDescription,
-        weights=None,  # noqa: ANN001 - contactnet.cost_weights.CostWeights (default: the gait's)
-        margin_m: float | None = None,
-        model=None,  # noqa: ANN001 - contactnet.trajopt.SrbdModel (default: the robot's)
-        evaluated_steps: int | None = None,
-    ) -> None:
-        from contactnet.cost import RankingCost
-
-        self.gait = gait
-        self.robot = robot
-        self.weights = weights if weights is not None else gait.cost_weights
-        self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
-        self.cost = RankingCost(gait, robot, self.weights, model=model)
-        self.evaluated_steps = gait.steps_per_plan if evaluated_steps is None else int(evaluated_steps)
-        if not 1 <= self.evaluated_steps <= gait.steps_per_plan:
-            raise ValueError(f"evaluated_steps must be in 1..{gait.steps_per_plan}, got {evaluated_steps}")
-        self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
-        self.last_costs = None
-        self.last_state = None
-        self.last_candidates: CandidateRanking | None = None
-
-    def reset(self) -> None:
-        self.last_costs = None
-        self.last_state = None
-        self.last_candidates = None
-
-    def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
-        from contactnet.cost import CostState, predicted_state
-
-        state = CostState.from_context(ctx, self.robot.foot_radius_m)
-        steps = []
-        for j in range(self.gait.steps_per_plan):
-            if j >= self.evaluated_steps:
-                step = self.continue_cyclically(state, steps[-1].legs)
-                steps.append(step)
-                state = predicted_state(state, step.footholds_xy_world, step.legs, self.gait.step_duration_s)
-                continue
-            costs = self.cost.evaluate(state)
-            if j == 0:
-                self.last_costs, self.last_state = costs, state
-            candidates = self.last_candidates
-            step = self.choose(costs, state, ctx.terrain)
-            if j > 0:
-                self.last_candidates = candidates  # the viewer shows the step executed now
-            steps.append(step)
-            state = predicted_state(state, step.footholds_xy_world, step.legs, self.gait.step_duration_s)
-        return steps
-
-    def continue_cyclically(self, state, previous_legs: tuple[int, ...]) -> PlannedStep:  # noqa: ANN001
-        """A step past ``evaluated_steps``: the group after ``previous_legs`` in the gait's cyclic order,
-        landing at its hip reference shifted by the commanded velocity over half a stance (the Raibert
-        nominal). It only fills the optimizer's horizon; the next plan re-evaluates from the new state."""
-        gait = self.gait
-        cyclic = gait.cyclic_order
-        if previous_legs:
-            group = gait.swing_groups.index(tuple(previous_legs))
-            legs = gait.swing_groups[cyclic[(cyclic.index(group) + 1) % len(cyclic)]]
-        else:  # after standing: the order's first group
-            legs = gait.swing_groups[cyclic[0]]
-        vel = np.asarray(state.vel_cmd_world, dtype=float)
-        half_stance = 0.5 * (len(cyclic) * gait.step_duration_s - gait.swing_duration_s)
-        touchdown_s = (gait.n_stance_pre + gait.n_swing) * gait.node_dt_s
-        base = np.asarray(state.base_xy_world, dtype=float) + vel * touchdown_s
-        hips = base + rotate_xy(self.hip_ref_xy_base, state.yaw_rad)
-        return PlannedStep(legs=legs, footholds_xy_world=hips[list(legs)] + vel * half_stance)
-
-    def choose(self, costs, state, terrain: Terrain) -> PlannedStep:  # noqa: ANN001 - cost types
-        """The cheapest safe action of one evaluated state (or the step in place, see the class doc)."""
-        order, stand_position = split_stand(self.gait, costs.ranking())
-        cells = cell_grid(self.gait, costs.footholds_xy_world)
-        step = first_safe_step(self.gait, order, cells, state.foot_pos_world, terrain, self.margin_m)
-        step = prefer_stand(self.gait, step, stand_position)
-        self.last_candidates = CandidateRanking(self.gait, order, cells, terrain, self.margin_m,
-                                                step.action_index)
-        return step
-
-
 #: A cornered leg's step (``ContactNetPlanner``) is promoted only if it lands no further back than this (m).
 CORNERED_BACKSTEP_M = 0.01
 #: ... and a leg is cornered when its lower leg would reach the terrain this many steps of motion ahead.
@@ -279,7 +177,8 @@ class ContactNetPlanner:
 
     After a push (the CoM velocity off the command by more than ``capture.velocity_error_m_s``) the first step's
     candidate grid is shifted towards the capture point (``contactnet.capture``) and the robot does not stand;
-    ``capture=None`` turns this off.
+    ``capture=None`` turns this off. With a zero command and a balanced state it stands instead of a swing that
+    barely moves its feet (``contactnet.stand.IdleConfig``, any model); ``idle=None`` turns this off.
 
     ``model``: a ``contactnet.network.LoadedModel`` of this gait.
     """
@@ -287,7 +186,8 @@ class ContactNetPlanner:
     name = "contactnet"
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
-                 margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE) -> None:
+                 margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE,
+                 idle: IdleConfig | None = DEFAULT_IDLE) -> None:
         if model.gait != gait.name or model.n_actions not in (gait.n_actions, gait.n_choices):
             raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} outputs), "
                              f"not {gait.name} ({gait.n_choices} choices: {gait.n_actions} actions and standing)")
@@ -296,7 +196,7 @@ class ContactNetPlanner:
         self.model = model
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
-        self.capture = capture
+        self.capture, self.idle = capture, idle
         self.footholds = FootholdChecker(robot)
         self.hip_xy_base = np.array(robot.hip_pos_base[:, :2], dtype=float)
         self.last_candidates: CandidateRanking | None = None
@@ -362,19 +262,21 @@ class ContactNetPlanner:
         step by step, and ``tests/test_planner_fast.py`` against a plain walk down the ranking, flat and with
         heights."""
         offset = capture_offset(ctx.com_vel_world, ctx.vel_cmd_xy, ctx.yaw_rad, self.capture)
+        idle = is_idle(ctx.com_vel_world, ctx.vel_cmd_xy, self.idle)
         if self.footholds.applies(ctx.terrain):
-            steps = self._plan_with_heights(ctx, offset)
+            steps = self._plan_with_heights(ctx, offset, idle)
         else:
-            steps = self._plan_one_level(ctx, offset)
+            steps = self._plan_one_level(ctx, offset, idle)
         if offset is not None:
             steps[0] = dataclasses.replace(steps[0], captured=True)
         self._advance()
         return steps
 
-    def _plan_one_level(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None) -> list[PlannedStep]:
+    def _plan_one_level(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
+                        idle: bool = False) -> list[PlannedStep]:
         """``plan`` on a terrain whose tops are all at one height, where a candidate is usable when it is safe:
         ``first_safe_step``'s choice, found faster (``OneLevelWalk``). ``capture_xy``: the first step's grid shift
-        (``contactnet.capture``), None for none."""
+        (``contactnet.capture``), None for none; ``idle``: a useless swing is replaced by standing (``is_idle``)."""
         gait, terrain = self.gait, ctx.terrain
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
@@ -415,6 +317,9 @@ class ContactNetPlanner:
             found = walk.first_safe(j, costs, self._best(costs, j), order, self._group_range(j))
             if self._stands(costs, stand_cost, found):
                 step, points = stand_step(gait, costs, stand_cost), []
+            elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,
+                                                              self.idle.min_swing_m):
+                step, points = idle_stand_step(gait, found[0]), []
             elif found is None:  # nothing safe: step in place
                 step = step_in_place(gait, order(), np.array(feet), terrain)
                 points = step.footholds_xy_world.tolist()
@@ -433,11 +338,11 @@ class ContactNetPlanner:
             vel = [cmd_world[0], cmd_world[1], 0.0]
         return steps
 
-    def _plan_with_heights(self, ctx: PlanningContext,
-                           capture_xy: tuple[float, float] | None = None) -> list[PlannedStep]:
+    def _plan_with_heights(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
+                           idle: bool = False) -> list[PlannedStep]:
         """``plan`` on a terrain with tops at several heights (see the class doc): ``first_safe_step`` with the
         height checks, found faster (``HeightsWalk``). ``capture_xy``: the first step's grid shift (the hips at
-        touchdown, for the reach check, are not shifted), None for none."""
+        touchdown, for the reach check, are not shifted), None for none; ``idle`` as in ``_plan_one_level``."""
         gait = self.gait
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
@@ -482,6 +387,9 @@ class ContactNetPlanner:
             found = walk.first_usable(j, order, feet_xy, tops, hips_xy)
             if self._stands(costs, stand_cost, found):
                 step, points = stand_step(gait, costs, stand_cost), []
+            elif idle and found is not None and useless_swing(self._actions.group[found[1]], found[2], feet_xy,
+                                                              self.idle.min_swing_m):
+                step, points = idle_stand_step(gait, found[0]), []
             elif found is None:  # nothing usable: step in place
                 step = step_in_place(gait, order, feet_xy, terrain)
                 points = step.footholds_xy_world.tolist()
@@ -582,7 +490,7 @@ class FixedGaitPlanner(ContactNetPlanner):
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE) -> None:
-        super().__init__(gait, robot, model, margin_m, capture)
+        super().__init__(gait, robot, model, margin_m, capture, idle=None)
         self._next_group = 0
         self._may_stand = False  # the cyclic baseline always steps
 

@@ -21,11 +21,11 @@ from pathlib import Path
 from typing import Any
 
 from contactnet.gait import GaitSpec, gait_by_name, gait_names, register_gait
+from contactnet.oracle import OraclePlanner
 from contactnet.planner import (
     ContactNetPlanner,
     FixedGaitPlanner,
     HeuristicPlanner,
-    OraclePlanner,
     Planner,
 )
 from contactnet.robots import (

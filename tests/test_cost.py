@@ -22,7 +22,8 @@ from contactnet.cost_study import greedy_rollout
 from contactnet.cost_weights import TROT_WEIGHTS, WALK_WEIGHTS, CostWeights
 from contactnet.frames import rotate_xy, rotation_2d
 from contactnet.gait import TROT, WALK
-from contactnet.planner import OraclePlanner, PlanningContext
+from contactnet.oracle import OraclePlanner
+from contactnet.planner import PlanningContext
 from contactnet.robots import load_robot
 from contactnet.support_polygon import hull_area_centroid, support_distance
 from contactnet.terrain import Terrain, flat

@@ -210,7 +210,7 @@ def test_model_errors_are_clear(robot, models, tmp_path):
 
 def test_oracle_continues_the_cyclic_order_past_its_evaluated_steps(robot):
     from contactnet.cost import nominal_state
-    from contactnet.planner import OraclePlanner
+    from contactnet.oracle import OraclePlanner
 
     for gait in (WALK, TROT):
         oracle = OraclePlanner(gait, robot.description, evaluated_steps=1)

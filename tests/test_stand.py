@@ -7,7 +7,8 @@ import pytest
 
 from contactnet.gait import TROT, WALK
 from contactnet.locomotion import Locomotion
-from contactnet.planner import OraclePlanner, PlannedStep
+from contactnet.oracle import OraclePlanner
+from contactnet.planner import PlannedStep
 from contactnet.sim import SimConfig
 from contactnet.stand import prefer_stand, split_stand
 from contactnet.terrain import flat
