@@ -325,8 +325,7 @@ class ContactNetPlanner:
                 points = step.footholds_xy_world.tolist()
             else:
                 rank, action, points = found
-                step = PlannedStep(legs=action_group[action], footholds_xy_world=np.array(points),
-                                   action_index=action, rank=rank, discarded=rank)
+                step = PlannedStep.ranked(action_group[action], np.array(points), action, rank)
             if j == 0:
                 self.last_candidates = CandidateRanking(gait, order, walk.grid(0), terrain, self.margin_m,
                                                         step.action_index)
@@ -395,8 +394,7 @@ class ContactNetPlanner:
                 points = step.footholds_xy_world.tolist()
             else:
                 rank, action, points = found
-                step = PlannedStep(legs=self._actions.group[action], footholds_xy_world=np.array(points),
-                                   action_index=action, rank=rank, discarded=rank)
+                step = PlannedStep.ranked(self._actions.group[action], np.array(points), action, rank)
             if j == 0:
                 self.last_candidates = CandidateRanking(
                     gait, order, walk.grid(0), terrain, self.margin_m, step.action_index,

@@ -23,6 +23,7 @@ from contactnet.planner import (
     CORNERED_LOOKAHEAD_STEPS,
     ContactNetPlanner,
     FixedGaitPlanner,
+    PlannedStep,
     PlanningContext,
     touchdown_times_s,
 )
@@ -324,3 +325,17 @@ def test_the_batched_swing_check_at_its_limit(robot):
         decided += int((others & ~every["step"]).sum())
         assert every["step"].all() == (ridge_z <= limit + 1e-9)
     assert decided > 0
+
+
+def test_the_hot_path_step_constructor_builds_the_same_step():
+    """``PlannedStep.ranked`` (the planners' fast constructor) sets every field, as ``PlannedStep(...)`` does."""
+    import dataclasses
+
+    points = np.array([[0.1, 0.2], [0.3, -0.2]])
+    fast = PlannedStep.ranked((1, 2), points, 17, 4)
+    slow = PlannedStep(legs=(1, 2), footholds_xy_world=points, action_index=17, rank=4, discarded=4)
+    assert set(vars(fast)) == {f.name for f in dataclasses.fields(PlannedStep)}
+    assert fast == slow and type(fast) is PlannedStep
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        fast.rank = 0
+    assert dataclasses.replace(fast, captured=True).captured
