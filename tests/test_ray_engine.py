@@ -43,10 +43,11 @@ def _shell(script: str) -> list[str]:
 
 
 def test_jobs_reach_their_keys_in_completion_order_and_done_keys_are_skipped(local_ray, tmp_path):
-    # Job 0 waits for the file job 3 writes (at most 300 s: a loaded machine can be slow to start Ray workers), so
-    # it finishes after job 3 on any machine.
+    # Job 0 waits for the file job 3 writes (at most 300 s: a loaded machine can be slow to start Ray workers), then
+    # 3 s more, so it finishes after job 3 on any machine (without the pause both could be ready at the same poll of
+    # the engine, which then hands them over in submission order: 0 first, seen once under load).
     marker, ran = tmp_path / "three", tmp_path / "ran"
-    jobs = [Job(0, _shell(f"for i in $(seq 3000); do [ -e {marker} ] && break; sleep 0.1; done; echo 0"))]
+    jobs = [Job(0, _shell(f"for i in $(seq 3000); do [ -e {marker} ] && break; sleep 0.1; done; sleep 3; echo 0"))]
     jobs += [Job(k, _shell(f"touch {ran}{k}; echo {k}")) for k in (1, 2, 4)]
     jobs.insert(3, Job(3, _shell(f"touch {marker}; echo 3")))
     seen = []
