@@ -67,9 +67,7 @@ def network_stands(costs: np.ndarray, stand_cost: float | None, step_cost: float
 def stand_step(gait: GaitSpec, costs: np.ndarray, stand_cost: float) -> PlannedStep:
     """Standing, chosen from a network's costs (lower first; ``costs`` the N_a stepping actions'): its rank is
     how many stepping actions cost no more (they come before it in a stable sort; all of them were unusable)."""
-    rank = int(np.count_nonzero(costs <= stand_cost))
-    return PlannedStep(legs=(), footholds_xy_world=np.zeros((0, 2)), action_index=gait.stand_index, rank=rank,
-                       discarded=rank)
+    return idle_stand_step(gait, int(np.count_nonzero(costs <= stand_cost)))
 
 
 @dataclass(frozen=True)
@@ -126,8 +124,8 @@ def useless_swing(legs: tuple[int, ...], landing_xy_world, feet_xy_world, min_sw
 
 
 def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
-    """Standing chosen by the idle rule over the useless step at ``rank`` (the unsafe actions above it are
-    discarded; standing takes the step's place in the ranking)."""
+    """Standing at ``rank`` of the ranking (the actions above it discarded): the idle rule's choice over the useless
+    step at ``rank`` (standing takes its place), and ``stand_step``'s."""
     return PlannedStep(legs=(), footholds_xy_world=np.zeros((0, 2)), action_index=gait.stand_index, rank=rank,
                        discarded=rank)
 
