@@ -157,7 +157,8 @@ def make_planner(name: str, gait, robot, model: str | Path | None = None):  # no
 def cmd_simulate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from contactnet.locomotion import Locomotion
+    from contactnet.disturbance import DEFAULT_OBSERVER
+    from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.sim import Push, SimConfig
     from contactnet.terrain import resolve
 
@@ -179,7 +180,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 recording = stack.enter_context(FileRecording(args.record))
             except RecordingPathError as exc:
                 raise UserError(str(exc)) from None
-        loco = stack.enter_context(Locomotion(robot, terrain, gait, planner, sim_config, vel_cmd_xy=(args.vx, args.vy)))
+        loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if args.observer else None)
+        loco = stack.enter_context(Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config,
+                                              vel_cmd_xy=(args.vx, args.vy)))
         for push in pushes:
             loco.push(push)
         chunk_s = recording.period_s if recording else 0.32
@@ -294,7 +297,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         raise UserError(f"--model-dir {model_dir}: not a directory")
     trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
                        model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot,
-                       height_m=DEFAULT_HEIGHT_M if args.height is None else args.height, forces_n=args.force)
+                       height_m=DEFAULT_HEIGHT_M if args.height is None else args.height, forces_n=args.force,
+                       observer=args.observer)
     if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
         robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
@@ -320,6 +324,8 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 # ---- parser ------------------------------------------------------------------------------------
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
+OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean the capture step into it "
+                 "(contactnet.disturbance; off by default)")
 
 
 def _engine_arguments(parser: argparse.ArgumentParser) -> None:
@@ -383,6 +389,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                      help="variance of joint-velocity noise, (rad/s)^2")
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
+    sim.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
     sim.add_argument("--record", metavar="FILE.viser")
     sim.add_argument("--json", action="store_true")
     sim.set_defaults(func=cmd_simulate)
@@ -454,6 +461,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--gaps-cm", type=_number_list("--gaps-cm", 0.0, 40.0), default=None,
                             help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
+    experiment.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     _engine_arguments(experiment)
     experiment.set_defaults(func=cmd_experiment)

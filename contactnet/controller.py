@@ -137,6 +137,7 @@ class ControlTarget:
     stance: np.ndarray  # (4,) bool
     swing_pos: np.ndarray  # (4, 3) desired foot positions (used for swing legs)
     swing_vel: np.ndarray  # (4, 3)
+    external_force_world: np.ndarray | None = None  # (3,) estimated push on the body, cancelled (None: none)
 
 
 def clip_to_friction_pyramid(forces: np.ndarray, mu: float, fz_min: float, fz_max: float) -> np.ndarray:
@@ -195,6 +196,7 @@ class WholeBodyController:
         self.last_forces = np.zeros((4, 3))
         self.last_foot_pos = np.zeros((4, 3))
         self.last_com = np.zeros(3)
+        self.last_com_vel = np.zeros(3)
 
     def kinematics(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """CoM position, CoM velocity, foot positions (4, 3) and foot Jacobians (4, 3, 18), world frame."""
@@ -231,6 +233,8 @@ class WholeBodyController:
         # 1. Centroidal feedback wrench, spread over the stance feet by weighted least squares:
         #    delta = S G^T (G S G^T + eps I)^-1 wrench, with S the stance mask, G the 6 x 12 grasp map.
         force_fb = self._kp_com * (target.com_pos - com) + self._kd_com * (target.com_vel - vcom)
+        if target.external_force_world is not None:  # the stance feet push against it (contactnet.disturbance)
+            force_fb = force_fb - target.external_force_world
         rot_err = pin.log3(dot(self._rpy_to_matrix(target.rpy), rot.T))
         torque_fb = self._kp_rot * rot_err + self._kd_rot * (target.ang_vel - dot(rot, v[3:6]))
         self._grasp_lower[:] = dot(self._skew_map, (feet - com).ravel())  # the levers' cross-product matrices
@@ -261,4 +265,5 @@ class WholeBodyController:
         self.last_forces = forces
         self.last_foot_pos = feet
         self.last_com = com
+        self.last_com_vel = vcom
         return np.minimum(np.maximum(tau, self._neg_torque_limit_nm), self.torque_limit_nm)  # 5. saturation

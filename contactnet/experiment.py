@@ -53,7 +53,7 @@ import json
 import math
 import sys
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -118,11 +118,12 @@ class Trial:
     height_m: float | None = None  # random_heights: each square's top within +-height_m
     push_t0_s: float | None = None  # push: when the push starts ...
     push_force_xy: tuple[float, float] | None = None  # ... and its force (N, world), for PUSH_DURATION_S
+    observer: bool = False  # the disturbance observer on (contactnet.disturbance; off by default)
 
     @property
     def key(self) -> str:
-        """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12 and the height only on
-        random_heights (older logs resume)."""
+        """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
+        random_heights and the observer only when on (older logs resume)."""
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
@@ -130,7 +131,7 @@ class Trial:
         if self.push_force_xy is not None:
             push = f"/push{self.push_force_xy[0]:g},{self.push_force_xy[1]:g}@{self.push_t0_s:g}"
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
-                f"{robot}")
+                f"{robot}{'/observer' if self.observer else ''}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -138,7 +139,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               vx: float = 0.05, model_dir: str | None = None,
               widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
-              forces_n: tuple[float, ...] = (5.0,)) -> list[Trial]:
+              forces_n: tuple[float, ...] = (5.0,), observer: bool = False) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
     ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 push times x 4
@@ -171,12 +172,13 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
             else:
                 out += [Trial(name, name, None, seed, gait, planner, vx, noise, model_dir, robot=robot)
                         for seed in range(n)]
-    return out
+    return [replace(t, observer=True) for t in out] if observer else out
 
 
 def run_trial(trial: Trial) -> dict:
     """Run one trial in this process and return its record (the trial, the simulate summary, facts)."""
-    from contactnet.locomotion import Locomotion
+    from contactnet.disturbance import DEFAULT_OBSERVER
+    from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
     from contactnet.sim import SimConfig
 
@@ -188,8 +190,9 @@ def run_trial(trial: Trial) -> dict:
     planner = make_planner(trial.planner, gait, robot, model=model)
     distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
     limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
-    config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed)
-    with Locomotion(robot, terrain, gait, planner, config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
+    sim_config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed)
+    loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if trial.observer else None)
+    with Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
         if trial.push_force_xy is not None:  # success: no fall until the push has settled
             from contactnet.sim import Push
 
@@ -249,6 +252,8 @@ def trial_inputs(trial: Trial) -> dict:
         model = _model_identity(str(path), stamp)
     settings = asdict(trial)
     del settings["model_dir"]  # where the model lies does not matter, its content does
+    if not settings["observer"]:
+        del settings["observer"]  # as before the observer existed (older logs resume)
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
                               trial.height_m)
     return {"trial": settings, "terrain": terrain, "gait": digest(repr(gait_by_name(trial.gait))),
@@ -409,11 +414,11 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
         t = r["trial"]
         force = t.get("push_force_xy")
         group = (t["gait"], t["planner"], t["removed"], t["noise"], t.get("bar_width_m"), t.get("last_gap_m"),
-                 t.get("height_m"), None if force is None else round(math.hypot(*force), 6))
+                 t.get("height_m"), None if force is None else round(math.hypot(*force), 6), t.get("observer", False))
         groups.setdefault(group, []).append(r)
     rows = []
-    for (gait, planner, removed, noise, width_m, gap_m, height_m, push_n), rs in sorted(groups.items(),
-                                                                     key=lambda kv: tuple(map(str, kv[0]))):
+    for (gait, planner, removed, noise, width_m, gap_m, height_m, push_n, observer), rs in sorted(
+            groups.items(), key=lambda kv: tuple(map(str, kv[0]))):
         ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
         rows.append({
             "gait": gait, "planner": planner, "removed": removed, "noise": noise,
@@ -430,6 +435,7 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
             "max_height_change_m": max((r.get("max_height_change_m", 0.0) for r in rs), default=0.0),
             "failed_seeds": [r["trial"]["seed"] for r in rs if not r["success"]],
             **({"failed_pushes": [r["key"].split("/")[1] for r in rs if not r["success"]]} if push_n is not None else {}),
+            **({"observer": True} if observer else {}),
         })
     return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
 
@@ -445,7 +451,8 @@ def plot_success(summary: dict, path: Path) -> None:
         _plot_success_maps(rows, summary["experiment"], path, plt)
         return
     labels = [f"{r['gait']}\n{r['planner']}" + (f"\n{r['removed']} removed" if r["removed"] is not None else "")
-              + (f"\npush {r['push_n']:g} N" if r.get("push_n") is not None else "") for r in rows]
+              + (f"\npush {r['push_n']:g} N" if r.get("push_n") is not None else "")
+              + ("\nobserver" if r.get("observer") else "") for r in rows]
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
     bars = ax.bar(range(len(rows)), [100 * r["success_rate"] for r in rows], color="#3b7dd8")
     for bar, r in zip(bars, rows, strict=True):
@@ -496,4 +503,5 @@ def format_summary(summary: dict) -> str:
     keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "falls",
             "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
     keep += ("max_height_change_m",) if any(r.get("max_height_change_m") for r in rows) else ()
+    keep += ("observer",) if any(r.get("observer") for r in rows) else ()
     return format_table([{k: r.get(k) for k in keep} for r in rows])

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from contactnet.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
+from contactnet.disturbance import DisturbanceObserver, ObserverConfig
 from contactnet.frames import rotate_xy
 from contactnet.gait import GaitSpec
 from contactnet.ground import body_pitch, front_to_hind_m
@@ -81,6 +82,10 @@ class LocomotionConfig:
     early_touchdown_radius_m: float = 0.03
     # None: adapt touchdown only on terrain with heights; True / False: always / never.
     adapt_touchdown: bool | None = None
+    # The estimate of an external horizontal force (a push) that the controller cancels and the capture step leans
+    # into (contactnet.disturbance: DEFAULT_OBSERVER); None: off, the default until the paper's evaluation is run
+    # with it (it also acts on stumbles in undisturbed walking over holes).
+    observer: ObserverConfig | None = None
 
 
 @dataclass
@@ -142,6 +147,8 @@ class Locomotion:
         self.config = config
         self.sim = Simulator(robot, terrain, sim_config)
         self.controller = WholeBodyController(robot, gains)
+        self.observer = (None if config.observer is None
+                         else DisturbanceObserver(config.observer, robot.mass_kg, sim_config.dt_s))
         model = SrbdModel.for_robot(robot.description, gravity=sim_config.gravity, mu=config.mu)
         if config.trajopt.n_nodes != gait.horizon_nodes or abs(config.trajopt.dt_s - gait.node_dt_s) > 1e-12:
             raise ValueError("the optimizer's horizon must be the gait's 3 step horizons")
@@ -183,6 +190,8 @@ class Locomotion:
         self._liftoff_tops: tuple[tuple[int, ...], np.ndarray, np.ndarray] | None = None
         self._contact_tick = -1
         self._contact = np.zeros(4, dtype=bool)
+        if self.observer is not None:
+            self.observer.reset()
 
     def set_command(self, vx: float, vy: float) -> None:
         """Commanded velocity (m/s) in the horizontal body frame of the reference heading."""
@@ -247,7 +256,10 @@ class Locomotion:
                 self._retarget(state, self.plan)
             self._optimize(state, self.plan)
         target = self._target(self.sim.t_s)
+        applied = self.controller.last_forces  # the ground forces of the last tick, before this one's
         tau = self.controller.torques(state.q_pinocchio(), state.v_pinocchio(), target)
+        if self.observer is not None:
+            self.observer.update(self.controller.last_com_vel, applied)
         self._last_target = target
         self.sim.step(tau)
         self._advance_reference(self.controller.last_com[:2])
@@ -290,6 +302,7 @@ class Locomotion:
             rpy=state.rpy,
             ang_vel_world=state.base_ang_vel_world.copy(),
             com_height_ref_m=self.com_height_ref_m,
+            external_force_xy_world=None if self.observer is None else self.observer.force_for("lean"),
         )
 
     def _plan_steps(self, state: SimState) -> None:
@@ -437,6 +450,8 @@ class Locomotion:
         if self._adapt_touchdown and plan.swings:
             self._adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel)
         solution = plan.solution
+        external = None if self.observer is None else self.observer.force_for("feedforward")
+        external_world = None if external is None else np.array([external[0], external[1], 0.0])
         if solution is None:
             com = self.controller.last_com.copy()
             weight = reference_forces(stance[None], self.robot.mass_kg, self.sim.config.gravity)[0]
@@ -449,6 +464,7 @@ class Locomotion:
                 stance=stance,
                 swing_pos=swing_pos,
                 swing_vel=swing_vel,
+                external_force_world=external_world,
             )
         u = (t_s - plan.t0_s) / gait.node_dt_s
         k = min(max(int(u // 1), 0), len(solution.forces_world) - 1)
@@ -464,6 +480,7 @@ class Locomotion:
             stance=stance,
             swing_pos=swing_pos,
             swing_vel=swing_vel,
+            external_force_world=external_world,
         )
 
     def _adapt_to_contact(self, plan: _Plan, t_s: float, stance: np.ndarray, swing_pos: np.ndarray,
@@ -569,6 +586,7 @@ class Locomotion:
             "capture_steps": sum(r.captured for r in self.records),
             "max_height_change_m": max((r.height_change_m for r in self.records
                                         if not math.isnan(r.height_change_m)), default=0.0),
+            "max_external_force_n": 0.0 if self.observer is None else float(self.observer.max_estimate_n),
         }
 
     def close(self) -> None:

@@ -78,6 +78,9 @@ class PlanningContext:
     com_height_ref_m: float  # nominal CoM height above the ground (the robot's)
     rpy: np.ndarray = field(default_factory=lambda: np.zeros(3))  # base roll, pitch, yaw
     ang_vel_world: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    # An external horizontal force on the body (N, world) the capture step leans into (contactnet.disturbance);
+    # None: none known.
+    external_force_xy_world: tuple[float, float] | None = None
 
     def vel_cmd_world(self) -> np.ndarray:
         return rotate_xy(self.vel_cmd_xy, self.yaw_rad)
@@ -208,6 +211,8 @@ class ContactNetPlanner:
         self._n_actions, self._actions_per_group = gait.n_actions, gait.actions_per_group
         self._steps_per_plan, self._step_duration_s = gait.steps_per_plan, gait.step_duration_s
         self._may_stand = True  # with a model of N_a + 1 outputs (contactnet.stand)
+        # The centre of pressure's offset from the CoM per newton of horizontal force at the CoM height (h / (m g)).
+        self._lean_m_per_n = robot.com_height_nominal_m / robot.weight_n
 
     def reset(self) -> None:
         self.last_candidates = None
@@ -261,7 +266,8 @@ class ContactNetPlanner:
         hot path); ``tests/test_planner.py`` checks it against ``network_input_of_state`` and ``predicted_state``
         step by step, and ``tests/test_planner_fast.py`` against a plain walk down the ranking, flat and with
         heights."""
-        offset = capture_offset(ctx.com_vel_world, ctx.vel_cmd_xy, ctx.yaw_rad, self.capture)
+        offset = capture_offset(ctx.com_vel_world, ctx.vel_cmd_xy, ctx.yaw_rad, self.capture,
+                                ctx.external_force_xy_world, self._lean_m_per_n)
         idle = is_idle(ctx.com_vel_world, ctx.vel_cmd_xy, self.idle)
         if self.footholds.applies(ctx.terrain):
             steps = self._plan_with_heights(ctx, offset, idle)

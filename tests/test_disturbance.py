@@ -1,0 +1,144 @@
+"""The disturbance observer (contactnet.disturbance): it estimates a push from the CoM momentum, the controller
+cancels it and the capture step leans into it; below its threshold nothing changes."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from contactnet.capture import CaptureConfig, capture_offset
+from contactnet.controller import WholeBodyController
+from contactnet.disturbance import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
+from contactnet.gait import WALK
+from contactnet.locomotion import Locomotion, LocomotionConfig
+from contactnet.planner import HeuristicPlanner
+from contactnet.terrain import flat
+
+
+def _momentum_run(observer: DisturbanceObserver, external_xy: tuple[float, float], ticks: int, seed: int = 0) -> None:
+    """Feed the observer a body of its mass under random ground forces plus ``external_xy``, integrated exactly."""
+    rng = np.random.default_rng(seed)
+    vel = np.zeros(3)
+    observer.update(vel, np.zeros((4, 3)))
+    for _ in range(ticks):
+        applied = rng.normal(0.0, 3.0, (4, 3))
+        total = applied.sum(axis=0) + np.array([external_xy[0], external_xy[1], -9.81 * observer.mass_kg])
+        vel = vel + observer.dt_s / observer.mass_kg * total
+        observer.update(vel, applied)
+
+
+def test_the_estimate_is_the_first_order_filter_of_the_force():
+    config = ObserverConfig(time_constant_s=0.03, threshold_n=2.0)
+    observer = DisturbanceObserver(config, mass_kg=2.5, dt_s=1e-3)
+    force = (3.0, -5.0)
+    for ticks in (1, 10, 30, 200):
+        observer.reset()
+        _momentum_run(observer, force, ticks)
+        # the closed form of a first-order filter of a step, the reference
+        share = 1.0 - (1.0 - 1e-3 / 0.03) ** ticks
+        assert observer.estimate_x_n == pytest.approx(force[0] * share, rel=1e-9, abs=1e-9)
+        assert observer.estimate_y_n == pytest.approx(force[1] * share, rel=1e-9, abs=1e-9)
+    assert observer.max_estimate_n == pytest.approx(math.hypot(*force) * share, rel=1e-9)  # it only grew
+
+
+def test_below_its_threshold_the_estimate_is_not_used():
+    observer = DisturbanceObserver(ObserverConfig(threshold_n=2.0, lean=False), mass_kg=2.5, dt_s=1e-3)
+    _momentum_run(observer, (1.0, 1.0), 500)
+    assert observer.active_force_xy() is None  # |F| = 1.41 N
+    _momentum_run(observer, (0.0, 2.5), 500)
+    x, y = observer.active_force_xy()
+    assert x == pytest.approx(0.0, abs=1e-6) and y == pytest.approx(2.5, rel=1e-6)
+    assert observer.force_for("feedforward") == (x, y) and observer.force_for("lean") is None  # lean off
+
+
+def test_the_observer_is_off_by_default_and_its_trials_are_named(tmp_path):
+    from contactnet.experiment import trial_inputs, trials_of
+
+    assert LocomotionConfig().observer is None
+    plain, observed = trials_of("push", 1, ("walk",), ("contactnet",)), trials_of("push", 1, ("walk",), ("contactnet",),
+                                                                                   observer=True)
+    assert [t.key + "/observer" for t in plain] == [t.key for t in observed]
+    assert "observer" not in trial_inputs(plain[0])["trial"]  # the fingerprint of a trial as before the observer
+    assert trial_inputs(observed[0])["trial"]["observer"] is True
+
+
+@pytest.mark.parametrize("field", ["time_constant_s", "threshold_n"])
+@pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf")])
+def test_a_bad_setting_names_its_field(field, value):
+    with pytest.raises(ValueError, match=field):
+        ObserverConfig(**{field: value})
+
+
+def test_the_capture_step_leans_into_a_known_force():
+    config = CaptureConfig(velocity_error_m_s=0.15, gain_s=0.15, max_offset_m=0.08, max_offset_with_force_m=0.12)
+    cmd = np.array([0.05, 0.0])
+    still = np.array([0.05, 0.0, 0.0])
+    assert capture_offset(still, cmd, 0.0, config) is None
+    assert capture_offset(still, cmd, 0.0, config, None, 0.01) is None  # no force: as without
+    dx, dy = capture_offset(still, cmd, 0.0, config, (0.0, 7.5), 0.01)  # no velocity error: the lean alone
+    assert dx == 0.0 and dy == pytest.approx(0.075)
+    dx, dy = capture_offset(np.array([0.05, 0.4, 0.0]), cmd, 0.0, config, (0.0, 7.5), 0.01)
+    assert dy == pytest.approx(0.12)  # 0.06 + 0.075, clipped to max_offset_with_force_m
+    assert capture_offset(still, cmd, 0.0, None, (0.0, 7.5), 0.01) is None  # capture off
+
+
+def test_the_controller_cancels_the_external_force(robot):
+    from test_controller import standing_target
+
+    controller = WholeBodyController(robot)
+    q, v = robot.q_standing.copy(), np.zeros(18)
+    target = standing_target(controller, q, v, robot.mass_kg)
+    controller.torques(q, v, target)
+    without = controller.last_forces.sum(axis=0)
+    pushed = dataclasses.replace(target, external_force_world=np.array([3.0, -2.0, 0.0]))
+    controller.torques(q, v, pushed)
+    # up to the feedback's regularization (ControllerGains.force_regularization), about 0.05 %
+    np.testing.assert_allclose(controller.last_forces.sum(axis=0), without + [-3.0, 2.0, 0.0], atol=5e-3)
+
+
+def test_undisturbed_walking_runs_exactly_as_without_the_observer(robot):
+    summaries = []
+    for observer in (DEFAULT_OBSERVER, None):
+        config = LocomotionConfig(observer=observer)
+        with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), config=config, vel_cmd_xy=(0.1, 0.0)) as loco:
+            summaries.append(loco.run(3.0))
+    with_observer, without = summaries
+    assert 0.0 < with_observer["max_external_force_n"] < ObserverConfig().threshold_n
+    assert without["max_external_force_n"] == 0.0
+    for key in ("wall_time_s", "max_external_force_n", "planner_ms", "trajopt_ms"):
+        del with_observer[key], without[key]
+    assert with_observer == without
+
+
+@pytest.mark.slow
+def test_the_walk_withstands_a_sideways_push_it_fell_under_before():
+    """A push experiment trial (push_field seed 0, +7.5 N along y for 1 s at 4 s) in which the shipped walk tipped
+    over its left feet without the observer (roll -0.95 rad at 4.85 s): with it (``experiment push --observer``),
+    it walks on."""
+    from contactnet.experiment import Trial, run_trial
+
+    record = run_trial(Trial("push", "push_field", None, 0, "walk", "contactnet", 0.05, 0.0, None, push_t0_s=4.0,
+                             push_force_xy=(0.0, 7.5), observer=True))
+    assert not record["fell"], record["fall_reason"]
+    assert 6.0 < record["max_external_force_n"] < 15.0  # the push, as estimated
+    assert record["capture_steps"] >= 1
+
+
+def test_a_summary_tells_observer_rows_apart():
+    from test_paper import _record
+
+    from contactnet.experiment import format_summary, summarize
+
+    def trial(observer):
+        return {"gait": "walk", "planner": "contactnet", "removed": None, "noise": 0.0, "seed": 0,
+                "push_force_xy": [0.0, 7.5], "push_t0_s": 4.0, **({"observer": True} if observer else {})}
+
+    key = "push_field/push0,7.5@4/seed0/walk/contactnet/noise0"
+    records = [_record(key, trial(False), False), _record(key + "/observer", trial(True), True)]
+    rows = summarize("push", records)["rows"]
+    assert [(r.get("observer", False), r["successes"]) for r in rows] == [(False, 0), (True, 1)]
+    assert "observer" in format_summary({"rows": rows})
+    assert "observer" not in format_summary({"rows": rows[:1]})  # a run without it prints as before
