@@ -75,7 +75,8 @@ class DisturbanceObserver:
         previous, self._previous_vel = self._previous_vel, (vel_x, vel_y)
         if previous is None:
             return
-        total_x, total_y, _ = np.sum(applied_forces_world, axis=0).tolist()
+        (x0, y0, _), (x1, y1, _), (x2, y2, _), (x3, y3, _) = applied_forces_world.tolist()  # four legs
+        total_x, total_y = x0 + x1 + x2 + x3, y0 + y1 + y2 + y3
         scale = self.mass_kg / self.dt_s
         mismatch_x = scale * (vel_x - previous[0]) - total_x
         mismatch_y = scale * (vel_y - previous[1]) - total_y
