@@ -133,6 +133,11 @@ def settings_command_model() -> type[BaseModel]:
                   "(a push), the swinging legs' landing is ranked again and may move (ContactNet and fixed planners; "
                   "off by default, as in the paper; no restart)"),
         ),
+        observer=(
+            bool | None,
+            Field(None, description="the disturbance observer: a push is estimated from the body's momentum, cancelled "
+                  "by the controller and leaned into by the capture step (off by default; no restart)"),
+        ),
         speed=(
             float | None,
             Field(
@@ -294,6 +299,8 @@ class State(BaseModel):
                                "a push (the CoM velocity off the command by more than 0.15 m/s), a count")
     retarget: bool = Field(description="swing retargeting is on (POST /api/settings {\"retarget\": true}); off by "
                            "default")
+    observer: bool = Field(description="the disturbance observer is on (POST /api/settings {\"observer\": true}); off "
+                           "by default")
     rank_chosen: int | None = Field(description="ranking position of the step being taken (ranking planners)")
     last_planner_ms: float = Field(description="ms, the last planner call")
     last_trajopt_ms: float = Field(description="ms, the last trajectory optimization")
@@ -410,6 +417,7 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         swing_retargets=view.counts.swing_retargets,
         capture_steps=view.counts.capture_steps,
         retarget=s.retarget,
+        observer=s.observer,
         rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,
         last_planner_ms=snap.last_planner_ms,
         last_trajopt_ms=snap.last_trajopt_ms,

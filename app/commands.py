@@ -87,6 +87,14 @@ class SetRetarget:
 
 
 @dataclass(frozen=True)
+class SetObserver:
+    """The disturbance observer (`contactnet.disturbance`) on or off: a push is estimated from the body's momentum,
+    cancelled by the controller and leaned into by the capture step. Applied at once, without a restart."""
+
+    on: bool
+
+
+@dataclass(frozen=True)
 class SetTerrain:
     """Put the robot on a new terrain (back at its start, paused); forgets the edit history."""
 
@@ -154,6 +162,7 @@ Command = (
     | SetPlanner
     | SetNoise
     | SetRetarget
+    | SetObserver
     | SetTerrain
     | EditTerrain
     | UndoTerrainEdit

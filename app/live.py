@@ -55,6 +55,7 @@ from app.commands import (
     SetGait,
     SetLoop,
     SetNoise,
+    SetObserver,
     SetPaused,
     SetPlanner,
     SetRetarget,
@@ -72,7 +73,7 @@ from app.pacing import Pacing, PacingStats
 from app.planners import PlannerFactory, default_planner_factory
 from app.runs import RunClock, run_summary
 from app.settings import VELOCITY_LIMIT_M_S, ServeSettings
-from app.step_events import loco_config, use_retarget
+from app.step_events import loco_config, use_observer, use_retarget
 from app.terrain_change import change_is_away
 from app.view import LiveView, Notice, SessionStatus, ViewTracker
 from contactnet import registry
@@ -181,6 +182,7 @@ class LiveSession:
             self._gait_name, self._planner_name = settings.gait, settings.planner
             self._noise = settings.noise
             self._retarget = settings.retarget
+            self._observer = settings.observer
             self._vel = (settings.vx_m_s, settings.vy_m_s)
             self._speed = settings.sim_speed
             self._paused = settings.paused
@@ -218,7 +220,7 @@ class LiveSession:
         gait = registry.gait_by_name(self._gait_name)
         planner, active, note = self._planner_factory(self._planner_name, gait, self._robot)
         sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0)
-        config = loco_config(self._retarget)
+        config = loco_config(self._retarget, observer=self._observer)
         loco = Locomotion(self._robot, self._terrain, gait, planner, sim_config, config=config, vel_cmd_xy=self._vel)
         try:
             compare = (
@@ -436,6 +438,13 @@ class LiveSession:
                     use_retarget(loco, self._retarget)
                 self._notify(f"Swing retargeting {'on: a pushed swing may land elsewhere' if command.on else 'off'}"
                              " (ContactNet and fixed planners; no restart).")
+        elif isinstance(command, SetObserver):
+            if bool(command.on) != self._observer:
+                self._observer = bool(command.on)
+                for loco in self._locos():
+                    use_observer(loco, self._observer)
+                self._notify(f"Disturbance observer {'on: a push is estimated, resisted and leaned into' if command.on else 'off'}"
+                             " (no restart).")
         elif isinstance(command, SetNoise):
             if bool(command.on) != self._noise:
                 self._rebuild(noise=bool(command.on))
@@ -567,6 +576,7 @@ class LiveSession:
             error=self._error,
             robot=self._robot.name,
             retarget=self._retarget,
+            observer=self._observer,
         )
         self._seq += 1
         self._view = LiveView(

@@ -51,6 +51,7 @@ from app.commands import (
     SetGait,
     SetLoop,
     SetNoise,
+    SetObserver,
     SetPaused,
     SetPlanner,
     SetRetarget,
@@ -264,7 +265,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
 
     @api.post("/api/settings", response_model=State, tags=["session"], responses=responses(*session_command))
     def settings(body: SettingsCommand) -> State:
-        """Change gait, planner, noise (each restarts the robot), simulation speed, loop and swing retargeting."""
+        """Change gait, planner, noise (each restarts the robot), simulation speed, loop, swing retargeting and the
+        disturbance observer."""
         if body.speed is not None:
             run(SetSpeed(body.speed))
         if body.loop is not None:
@@ -277,6 +279,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
             run(SetNoise(body.noise))
         if body.retarget is not None:
             run(SetRetarget(body.retarget))
+        if body.observer is not None:
+            run(SetObserver(body.observer))
         return app.state()
 
     @api.post(

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from contactnet.disturbance import DEFAULT_OBSERVER, DisturbanceObserver
 from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.retarget import RetargetConfig, RetargetedSwing
 
@@ -46,9 +47,21 @@ class StepCounts:
     capture_steps: int = 0  #: steps whose candidates moved towards the capture point after a push
 
 
-def loco_config(retarget: bool, base: LocomotionConfig = LocomotionConfig()) -> LocomotionConfig:
-    """``base`` with swing retargeting on (the library's `RetargetConfig`) or off."""
-    return dataclasses.replace(base, retarget=RetargetConfig() if retarget else None)
+def loco_config(retarget: bool, base: LocomotionConfig = LocomotionConfig(),
+                observer: bool | None = None) -> LocomotionConfig:
+    """``base`` with swing retargeting on (the library's `RetargetConfig`) or off, and the disturbance observer on
+    (`DEFAULT_OBSERVER`) or off (None: as in ``base``)."""
+    config = dataclasses.replace(base, retarget=RetargetConfig() if retarget else None)
+    if observer is not None:
+        config = dataclasses.replace(config, observer=DEFAULT_OBSERVER if observer else None)
+    return config
+
+
+def use_observer(loco: Locomotion, on: bool) -> None:
+    """Turn the disturbance observer on (a fresh estimate) or off for a running Locomotion (no restart)."""
+    if (loco.config.observer is not None) != on:
+        loco.config = dataclasses.replace(loco.config, observer=DEFAULT_OBSERVER if on else None)
+        loco.observer = DisturbanceObserver(DEFAULT_OBSERVER, loco.robot.mass_kg, loco.sim.config.dt_s) if on else None
 
 
 def use_retarget(loco: Locomotion, on: bool) -> None:
@@ -97,4 +110,4 @@ class StepEvents:
         return counts, tuple(f for f in self._flashes if 0.0 <= now - f.t_s < FLASH_S)
 
 
-__all__ = ["FLASH_S", "RetargetFlash", "StepCounts", "StepEvents", "loco_config", "use_retarget"]
+__all__ = ["FLASH_S", "RetargetFlash", "StepCounts", "StepEvents", "loco_config", "use_observer", "use_retarget"]

@@ -60,6 +60,7 @@ class SessionStatus:
     error: str | None = None
     robot: str = ""  # the robot's registry name
     retarget: bool = False  # swing retargeting is on (`contactnet.retarget`)
+    observer: bool = False  # the disturbance observer is on (`contactnet.disturbance`)
 
 
 @dataclass(frozen=True)

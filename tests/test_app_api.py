@@ -409,6 +409,27 @@ def test_retargeting_is_a_setting_off_by_default(client, app):
     assert state["retarget"] is False and app.session._loco.config.retarget is None
 
 
+def test_the_disturbance_observer_is_a_setting_off_by_default(client, app):
+    """POST /api/settings {"observer": ...} turns the disturbance observer on and off in the live robot, no restart;
+    toggling retargeting leaves it as it is."""
+    properties = client.get("/openapi.json").json()["components"]["schemas"]["SettingsCommand"]["properties"]
+    assert "observer" in properties and properties["observer"]["description"]
+    client.post("/api/pause", json={"paused": False})
+    state = client.get("/api/state").json()
+    assert state["observer"] is False and app.session._loco.observer is None
+    wait_for(lambda: client.get("/api/state").json()["t_s"] > 0.2, what="the robot to run")
+    state = client.post("/api/settings", json={"observer": True}).json()
+    assert state["observer"] is True and app.session._loco.observer is not None
+    assert app.session._loco.config.observer is not None
+    assert state["t_s"] > 0.2 and "observer on" in state["notices"][-1]["text"].lower()  # no restart
+    client.post("/api/settings", json={"retarget": True})
+    assert app.session._loco.observer is not None  # the other switch keeps it
+    response = client.post("/api/settings", json={"observer": "maybe"})
+    assert response.status_code == 422 and ("body", "observer") in detail_locations(response)
+    state = client.post("/api/settings", json={"observer": False, "retarget": False}).json()
+    assert state["observer"] is False and app.session._loco.observer is None and app.session._loco.config.observer is None
+
+
 def test_a_planner_that_stands_shows_in_the_state(client):
     """Zero command on flat: the oracle stands (by choice); /api/state counts the stands and says so."""
     client.post("/api/pause", json={"paused": False})

@@ -21,7 +21,7 @@ from viser import _messages as messages
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from app.commands import SetRetarget
+from app.commands import SetObserver, SetRetarget
 from app.recordings import free_port
 from app.server import ContactnetApp
 from app.settings import ServeSettings
@@ -208,6 +208,22 @@ def test_the_retarget_switch(app, browser):
     wait_for(lambda: panel.retarget.value is True, what="the checkbox to follow")
     app.session.call(SetRetarget(False))
     wait_for(lambda: panel.retarget.value is False, what="the checkbox to follow back")
+
+
+def test_the_resist_pushes_switch(app, browser):
+    """The "Resist pushes" checkbox turns the disturbance observer on and off without a restart; REST shows it."""
+    panel = app.viewer.panel.gait_planner
+    assert panel.observer.value is False and not state(app).observer  # off by default, like the library
+    browser.set(panel.observer, True)
+    wait_for(lambda: state(app).observer, what="the observer on")
+    assert app.session._loco.observer is not None
+    browser.set(panel.observer, False)
+    wait_for(lambda: not state(app).observer, what="the observer off")
+    assert app.session._loco.observer is None
+    app.session.call(SetObserver(True))  # from elsewhere (REST): the checkbox follows
+    wait_for(lambda: panel.observer.value is True, what="the checkbox to follow")
+    app.session.call(SetObserver(False))
+    wait_for(lambda: panel.observer.value is False, what="the checkbox to follow back")
 
 
 def test_terrain_picker_files_and_random_field(app, browser):

@@ -1,11 +1,11 @@
 """The "Robot and planner" folder: which robot runs, its gait, the contact planner, joint-velocity noise,
-swing retargeting (on or off without a restart), and compare mode (a second robot with another planner on the same terrain, drawn as a ghost)."""
+swing retargeting and the disturbance observer (on or off without a restart), and compare mode (a second robot with another planner on the same terrain, drawn as a ghost)."""
 
 from __future__ import annotations
 
 import viser
 
-from app.commands import SetCompare, SetGait, SetNoise, SetPlanner, SetRetarget
+from app.commands import SetCompare, SetGait, SetNoise, SetObserver, SetPlanner, SetRetarget
 from app.live import LiveSession
 from app.panels.common import ChangeTracker, submit
 from app.view import LiveView
@@ -14,6 +14,10 @@ from contactnet import registry
 RETARGET_HINT = (
     "During a swing, when a push throws the robot off its command, rank the swinging legs' landings again and "
     "move the swing to the new one (it flashes in the 3D view). ContactNet and fixed planners; no restart."
+)
+OBSERVER_HINT = (
+    "Estimate a push from the body's momentum: the feet push against it and the next step leans into it "
+    "(the disturbance observer; no restart)."
 )
 COMPARE_HINT = "A second robot with this planner walks the same terrain with the same command (a teal ghost)"
 
@@ -42,6 +46,7 @@ class GaitPlannerPanel:
                 "Joint-velocity noise", settings.noise, hint="Gaussian, variance 0.01 (rad/s)^2"
             )
             self.retarget = gui.add_checkbox("Retarget swings", settings.retarget, hint=RETARGET_HINT)
+            self.observer = gui.add_checkbox("Resist pushes", settings.observer, hint=OBSERVER_HINT)
             others = self._others(settings.planner)
             self.compare_with = gui.add_dropdown(
                 "Compare with", others, initial_value="fixed" if "fixed" in others else others[0], hint=COMPARE_HINT
@@ -71,6 +76,11 @@ class GaitPlannerPanel:
             if event.client is not None:
                 submit(self.session, SetRetarget(bool(self.retarget.value)), event.client)
 
+        @self.observer.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetObserver(bool(self.observer.value)), event.client)
+
         @self.compare_with.on_update
         def _(event) -> None:
             self.compare_button.label = compare_label(self._comparing, self.compare_with.value)
@@ -88,7 +98,8 @@ class GaitPlannerPanel:
     def refresh(self, view: LiveView) -> None:
         s = view.status
         for key, handle, value in (("gait", self.gait, s.gait), ("planner", self.planner, s.planner),
-                                   ("noise", self.noise, s.noise), ("retarget", self.retarget, s.retarget)):
+                                   ("noise", self.noise, s.noise), ("retarget", self.retarget, s.retarget),
+                                   ("observer", self.observer, s.observer)):
             if self._seen.changed(key, value):
                 handle.value = value
         others = self._others(s.planner)
