@@ -306,6 +306,9 @@ class State(BaseModel):
     last_trajopt_ms: float = Field(description="ms, the last trajectory optimization")
     pushes: int = Field(description="pushes applied in this run")
     push_force: Float3 = Field(description="N, the pushes acting now (world)")
+    estimated_push: Float3 | None = Field(
+        None, description="N, world: the push the disturbance observer estimates and uses now; null when it is off "
+        "or its estimate is below its threshold (2 N)")
     error: str | None = Field(description="the error that stopped the simulation; null when none")
     recording: bool = Field(description="a scene recording is in progress")
     viser_port: int = Field(description="port of the 3D view's websocket (viser)")
@@ -423,6 +426,7 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         last_trajopt_ms=snap.last_trajopt_ms,
         pushes=s.pushes,
         push_force=tuple(float(v) for v in view.push_force_world),
+        estimated_push=None if view.estimated_push_world is None else tuple(float(v) for v in view.estimated_push_world),
         error=s.error,
         recording=recording,
         viser_port=viser_port,

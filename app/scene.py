@@ -56,6 +56,8 @@ PLANNED_COM_COLOR = (0, 160, 255)
 ACTUAL_COM_COLOR = (190, 30, 190)
 FORCE_COLOR = (40, 90, 235)
 PUSH_COLOR = (230, 20, 20)
+ESTIMATED_PUSH_COLOR = (255, 140, 0)  # the disturbance observer's estimate, drawn just above the push
+ESTIMATE_LIFT_M = 0.04
 GOAL_COLOR = (30, 150, 60)
 #: How the toon material shows these colours under viser's default lights (lighter: measured on a screenshot,
 #: viser 1.1, chromium): the legend draws these, so it looks like the scene.
@@ -286,6 +288,9 @@ class LiveScene:
         self.push = scene.add_line_segments(
             "/forces/push", np.tile(HIDDEN_POS, (3, 2, 1)), PUSH_COLOR, thickness=0.014
         )
+        self.estimated_push = scene.add_line_segments(
+            "/forces/estimated_push", np.tile(HIDDEN_POS, (3, 2, 1)), ESTIMATED_PUSH_COLOR, thickness=0.01
+        )
         self._com_chunks: list[viser.LineSegmentsHandle] = []
         self._com_drawn = 0
         self._com_first: np.ndarray | None = None
@@ -439,6 +444,12 @@ class LiveScene:
             self.push.points = arrow_segments(start[None], base[None])
         else:
             self.push.points = np.tile(HIDDEN_POS, (3, 2, 1))
+        estimate = view.estimated_push_world
+        if estimate is not None:
+            tip = np.asarray(view.snapshot.q[:3], dtype=float) + np.array([0.0, 0.0, ESTIMATE_LIFT_M])
+            self.estimated_push.points = arrow_segments((tip - PUSH_SCALE_M_PER_N * estimate)[None], tip[None])
+        else:
+            self.estimated_push.points = np.tile(HIDDEN_POS, (3, 2, 1))
 
     def _draw_com_path(self, path: np.ndarray, terrain: Terrain) -> None:
         n = len(path)

@@ -168,6 +168,16 @@ class LiveView:
     planned_stand: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # (H,) per node of the plan
     counts: StepCounts = StepCounts()
     retarget_flashes: tuple[RetargetFlash, ...] = ()  # the swings retargeted in the last FLASH_S, oldest first
+    #: (3,) N: the disturbance observer's estimate of the push, while the loop uses it (None: off or below threshold)
+    estimated_push_world: np.ndarray | None = None
+
+
+def estimated_push(loco: Locomotion | None) -> np.ndarray | None:
+    """(3,) N, world: the push the loop's disturbance observer estimates and uses now; None when off or below its
+    threshold (`contactnet.disturbance`)."""
+    observer = None if loco is None else loco.observer
+    force = None if observer is None else observer.active_force_xy()
+    return None if force is None else np.array([force[0], force[1], 0.0])
 
 
 class ViewTracker:
@@ -243,6 +253,7 @@ class ViewTracker:
             "planned_stand": self._planned_stand,
             "counts": self._counts,
             "retarget_flashes": flashes,
+            "estimated_push_world": estimated_push(loco),
         }
 
     def _add_com_point(self, com: np.ndarray) -> None:

@@ -424,6 +424,11 @@ def test_the_disturbance_observer_is_a_setting_off_by_default(client, app):
     assert state["t_s"] > 0.2 and "observer on" in state["notices"][-1]["text"].lower()  # no restart
     client.post("/api/settings", json={"retarget": True})
     assert app.session._loco.observer is not None  # the other switch keeps it
+    assert client.get("/api/state").json()["estimated_push"] is None  # undisturbed: below its threshold
+    client.post("/api/push", json={"fx": 0.0, "fy": 5.0, "duration": 1.0})
+    wait_for(lambda: client.get("/api/state").json()["estimated_push"] is not None, what="the push to be estimated")
+    estimate = client.get("/api/state").json()["estimated_push"]
+    assert estimate[1] > 2.0 and abs(estimate[0]) < estimate[1] and estimate[2] == 0.0  # along +y, as pushed
     response = client.post("/api/settings", json={"observer": "maybe"})
     assert response.status_code == 422 and ("body", "observer") in detail_locations(response)
     state = client.post("/api/settings", json={"observer": False, "retarget": False}).json()

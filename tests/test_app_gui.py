@@ -21,7 +21,7 @@ from viser import _messages as messages
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
-from app.commands import SetObserver, SetRetarget
+from app.commands import ApplyPush, SetObserver, SetPaused, SetRetarget
 from app.recordings import free_port
 from app.server import ContactnetApp
 from app.settings import ServeSettings
@@ -217,6 +217,15 @@ def test_the_resist_pushes_switch(app, browser):
     browser.set(panel.observer, True)
     wait_for(lambda: state(app).observer, what="the observer on")
     assert app.session._loco.observer is not None
+    was_paused = state(app).paused
+    app.session.call(SetPaused(False))
+    arrow = app.viewer.scene.estimated_push
+    assert float(np.max(arrow.points[..., 2])) < -50.0  # hidden while nothing pushes
+    app.session.call(ApplyPush(0.0, 5.0, 1.0))
+    wait_for(lambda: float(np.max(arrow.points[..., 2])) > -50.0, what="the estimated push drawn")
+    tip = arrow.points[0, 1]  # the shaft's end: over the base, the estimate pointing +y into it
+    assert arrow.points[0, 1, 1] > arrow.points[0, 0, 1] and abs(tip[1] - app.session.view.snapshot.q[1]) < 0.2
+    app.session.call(SetPaused(was_paused))
     browser.set(panel.observer, False)
     wait_for(lambda: not state(app).observer, what="the observer off")
     assert app.session._loco.observer is None

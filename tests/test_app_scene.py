@@ -69,7 +69,7 @@ def test_a_clicked_disk_says_leg_rank_and_safety():
 def test_the_legend_shows_every_colour_and_the_rank_scale():
     text = legend_html()
     for label in ("chosen foothold", "unsafe candidate", "planned steps", "planned step, unsafe", "planned CoM",
-                  "actual CoM path", "foot forces", "push", "goal line", "compared robot"):
+                  "actual CoM path", "foot forces", "push", "push, as estimated", "goal line", "compared robot"):
         assert label in text, label
     assert "linear-gradient" in text and f"{RANK_FADE}+" in text
     shown = shown_rank_color(np.arange(RANK_FADE + 1))

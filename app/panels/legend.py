@@ -14,6 +14,7 @@ from app.robot_display import GHOST_COLOR
 from app.scene import (
     ACTUAL_COM_COLOR,
     CHOSEN_COLOR,
+    ESTIMATED_PUSH_COLOR,
     FORCE_COLOR,
     GOAL_COLOR,
     PLANNED_COM_COLOR,
@@ -89,6 +90,7 @@ def legend_html() -> str:
         _swatch("line", ACTUAL_COM_COLOR, "actual CoM path"),
         _swatch("line", FORCE_COLOR, "foot forces"),
         _swatch("line", PUSH_COLOR, "push"),
+        _swatch("line", ESTIMATED_PUSH_COLOR, "push, as estimated"),
         _swatch("line", GOAL_COLOR, "goal line"),
         _swatch("robot", GHOST_COLOR, "compared robot"),
         _swatch("line", STAND_COLOR, "standing by choice (feet)"),
