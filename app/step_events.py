@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from contactnet.disturbance import DEFAULT_OBSERVER, DisturbanceObserver
+from contactnet.disturbance import DEFAULT_OBSERVER
 from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.retarget import RetargetConfig, RetargetedSwing
 
@@ -58,10 +58,9 @@ def loco_config(retarget: bool, base: LocomotionConfig = LocomotionConfig(),
 
 
 def use_observer(loco: Locomotion, on: bool) -> None:
-    """Turn the disturbance observer on (a fresh estimate) or off for a running Locomotion (no restart)."""
+    """Turn the disturbance observer on (`DEFAULT_OBSERVER`, a fresh estimate) or off for a running Locomotion."""
     if (loco.config.observer is not None) != on:
-        loco.config = dataclasses.replace(loco.config, observer=DEFAULT_OBSERVER if on else None)
-        loco.observer = DisturbanceObserver(DEFAULT_OBSERVER, loco.robot.mass_kg, loco.sim.config.dt_s) if on else None
+        loco.set_observer(DEFAULT_OBSERVER if on else None)
 
 
 def use_retarget(loco: Locomotion, on: bool) -> None:

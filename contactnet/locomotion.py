@@ -4,12 +4,11 @@ One `Locomotion` object owns a PyBullet world, a planner, the trajectory optimiz
 whole-body controller. A CLI, a test or the web server drives it the same way: `advance(n_ticks)`
 and `snapshot()`; `run(duration)` does both until the end, a fall or the goal.
 
-Timing (the paper's Sec. III-C): a step horizon lasts 8 nodes of 40 ms. At the start of each one
-(right after the previous touchdown) the planner gives 3 steps, the optimizer plans CoM motion
-and forces over those 3 steps (960 ms), and the controller tracks the first step. We go one step
-further than the paper: between plans we re-solve the optimizer from the measured state every
-2 nodes (80 ms), keeping the contact plan. Each solve costs a few milliseconds, and pushes do far
-less harm.
+Timing (the paper's Sec. III-C): a step horizon lasts 8 nodes of 40 ms. At the start of each one (right after the
+previous touchdown) the planner gives 3 steps, the optimizer plans CoM motion and forces over those 3 steps (960 ms),
+and the controller tracks the first step. We go one step further than the paper: between plans we re-solve the
+optimizer from the measured state every 2 nodes (80 ms), keeping the contact plan. Each solve costs a few
+milliseconds, and pushes do far less harm.
 
 Terrain with heights (tops at several heights): the optimizer's CoM height and pitch references follow
 the tops under the feet node by node (``contactnet.ground``), swings clear the tops on their way
@@ -21,7 +20,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -61,9 +60,8 @@ class LocomotionConfig:
     # default until retargeting is shown to help: issue 14).
     retarget: RetargetConfig | None = None
     fall_check_every_ticks: int = 10
-    # The CoM reference path integrates the commanded velocity and stays within this distance of
-    # the measured CoM: after a push the optimizer brings the robot back toward its path (a little),
-    # instead of only stopping it where the push left it.
+    # The CoM reference integrates the commanded velocity within this distance of the measured CoM: after a push the
+    # optimizer brings the robot back toward its path (a little) instead of only stopping it where the push left it.
     ref_leash_m: float = 0.05
     mu: float = 0.6
     trajopt: TrajoptConfig = TrajoptConfig()
@@ -82,9 +80,8 @@ class LocomotionConfig:
     early_touchdown_radius_m: float = 0.03
     # None: adapt touchdown only on terrain with heights; True / False: always / never.
     adapt_touchdown: bool | None = None
-    # The estimate of an external horizontal force (a push) that the controller cancels and the capture step leans
-    # into (contactnet.disturbance: DEFAULT_OBSERVER); None: off, the default until the paper's evaluation is run
-    # with it (it also acts on stumbles in undisturbed walking over holes).
+    # A push estimated from the body's momentum, cancelled and leaned into (contactnet.disturbance: DEFAULT_OBSERVER);
+    # None: off, the default until the paper's evaluation is run with it (it also acts on stumbles over holes).
     observer: ObserverConfig | None = None
 
 
@@ -147,8 +144,7 @@ class Locomotion:
         self.config = config
         self.sim = Simulator(robot, terrain, sim_config)
         self.controller = WholeBodyController(robot, gains)
-        self.observer = (None if config.observer is None
-                         else DisturbanceObserver(config.observer, robot.mass_kg, sim_config.dt_s))
+        self.set_observer(config.observer)
         model = SrbdModel.for_robot(robot.description, gravity=sim_config.gravity, mu=config.mu)
         if config.trajopt.n_nodes != gait.horizon_nodes or abs(config.trajopt.dt_s - gait.node_dt_s) > 1e-12:
             raise ValueError("the optimizer's horizon must be the gait's 3 step horizons")
@@ -216,6 +212,11 @@ class Locomotion:
 
     def push(self, push: Push) -> None:
         self.sim.add_push(push)
+
+    def set_observer(self, observer: ObserverConfig | None) -> None:
+        """The disturbance observer on (a fresh estimate) or off (None), also while it runs (no restart)."""
+        self.config = replace(self.config, observer=observer)
+        self.observer = None if observer is None else DisturbanceObserver(observer, self.robot.mass_kg, self.sim.config.dt_s)
 
     @property
     def t_s(self) -> float:
