@@ -3,8 +3,8 @@
 Neither the optimizer nor the planner knows that someone pushes the robot: the optimizer plans ground forces that
 balance gravity only, and the capture step (``contactnet.capture``) reacts to the velocity the push has already
 caused. Under pushes of 7.5 N (30 % of Solo12's weight) for 1 s the shipped models fell in 14 of 40 walk trials
-and 17 of 40 trot trials, 24 of the 31 after a sideways push that tipped the robot over its feet on the pushed
-side.
+and 17 of 40 trot trials, 24 of the 31 after a sideways push (19 of those by tipping over the feet on the pushed
+side).
 
 The CoM's momentum tells the force: over one control tick ``m (v_k - v_{k-1}) / dt = sum of the ground forces
 applied + m g + F_ext``. The ground forces are the controller's commanded ones (``WholeBodyController.last_forces``
