@@ -232,13 +232,6 @@ class ContactNetPlanner:
             return lambda: costs.argsort(kind="stable")
         return lambda: first + costs[first:stop].argsort(kind="stable")
 
-    def _best(self, costs: np.ndarray, step_index: int) -> int:
-        """``_order(costs, step_index)[0]`` without sorting (the first index of the lowest cost)."""
-        first, stop = self._group_range(step_index)
-        if first == 0 and stop == self._n_actions:
-            return int(costs.argmin())
-        return first + int(costs[first:stop].argmin())
-
     def _advance(self) -> None:
         """Called once per plan (the fixed gait moves on to the next group)."""
 
@@ -320,7 +313,7 @@ class ContactNetPlanner:
             if j == 0 and capture_xy is not None:
                 stand_cost = None  # a pushed robot steps
             order = self._ranking(costs, j)
-            found = walk.first_safe(j, costs, self._best(costs, j), order, self._group_range(j))
+            found = walk.first_safe(j, costs, self._group_range(j))
             if self._stands(costs, stand_cost, found):
                 step, points = stand_step(gait, costs, stand_cost), []
             elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,

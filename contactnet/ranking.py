@@ -6,12 +6,12 @@ ranking (``CandidateRanking``)."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from contactnet import safe_walk
 from contactnet.footholds import FootholdChecker
 from contactnet.gait import GaitSpec
 from contactnet.terrain import Terrain
@@ -206,62 +206,43 @@ class CandidateRanking:
         return self.cells()[4]
 
 
-#: ``OneLevelWalk``: how many of the best actions are tried one at a time before the whole candidate grid at once.
-RANK_WALK = 32
-#: ``OneLevelWalk``: how many unsafe cells the walk without a sort rules out before it sorts the ranking.
-ELIMINATIONS = 24
-
-
 @dataclass(frozen=True)
 class ActionCells:
-    """A gait's actions as lists of grid cells, for walks down a ranking in Python: ``flat[a]`` the cells action
-    ``a`` lands its legs on (``leg * cells_per_leg + cell``, in the order of ``gait.action_cells``), ``group[a]``
-    its swinging legs (``gait.swing_groups``); ``flat_array`` (N_a, legs per step) and ``incidence`` (N_a,
-    4 * cells_per_leg) as arrays (``gait.action_cell_incidence``)."""
+    """A gait's actions as lists of grid cells, for walks down a ranking: ``flat[a]`` the cells action ``a`` lands
+    its legs on (``leg * cells_per_leg + cell``, in the order of ``gait.action_cells``), ``group[a]`` its swinging
+    legs (``gait.swing_groups``); ``flat_array`` (N_a, legs per step) the same as an array, ``leg_cell`` per grid
+    cell its (leg, cell of the leg's grid), also as an array (cells, 2) (``leg_cell_array``)."""
 
     cells_per_leg: int
     legs_per_step: int
     flat: list[list[int]]
     group: list[tuple[int, ...]]
     flat_array: np.ndarray
-    incidence: np.ndarray
-    using: list[np.ndarray]  # per grid cell: the actions that land a leg on it
-    leg_cell: list[tuple[int, int]]  # per grid cell: (leg, cell of the leg's grid)
+    leg_cell: list[tuple[int, int]]
+    leg_cell_array: np.ndarray
 
     @classmethod
     def of(cls, gait: GaitSpec) -> ActionCells:
         legs, cells = gait.action_cells
-        flat = legs * gait.cells_per_leg + cells
+        flat = np.ascontiguousarray(legs * gait.cells_per_leg + cells, dtype=np.int64)
         group = [gait.swing_groups[a // gait.actions_per_group] for a in range(gait.n_actions)]
-        incidence = gait.action_cell_incidence
-        using = [np.flatnonzero(incidence[:, cell]) for cell in range(incidence.shape[1])]
-        leg_cell = [divmod(cell, gait.cells_per_leg) for cell in range(incidence.shape[1])]
-        return cls(gait.cells_per_leg, gait.legs_per_step, flat.tolist(), group, flat, incidence, using, leg_cell)
+        leg_cell = [divmod(cell, gait.cells_per_leg) for cell in range(4 * gait.cells_per_leg)]
+        return cls(gait.cells_per_leg, gait.legs_per_step, flat.tolist(), group, flat, leg_cell,
+                   np.array(leg_cell, dtype=np.int64).reshape(-1, 2))
 
 
 class OneLevelWalk:
-    """``first_safe_step`` for the steps of one plan on a terrain with one level (usable = safe), found faster.
-
-    The best action (``argmin`` of the costs, no sort) is tried first, one landing point at a time
-    (``PointLocator.covers_xy``: a raster lookup in Python floats, no numpy array per point): usually it is safe.
-    Otherwise the walk goes on without sorting: an unsafe landing point rules out every action that uses its
-    cell (a trot cell is shared by 9 actions), and the next ``argmin`` of what is left is tried, up to
-    ``ELIMINATIONS`` unsafe cells. Only past them (or with a cost that is not finite) is the ranking sorted and
-    walked, ``RANK_WALK`` actions one at a time, each landing point asked once, then the whole candidate grid at
-    once (one raster lookup), so that a choice deep in the ranking costs no more than that. The same choice as
-    ``first_safe_step`` (``argmin`` takes the first of equal costs, as the stable sort does) and the same floats:
-    a landing point is (base + hip reference) + cell offset, added in that order as there. ``bases`` are the base
-    XY of the plan's steps."""
+    """``first_safe_step`` for the steps of one plan on a terrain with one level (usable = safe), found faster: the
+    compiled walk of ``contactnet.safe_walk`` (the cheapest action first without a sort, then the stable ranking,
+    each grid cell looked up once in the safe region's raster), with shapely asked here about the rare cells near
+    an outline. The same choice as ``first_safe_step`` and the same floats: a landing point is (base + hip
+    reference) + cell offset, added in that order as there. ``bases`` are the base XY of the plan's steps."""
 
     def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, hips_world: np.ndarray,
                  offsets_world: np.ndarray, bases: list[list[float]]) -> None:
-        self.using = actions.using
         self.action_flat, self.flat_lists = actions.flat_array, actions.flat
-        self.incidence, self.legs_per_step = actions.incidence, actions.legs_per_step
-        self.n_cells = actions.cells_per_leg
-        self.leg_cell = actions.leg_cell
+        self.leg_cell, self.leg_cell_array = actions.leg_cell, actions.leg_cell_array
         self.locator = terrain.safe_locator(margin_m)
-        self.covers = self.locator.covers_xy
         self.hips_world, self.offsets_world, self.bases = hips_world, offsets_world, bases
         self.hips, self.offsets = hips_world.tolist(), offsets_world.tolist()
 
@@ -270,92 +251,34 @@ class OneLevelWalk:
         base_xy = np.array(self.bases[step])
         return lambda: (base_xy + self.hips_world)[:, None, :] + self.offsets_world[None]
 
-    def first_safe(self, step: int, costs: np.ndarray, best: int, order: Callable[[], np.ndarray],
+    def first_safe(self, step: int, costs: np.ndarray,
                    span: tuple[int, int] | None = None) -> tuple[int, int, list[list[float]]] | None:
-        """(rank, action, its landing points [[x, y], ...]) of the first action of the ranking ``order()`` whose
-        landing points are all safe, None if there is none; ``best`` is ``order()[0]`` unless a cost is NaN.
-        ``span`` (first, stop): the ranking holds the actions ``first..stop - 1`` only (default all)."""
+        """(rank, action, its landing points [[x, y], ...]) of the first action of the stable ascending order of
+        ``costs`` whose landing points are all safe, None if there is none. ``span`` (first, stop): only the
+        actions ``first..stop - 1`` are ranked (default all)."""
         base_x, base_y = self.bases[step]
-        known: list[list[float] | bool | None] = [None] * (4 * self.n_cells)  # per grid cell: [x, y] if safe
-        if math.isfinite(costs[best]):  # (NaN: argmin returns the first NaN, argsort puts them last)
-            found = self._eliminate(costs, best, span or (0, len(costs)), base_x, base_y, known)
-            if found is not None:
-                return found
-        ranking = order()
-        flat_lists, resolve = self.flat_lists, self._resolve
-        for rank, action in enumerate(ranking[:RANK_WALK].tolist()):
-            points = []
-            for flat in flat_lists[action]:
-                xy = known[flat]
-                if xy is None:
-                    xy = resolve(flat, base_x, base_y, known)
-                if xy is False:
-                    break
-                points.append(xy)
-            else:
-                return rank, action, points
-        if len(ranking) <= RANK_WALK:
+        first, stop = span or (0, len(costs))
+        locator = self.locator
+        if locator.codes.size == 0:  # no safe region at all
             return None
-        cells = ((np.array([base_x, base_y]) + self.hips_world)[:, None, :] + self.offsets_world[None]).reshape(-1, 2)
-        safe = (self.incidence @ self.locator.covers(cells).astype(np.float32) == self.legs_per_step)[ranking]
-        rank = int(safe.argmax())
-        if not safe[rank]:
-            return None
-        action = int(ranking[rank])
-        return rank, action, cells[self.action_flat[action]].tolist()
-
-    def _eliminate(self, costs: np.ndarray, best: int, span: tuple[int, int], base_x: float, base_y: float,
-                   known: list[list[float] | bool | None]) -> tuple[int, int, list[list[float]]] | None:
-        """The walk without a sort (see the class doc) from the finite ``best``: the choice, or None when it gave up
-        (``ELIMINATIONS`` unsafe cells, or a cost left that is not finite) and the sorted walk must decide."""
-        flat_lists, using, leg_cell, covers = self.flat_lists, self.using, self.leg_cell, self.covers
+        known = np.zeros(len(self.leg_cell), dtype=np.int8)
         hips, offsets = self.hips, self.offsets
-        action, left = best, None
-        for _ in range(ELIMINATIONS + 1):
-            points = []
-            for flat in flat_lists[action]:
-                xy = known[flat]
-                if xy is None:  # _resolve, inlined
-                    leg, cell = leg_cell[flat]
-                    hip, offset = hips[leg], offsets[cell]
-                    x, y = (base_x + hip[0]) + offset[0], (base_y + hip[1]) + offset[1]
-                    xy = known[flat] = [x, y] if covers(x, y) else False
-                if xy is False:
-                    break
-                points.append(xy)
-            else:
-                if action == best:
-                    return 0, best, points
-                # its place in the stable ranking: the cheaper actions and the equal ones before it (all unsafe);
-                # the equal ones are counted only when there are any (two numpy calls, not three, as a rule)
-                first, stop = span
-                cost = costs.item(action)
-                ranked = costs if first == 0 and stop == len(costs) else costs[first:stop]
-                rank = int(np.count_nonzero(ranked < cost))
-                if np.count_nonzero(ranked <= cost) > rank + 1:
-                    rank += int(np.count_nonzero(costs[first:action] == cost))
-                return rank, action, points
-            if left is None:
-                first, stop = span
-                if first == 0 and stop == len(costs):
-                    left = costs.copy()
-                else:
-                    left = np.full(len(costs), np.inf)
-                    left[first:stop] = costs[first:stop]
-            left[using[flat]] = math.inf  # every action landing on the unsafe cell
-            action = int(left.argmin())
-            if not left.item(action) < math.inf:  # all ruled out, or a NaN cost
-                return None
-        return None
-
-    def _resolve(self, flat: int, base_x: float, base_y: float,
-                 known: list[list[float] | bool | None]) -> list[float] | bool:
-        """Grid cell ``flat`` (leg * cells_per_leg + cell): [x, y] if safe, else False; remembered in ``known``."""
-        leg, cell = divmod(flat, self.n_cells)
-        x = (base_x + self.hips[leg][0]) + self.offsets[cell][0]
-        y = (base_y + self.hips[leg][1]) + self.offsets[cell][1]
-        xy = known[flat] = [x, y] if self.covers(x, y) else False
-        return xy
+        while True:
+            status, rank, index = safe_walk.first_safe(
+                costs, first, stop, self.action_flat, self.leg_cell_array, self.hips_world, self.offsets_world,
+                base_x, base_y, locator.raster, locator.codes, known)
+            if status != safe_walk.ASK:
+                break
+            leg, cell = self.leg_cell[index]  # a cell near an outline: shapely answers (PointLocator.covers_xy)
+            x, y = (base_x + hips[leg][0]) + offsets[cell][0], (base_y + hips[leg][1]) + offsets[cell][1]
+            known[index] = safe_walk.SAFE if locator.covers_xy(x, y) else safe_walk.UNSAFE
+        if status == safe_walk.NONE:
+            return None
+        points = []
+        for flat in self.flat_lists[index]:
+            leg, cell = self.leg_cell[flat]
+            points.append([(base_x + hips[leg][0]) + offsets[cell][0], (base_y + hips[leg][1]) + offsets[cell][1]])
+        return rank, index, points
 
 
 #: ``HeightsWalk``: the first batch of landing points whose height checks are run together is this many per leg of a

@@ -12,7 +12,7 @@ import pytest
 import shapely
 from helpers import save_random_models
 
-import contactnet.ranking
+from contactnet import safe_walk
 from contactnet.bench.planner import planning_contexts
 from contactnet.footholds import FootholdChecker
 from contactnet.gait import TROT, WALK
@@ -27,6 +27,7 @@ from contactnet.planner import (
     PlanningContext,
     touchdown_times_s,
 )
+from contactnet.ranking import ActionCells, OneLevelWalk
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, random_field, random_heights, resolve
 
@@ -146,17 +147,52 @@ def test_one_level_plans_match_the_reference(robot, models, gait, name):
     assert seen["plans"] == 150 and seen["deep"] > 0, seen  # some choices lie deep in the ranking
 
 
+#: Nominal foot XY in the base frame of a Solo12-sized robot (the walk only needs four points).
+_HIPS_XY_BASE = np.array([[0.19, 0.15], [0.19, -0.15], [-0.19, 0.15], [-0.19, -0.15]])
+
+
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
-@pytest.mark.parametrize("eliminations", [0, 1, 3])
-def test_one_level_whole_grid_past_the_walk(robot, models, gait, eliminations, monkeypatch):
-    """Past ``ELIMINATIONS`` unsafe cells the ranking is sorted, and past ``RANK_WALK`` actions tried one at a time
-    the whole grid is asked at once: the same plans (the walk without a sort gave up after 0, 1 or 3 unsafe
-    cells, the sorted walk tried 2 actions)."""
-    monkeypatch.setattr(contactnet.ranking, "ELIMINATIONS", eliminations)
-    monkeypatch.setattr(contactnet.ranking, "RANK_WALK", 2)
-    planner = make_planner("contactnet", gait, robot, model=models[gait.name])
-    seen = _compare(planner, planning_contexts(gait, random_field(220, 2), robot.description, 20, seed=7))
-    assert seen["plans"] == 20 and seen["deep"] > 0, seen
+def test_the_compiled_walk_is_a_walk_down_a_stable_sort(gait, monkeypatch):
+    """``OneLevelWalk.first_safe`` (the compiled walk of ``contactnet.safe_walk``, shapely asked about cells near an
+    outline) against the obvious reference: ``np.argsort(kind="stable")`` of the costs, then every action's landing
+    points asked of ``Terrain.is_safe`` in that order. Costs with many ties, NaN and infinities, whole rankings and
+    one group's, on random grids over holed fields; some walks must ask shapely."""
+    statuses = []
+    compiled = safe_walk.first_safe
+
+    def counted(*args):
+        statuses.append(compiled(*args)[0])
+        return compiled(*args)
+
+    monkeypatch.setattr(safe_walk, "first_safe", counted)
+    actions, rng, margin = ActionCells.of(gait), np.random.default_rng(5), 0.01
+    flat = actions.flat_array
+    found_deep = 0
+    for terrain in (random_field(100, 1), random_field(220, 2)):
+        for k in range(150):
+            kind = k % 3
+            if kind == 0:
+                costs = rng.normal(size=gait.n_actions).astype(np.float32)
+            else:
+                values = [-np.inf, -1.0, 0.0, 0.5, np.inf, np.nan] if kind == 1 else [0.0, 0.25, 0.5]
+                costs = rng.choice(np.array(values, dtype=np.float32), gait.n_actions)
+            group = int(rng.integers(len(gait.swing_groups)))
+            span = (0, gait.n_actions) if k % 2 else (group * gait.actions_per_group,
+                                                      (group + 1) * gait.actions_per_group)
+            yaw = rng.uniform(-0.3, 0.3)
+            hips_world = np.ascontiguousarray(_HIPS_XY_BASE @ _rotation(yaw).T)
+            offsets_world = np.ascontiguousarray(gait.cell_offsets_xy @ _rotation(yaw).T)
+            base = [rng.uniform(0.2, 1.8), rng.uniform(-0.1, 0.1)]
+            walk = OneLevelWalk(actions, terrain, margin, hips_world, offsets_world, [base])
+            found = walk.first_safe(0, costs, span)
+            order = span[0] + np.argsort(costs[span[0]:span[1]], kind="stable")
+            cells = ((np.array(base) + hips_world)[:, None, :] + offsets_world[None]).reshape(-1, 2)
+            safe = terrain.is_safe(cells, margin)
+            expected = next(((rank, int(a), cells[flat[a]].tolist()) for rank, a in enumerate(order)
+                             if safe[flat[a]].all()), None)
+            assert found == expected, (k, found, expected)
+            found_deep += found is not None and found[0] >= 8
+    assert found_deep > 10 and statuses.count(safe_walk.ASK) > 0, (found_deep, statuses.count(safe_walk.ASK))
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)

@@ -103,9 +103,13 @@ class PointLocator:
     code_bytes: bytes = field(init=False, repr=False, compare=False)
     #: ``covers_xy`` as a function with the raster's constants bound (no attribute lookups: the planner's hot path)
     covers_xy: Callable[[float, float], bool] = field(init=False, repr=False, compare=False)
+    #: (inv_cell, col0, row0, clamp_hi, n) as float64, for compiled lookups (``contactnet.safe_walk``)
+    raster: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "code_bytes", self.codes.tobytes())
+        object.__setattr__(self, "raster", np.array([self.inv_cell, self.first_cell[0], self.first_cell[1],
+                                                     self.clamp_hi, self.strides[1]], dtype=np.float64))
         object.__setattr__(self, "covers_xy", _scalar_covers(self))
 
     @classmethod
