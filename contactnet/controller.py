@@ -19,9 +19,8 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.linalg.lapack import dposv
 
-from contactnet.frames import skew
+from contactnet.controller_kernel import pack_gains, wbc_torques
 from contactnet.robots.description import Robot, RobotDescription
 
 
@@ -174,20 +173,10 @@ class WholeBodyController:
         self._kd_rot = np.array(gains.kd_base_rot) * self.inertia_diag
         self._kp_swing = np.array(gains.kp_swing)
         self._kd_swing = np.array(gains.kd_swing)
-        self._regularization = gains.force_regularization * np.eye(6)
-        self._grasp = np.zeros((6, 12))
-        self._grasp[:3] = np.tile(np.eye(3), 4)
-        # The lower half of the grasp map holds skew(lever_i) for each foot: linear in the levers.
-        self._skew_map = np.zeros((3, 12, 12))  # (row, column of grasp, lever entry)
-        for leg in range(4):
-            for j in range(3):
-                unit = np.zeros(3)
-                unit[j] = 1.0
-                self._skew_map[:, 3 * leg : 3 * leg + 3, 3 * leg + j] = skew(unit)
-        self._skew_map = self._skew_map.reshape(36, 12)
-        self._grasp_lower = self._grasp[3:].reshape(-1)  # a view: writing it fills the grasp map
-        self._leg_of_column = np.repeat(np.arange(4), 3)
-        self._neg_torque_limit_nm = -self.torque_limit_nm
+        self._gains = pack_gains(self._kp_com, self._kd_com, self._kp_rot, self._kd_rot, self._kp_swing,
+                                 self._kd_swing, gains.mu, gains.fz_min_n, gains.fz_max_n, gains.kd_joint,
+                                 gains.force_regularization)
+        self._no_force = np.zeros(3)
         self._frame_jacobian = pin.getFrameJacobian
         self._frame_placement = pin.updateFramePlacement
         self._local_world_aligned = pin.LOCAL_WORLD_ALIGNED
@@ -213,7 +202,6 @@ class WholeBodyController:
 
         Runs at 1 kHz: the kinematics of ``kinematics`` with one forward-kinematics pass, and as few numpy
         operations on small arrays as the steps allow (each costs about as much as its arithmetic)."""
-        g = self.gains
         pin, model, data = self._pin, self.model, self.data
         com = pin.centerOfMass(model, data, q, v)  # forward kinematics with velocities, then the CoM
         vcom = np.array(data.vcom[0])
@@ -221,49 +209,19 @@ class WholeBodyController:
         # The feet's Jacobians and positions (written out: a comprehension costs a function call per tick).
         jacobian, placement, frame = self._frame_jacobian, self._frame_placement, self._local_world_aligned
         f0, f1, f2, f3 = self.foot_ids
-        jac = np.array([jacobian(model, data, f0, frame), jacobian(model, data, f1, frame),
-                        jacobian(model, data, f2, frame), jacobian(model, data, f3, frame)])[:, :3]
-        feet = np.array([placement(model, data, f0).translation, placement(model, data, f1).translation,
-                         placement(model, data, f2).translation, placement(model, data, f3).translation])
+        jacobians = (jacobian(model, data, f0, frame), jacobian(model, data, f1, frame),
+                     jacobian(model, data, f2, frame), jacobian(model, data, f3, frame))
+        feet = (placement(model, data, f0).translation, placement(model, data, f1).translation,
+                placement(model, data, f2).translation, placement(model, data, f3).translation)
         rot = data.oMi[1].rotation  # base orientation
-        stance = np.asarray(target.stance, dtype=bool)
-        stance_f = stance.astype(float)
-        dot = np.dot  # about half the overhead of ``@`` on arrays this small
-
-        # 1. Centroidal feedback wrench, spread over the stance feet by weighted least squares:
-        #    delta = S G^T (G S G^T + eps I)^-1 wrench, with S the stance mask, G the 6 x 12 grasp map.
-        force_fb = self._kp_com * (target.com_pos - com) + self._kd_com * (target.com_vel - vcom)
-        if target.external_force_world is not None:  # the stance feet push against it (contactnet.disturbance)
-            force_fb = force_fb - target.external_force_world
-        rot_err = pin.log3(dot(self._rpy_to_matrix(target.rpy), rot.T))
-        torque_fb = self._kp_rot * rot_err + self._kd_rot * (target.ang_vel - dot(rot, v[3:6]))
-        self._grasp_lower[:] = dot(self._skew_map, (feet - com).ravel())  # the levers' cross-product matrices
-        grasp = self._grasp
-        weighted = grasp * stance_f[self._leg_of_column]
-        _, solved, _ = dposv(dot(weighted, grasp.T) + self._regularization, np.concatenate((force_fb, torque_fb)))
-        # 2-3. Stance legs push with the forces (tau = -J^T f), kept in the friction pyramid (as
-        #    ``clip_to_friction_pyramid``, on Python floats: four legs; zero on swing feet); swing legs track their
-        #    trajectory.
-        f_swing = self._kp_swing * (target.swing_pos - feet) + self._kd_swing * (target.swing_vel - dot(jac, v))
-        mu, fz_min, fz_max = g.mu, g.fz_min_n, g.fz_max_n
-        rows, pushes = [], []
-        wanted = (target.forces + dot(weighted.T, solved).reshape(4, 3)).tolist()
-        for (fx, fy, fz), down, swing_force in zip(wanted, stance.tolist(), f_swing.tolist(), strict=True):
-            if down:
-                fz = min(max(fz, fz_min), fz_max)
-                limit = mu * fz
-                fx, fy = min(max(fx, -limit), limit), min(max(fy, -limit), limit)
-                rows.append((fx, fy, fz))
-                pushes.append((-fx, -fy, -fz))
-            else:
-                rows.append((0.0, 0.0, 0.0))
-                pushes.append(swing_force)
-        forces = np.array(rows)
-        foot_force = np.array(pushes)
-        tau = dot(jac.reshape(12, -1)[:, 6:].T, foot_force.ravel()) - g.kd_joint * v[6:]  # 4. joint damping
-
+        rot_err = pin.log3(np.dot(self._rpy_to_matrix(target.rpy), rot.T))
+        external = self._no_force if target.external_force_world is None else target.external_force_world
+        tau, forces, foot_pos = wbc_torques(  # steps 1-5, compiled (contactnet.controller_kernel)
+            com, vcom, jacobians, feet, rot, v, rot_err, target.com_pos, target.com_vel, target.ang_vel,
+            target.forces, np.asarray(target.stance, dtype=bool), target.swing_pos, target.swing_vel, external,
+            self._gains, self.torque_limit_nm)
         self.last_forces = forces
-        self.last_foot_pos = feet
+        self.last_foot_pos = foot_pos
         self.last_com = com
         self.last_com_vel = vcom
-        return np.minimum(np.maximum(tau, self._neg_torque_limit_nm), self.torque_limit_nm)  # 5. saturation
+        return tau

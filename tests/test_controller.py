@@ -159,3 +159,73 @@ def test_swing_over_an_obstacle_rises_above_it_and_leaves_vertically(swing):
     for t in np.linspace(1.0, 1.16, 7):
         for a, b in zip(plain.sample(t), swing.sample(t), strict=True):
             np.testing.assert_array_equal(a, b)
+
+
+def reference_torques(controller: WholeBodyController, q: np.ndarray, v: np.ndarray,
+                      target: ControlTarget) -> tuple[np.ndarray, np.ndarray]:
+    """The controller's steps 1-5 written plainly in numpy (the form the compiled kernel replaced): torques and
+    stance forces."""
+    import pinocchio as pin
+
+    g, model, data = controller.gains, controller.model, controller.model.createData()
+    com = pin.centerOfMass(model, data, q, v).copy()
+    vcom = data.vcom[0].copy()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    feet = np.array([data.oMf[f].translation for f in controller.foot_ids])
+    jac = np.array([pin.getFrameJacobian(model, data, f, pin.LOCAL_WORLD_ALIGNED)[:3] for f in controller.foot_ids])
+    rot = data.oMi[1].rotation
+    stance = np.asarray(target.stance, dtype=bool)
+    mass, inertia = controller.mass, controller.inertia_diag
+    force_fb = np.array(g.kp_com) * mass * (target.com_pos - com) + np.array(g.kd_com) * mass * (target.com_vel - vcom)
+    if target.external_force_world is not None:
+        force_fb = force_fb - target.external_force_world
+    rot_err = pin.log3(pin.rpy.rpyToMatrix(target.rpy) @ rot.T)
+    torque_fb = (np.array(g.kp_base_rot) * inertia * rot_err
+                 + np.array(g.kd_base_rot) * inertia * (target.ang_vel - rot @ v[3:6]))
+    grasp = np.zeros((6, 12))
+    for leg in range(4):
+        lever = feet[leg] - com
+        grasp[:3, 3 * leg:3 * leg + 3] = np.eye(3)
+        grasp[3:, 3 * leg:3 * leg + 3] = np.array([[0, -lever[2], lever[1]], [lever[2], 0, -lever[0]],
+                                                    [-lever[1], lever[0], 0]])
+    weighted = grasp * np.repeat(stance, 3)
+    delta = weighted.T @ np.linalg.solve(weighted @ grasp.T + g.force_regularization * np.eye(6),
+                                         np.concatenate([force_fb, torque_fb]))
+    forces = clip_to_friction_pyramid(target.forces + delta.reshape(4, 3), g.mu, g.fz_min_n, g.fz_max_n)
+    forces[~stance] = 0.0
+    swing = np.array(g.kp_swing) * (target.swing_pos - feet) + np.array(g.kd_swing) * (target.swing_vel - jac @ v)
+    push = np.where(stance[:, None], -forces, swing)
+    tau = sum(jac[leg][:, 6:].T @ push[leg] for leg in range(4)) - g.kd_joint * v[6:]
+    return np.clip(tau, -controller.torque_limit_nm, controller.torque_limit_nm), forces
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_compiled_controller_is_the_plain_formulas(robot, seed):
+    """Random configurations, velocities and targets (stance sets, pushes): the compiled steps 1-5 give the plain
+    numpy form's torques and forces to rounding, and some torques saturate."""
+    rng = np.random.default_rng(seed)
+    controller = WholeBodyController(robot)
+    saturated = 0
+    for k in range(50):
+        q = robot.q_standing.copy()
+        q[:3] += rng.normal(0.0, 0.02, 3)
+        quat = np.array([*rng.normal(0.0, 0.1, 3), 1.0])
+        q[3:7] = quat / np.linalg.norm(quat)
+        q[7:] += rng.normal(0.0, 0.2, 12)
+        v = rng.normal(0.0, 0.5, 18)
+        target = standing_target(controller, q, v, robot.mass_kg)
+        target.com_pos = target.com_pos + rng.normal(0.0, 0.03, 3)
+        target.com_vel, target.ang_vel = rng.normal(0.0, 0.2, 3), rng.normal(0.0, 0.5, 3)
+        target.rpy = rng.normal(0.0, 0.2, 3)
+        target.stance = rng.random(4) < 0.7
+        target.forces = rng.normal(0.0, 3.0, (4, 3)) + [0.0, 0.0, 6.0]
+        target.swing_pos = target.swing_pos + rng.normal(0.0, 0.03, (4, 3))
+        target.swing_vel = rng.normal(0.0, 0.3, (4, 3))
+        target.external_force_world = None if k % 2 else rng.normal(0.0, 5.0, 3)
+        tau = controller.torques(q, v, target)
+        expected_tau, expected_forces = reference_torques(controller, q, v, target)
+        np.testing.assert_allclose(tau, expected_tau, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(controller.last_forces, expected_forces, rtol=1e-9, atol=1e-9)
+        saturated += bool(np.isclose(np.abs(tau), controller.torque_limit_nm).any())
+    assert saturated > 0
