@@ -316,10 +316,10 @@ def test_no_support_is_infeasible_without_raising(optimizers, desc: RobotDescrip
     assert sol.cost == math.inf
 
 
-def test_buffered_qp_call_gives_the_casadi_call_numbers(optimizers, desc: RobotDescription) -> None:
-    """The MPC's QP is evaluated through casadi's Function.buffer (no DM conversions): the very numbers of
-    calling the function, and its statistics."""
-    ocp = optimizers[("auto", 24)]._ocp
+def test_buffered_qp_call_gives_the_casadi_call_numbers(model: SrbdModel, desc: RobotDescription) -> None:
+    """A casadi qpsol plugin's QP is evaluated through casadi's Function.buffer (no DM conversions): the very
+    numbers of calling the function, and its statistics."""
+    ocp = TrajectoryOptimizer(model, TrajoptConfig(n_nodes=24, solver="qp-piqp"))._ocp
     for problem in typical_problems(desc)[:4]:  # the three-step (24-node) ones
         args = ocp._arguments(ProblemBatch.of([problem], 24).in_heading_frame())
         buffered = ocp._call(**args)
@@ -328,11 +328,24 @@ def test_buffered_qp_call_gives_the_casadi_call_numbers(optimizers, desc: RobotD
         for name in ("x", "f", "lam_x", "lam_g"):
             np.testing.assert_array_equal(buffered[name], np.asarray(direct[name]).ravel())
         assert status == ocp.cold.stats()["return_status"] == "solved"
-    # An optimizer still pickles (its buffers are made anew) and solves the same.
+
+
+def test_the_mpc_solve_with_piqp_directly_is_the_casadi_qp(optimizers, model: SrbdModel,
+                                                           desc: RobotDescription) -> None:
+    """``"auto"`` hands the QP to piqp directly (``piqp_direct``): the optimum of the same QP solved through
+    casadi's piqp plugin (the same cost to 1e-6, forces within 0.01 N on these nearly flat problems), one solver
+    updated from problem to problem; and the optimizer still pickles and solves the same."""
+    auto = optimizers[("auto", 24)]
+    through_casadi = TrajectoryOptimizer(model, TrajoptConfig(n_nodes=24, solver="qp-piqp"))
+    for problem in typical_problems(desc)[:4] * 2:
+        a, b = auto.solve(problem, warm_start=False), through_casadi.solve(problem, warm_start=False)
+        assert a.status == b.status == "ok"
+        assert math.isclose(a.cost, b.cost, rel_tol=1e-6)
+        np.testing.assert_allclose(a.forces_world, b.forces_world, atol=1e-2)
+        np.testing.assert_allclose(a.x, b.x, atol=1e-5)
     problem = typical_problems(desc)[0]
-    copy = pickle.loads(pickle.dumps(optimizers[("auto", 24)]))
-    np.testing.assert_array_equal(copy.solve(problem, warm_start=False).x,
-                                  optimizers[("auto", 24)].solve(problem, warm_start=False).x)
+    copy = pickle.loads(pickle.dumps(auto))
+    np.testing.assert_array_equal(copy.solve(problem, warm_start=False).x, auto.solve(problem, warm_start=False).x)
 
 
 def test_non_finite_input_returns_an_error_status(optimizers, desc: RobotDescription) -> None:

@@ -11,7 +11,8 @@ CoM xy) and returns world-frame trajectories and forces.
 Fast path: the SRBD linearized about the reference. It is a convex QP, solved
 
 * one at a time (``TrajectoryOptimizer.solve``, the MPC solve) as a sparse multiple-shooting QP built once
-  in casadi and solved with parameters by piqp;
+  in casadi, its data evaluated from the parameters, and solved by piqp called directly (its multistage KKT
+  solver, one solver updated from solve to solve);
 * many at a time (``TrajectoryOptimizer.solve_batch``, the candidate actions of one state) condensed onto
   the forces and solved by a batched Mehrotra interior-point method written for this structure.
 
@@ -25,6 +26,7 @@ Modules:
 * ``condensed``: the linearized SRBD condensed onto the forces (``CondensedQp``);
 * ``ipm``: the batched interior-point method for the condensed QP;
 * ``casadi_ref``: the casadi problems (sparse linearized QP, nonlinear reference NLP);
+* ``piqp_direct``: the sparse QP handed to piqp directly (the MPC solve);
 * ``optimizer``: ``TrajectoryOptimizer``, which picks the solver.
 """
 

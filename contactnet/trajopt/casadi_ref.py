@@ -99,6 +99,35 @@ def _qpsol_status(plugin: str, stats: dict) -> str:
     return f"error: {plugin} {raw}"
 
 
+def srbd_problem(model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights, kind: str) -> dict:
+    """The multiple-shooting SRBD problem in casadi SX (``kind`` "qp": linearized, "nlp": nonlinear), as a
+    qpsol/nlpsol problem dict: variables stage-wise ``[f_k (12), x_{k+1} (12)]``, constraints per stage
+    ``[dynamics (12), pyramid rows (16)]``, parameters ``[x0, feet, x_ref, f_ref, support, p_bar]``."""
+    import casadi as ca
+
+    n = config.n_nodes
+    x0 = ca.SX.sym("x0", NX)
+    feet, x_ref, f_ref = ca.SX.sym("feet", NU, n), ca.SX.sym("xr", NX, n), ca.SX.sym("fr", NU, n)
+    support, p_bar = ca.SX.sym("support", n), ca.SX.sym("pbar", 3, n)
+    step = _casadi_step if kind == "nlp" else _casadi_linear_step
+    q, wf = weights.node_state_weights(n), np.tile(np.asarray(weights.force, dtype=float), N_LEGS)
+    pyramid = ca.DM(_foot_rows(model.mu)[0:4])
+    variables, g, cost, x_prev = [], [], 0, x0
+    for k in range(n):
+        f_k, x_k = ca.SX.sym(f"f{k}", NU), ca.SX.sym(f"x{k + 1}", NX)
+        variables += [f_k, x_k]
+        g.append(x_k - step(model, config.dt_s, x_prev, f_k, feet[:, k], support[k], p_bar[:, k]))
+        g.extend(pyramid @ f_k[3 * i : 3 * i + 3] for i in range(N_LEGS))
+        cost += ca.sumsqr(np.sqrt(q[k]) * (x_k - x_ref[:, k])) + ca.sumsqr(np.sqrt(wf) * (f_k - f_ref[:, k]))
+        x_prev = x_k
+    return {
+        "x": ca.vertcat(*variables),
+        "f": cost,
+        "g": ca.vertcat(*g),
+        "p": ca.vertcat(x0, ca.vec(feet), ca.vec(x_ref), ca.vec(f_ref), support, ca.vec(p_bar)),
+    }
+
+
 class _CasadiOcp:
     """Multiple-shooting SRBD problem in casadi, built once, solved with parameters.
 
@@ -114,30 +143,8 @@ class _CasadiOcp:
     ):
         import casadi as ca
 
-        n = config.n_nodes
         self.model, self.config, self.kind, self.plugin = model, config, kind, plugin
-        x0 = ca.SX.sym("x0", NX)
-        feet, x_ref, f_ref = ca.SX.sym("feet", NU, n), ca.SX.sym("xr", NX, n), ca.SX.sym("fr", NU, n)
-        support, p_bar = ca.SX.sym("support", n), ca.SX.sym("pbar", 3, n)
-        step = _casadi_step if kind == "nlp" else _casadi_linear_step
-        q, wf = weights.node_state_weights(n), np.tile(np.asarray(weights.force, dtype=float), N_LEGS)
-        pyramid = ca.DM(_foot_rows(model.mu)[0:4])
-        variables, g, cost, x_prev = [], [], 0, x0
-        for k in range(n):
-            f_k, x_k = ca.SX.sym(f"f{k}", NU), ca.SX.sym(f"x{k + 1}", NX)
-            variables += [f_k, x_k]
-            g.append(x_k - step(model, config.dt_s, x_prev, f_k, feet[:, k], support[k], p_bar[:, k]))
-            g.extend(pyramid @ f_k[3 * i : 3 * i + 3] for i in range(N_LEGS))
-            cost += ca.sumsqr(np.sqrt(q[k]) * (x_k - x_ref[:, k])) + ca.sumsqr(
-                np.sqrt(wf) * (f_k - f_ref[:, k])
-            )
-            x_prev = x_k
-        prob = {
-            "x": ca.vertcat(*variables),
-            "f": cost,
-            "g": ca.vertcat(*g),
-            "p": ca.vertcat(x0, ca.vec(feet), ca.vec(x_ref), ca.vec(f_ref), support, ca.vec(p_bar)),
-        }
+        prob = srbd_problem(model, config, weights, kind)
         self.warm = None
         if kind == "nlp":
             base = {
@@ -161,8 +168,12 @@ class _CasadiOcp:
                 "srbd_qp", plugin, prob, {"error_on_fail": False, **_QPSOL_OPTIONS.get(plugin, {})}
             )
         self._call = _BufferedCall(self.cold) if kind == "qp" else None
+        self._argument_constants()
+
+    def _argument_constants(self) -> None:
+        """Constant parts of the arguments (``_arguments``): force bounds of a stance foot, constraint bounds."""
+        n, model = self.config.n_nodes, self.model
         self.previous: dict | None = None
-        # Constant parts of the arguments (``_arguments``): force bounds of a stance foot, constraint bounds.
         self._stance_force_lo = np.array([-np.inf, -np.inf, 0.0])
         self._stance_force_hi = np.array([np.inf, np.inf, model.fz_max_n])
         stage_g_lo = np.concatenate([np.zeros(NX), np.full(4 * N_LEGS, -np.inf)])  # dynamics = 0, pyramid <= 0

@@ -10,6 +10,7 @@ import numpy as np
 from contactnet.trajopt.casadi_ref import _CasadiOcp
 from contactnet.trajopt.condensed import build_condensed_qp
 from contactnet.trajopt.ipm import solve_condensed_ipm
+from contactnet.trajopt.piqp_direct import PiqpOcp
 from contactnet.trajopt.model import SrbdModel, TrajoptConfig, TrajoptWeights
 from contactnet.trajopt.problem import (
     ProblemBatch,
@@ -27,8 +28,9 @@ class TrajectoryOptimizer:
     ``solve`` handles one problem (the MPC solve), ``solve_batch`` many problems of the same horizon (the
     candidate actions of one state). Solvers (``TrajoptConfig.solver``):
 
-    * ``"auto"``: ``solve`` uses the sparse linearized QP with casadi/piqp, ``solve_batch`` the batched
-      interior-point method (the fastest measured path for each use; both solve the same QP);
+    * ``"auto"``: ``solve`` uses the sparse linearized QP stated in casadi and solved by piqp directly
+      (``contactnet.trajopt.piqp_direct``), ``solve_batch`` the batched interior-point method (the fastest
+      measured path for each use; both solve the same QP);
     * ``"qp-ipm"``: the batched interior-point method for both;
     * ``"qp-<plugin>"``: the sparse linearized QP with that casadi qpsol plugin (``piqp``, ``proxqp``,
       ``osqp``, ``qrqp``, ``hpipm``, ``daqp``, ...);
@@ -52,7 +54,7 @@ class TrajectoryOptimizer:
         self._cache: dict = {}  # condensing matrices per support pattern (few patterns occur)
         self._ocp: _CasadiOcp | None = None
         if solver == "auto":
-            self._ocp = _CasadiOcp(self.model, self.config, self.weights, "qp", "piqp")
+            self._ocp = PiqpOcp(self.model, self.config, self.weights)
         elif solver.startswith("nlp-"):
             self._ocp = _CasadiOcp(self.model, self.config, self.weights, "nlp", solver[4:])
         elif solver.startswith("qp-") and solver != "qp-ipm":
