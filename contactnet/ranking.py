@@ -233,9 +233,9 @@ class ActionCells:
 
 class OneLevelWalk:
     """``first_safe_step`` for the steps of one plan on a terrain with one level (usable = safe), found faster: the
-    compiled walk of ``contactnet.safe_walk`` (the cheapest action first without a sort, then the stable ranking,
-    each grid cell looked up once in the safe region's raster), with shapely asked here about the rare cells near
-    an outline. The same choice as ``first_safe_step`` and the same floats: a landing point is (base + hip
+    compiled walk of ``contactnet.safe_walk`` (no sort: the cheapest action not ruled out is tried, an unsafe cell
+    rules out every action using it; each grid cell looked up once in the safe region's raster), with shapely asked
+    here about the rare cells near an outline. The same choice as ``first_safe_step`` and the same floats: a landing point is (base + hip
     reference) + cell offset, added in that order as there. ``bases`` are the base XY of the plan's steps."""
 
     def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, hips_world: np.ndarray,
