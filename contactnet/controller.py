@@ -200,8 +200,9 @@ class WholeBodyController:
     def torques(self, q: np.ndarray, v: np.ndarray, target: ControlTarget) -> np.ndarray:
         """Joint torques (12,), saturated, for configuration q (19,) and velocity v (18,) (pinocchio).
 
-        Runs at 1 kHz: the kinematics of ``kinematics`` with one forward-kinematics pass, and as few numpy
-        operations on small arrays as the steps allow (each costs about as much as its arithmetic)."""
+        Runs at 1 kHz: the kinematics of ``kinematics`` with one forward-kinematics pass (pinocchio), then steps
+        1-5 in one compiled call (``contactnet.controller_kernel.wbc_torques``: about 25 numpy operations on tiny
+        arrays cost 20 us a tick, the compiled loops about 1 us)."""
         pin, model, data = self._pin, self.model, self.data
         com = pin.centerOfMass(model, data, q, v)  # forward kinematics with velocities, then the CoM
         vcom = np.array(data.vcom[0])
