@@ -10,8 +10,8 @@ import numpy as np
 from contactnet.trajopt.casadi_ref import _CasadiOcp
 from contactnet.trajopt.condensed import build_condensed_qp
 from contactnet.trajopt.ipm import solve_condensed_ipm
-from contactnet.trajopt.piqp_direct import PiqpOcp
 from contactnet.trajopt.model import SrbdModel, TrajoptConfig, TrajoptWeights
+from contactnet.trajopt.piqp_direct import PiqpOcp
 from contactnet.trajopt.problem import (
     ProblemBatch,
     TrajoptProblem,

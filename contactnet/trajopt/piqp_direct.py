@@ -4,10 +4,11 @@
 casadi still states the problem (``srbd_problem``) and evaluates its data from the parameters (about 0.05 ms);
 piqp then solves it with its multistage KKT solver (it finds the stage structure of the variables ``[f_k,
 x_{k+1}]`` and constraints in the sparsity) and one solver kept between solves, updated with each new problem's
-numbers (casadi's plugin builds a new solver for every call with the general sparse LDL^T). Measured on 330 MPC
-problems recorded from walking, trotting and pushes (``contactnet bench trajopt``; /work notes s19): 0.93 ms
-median against 1.96 ms through casadi, no failure, and closer to the exact solution (checked on its active set):
-piqp's tolerances are set to 1e-10, and its preconditioner is off, which costs nothing here.
+numbers (casadi's plugin builds a new solver for every call with the general sparse LDL^T). Measured on MPC
+problems recorded from walking, trotting and 7.5 N pushes and solved again one by one: 0.93-0.96 ms median against
+1.96-2.04 ms through casadi, no failure, costs within 3e-7, and closer to the exact solution (checked on its active
+set) than piqp's defaults: its tolerances are set to 1e-10, and its preconditioner is off, which costs nothing here.
+``contactnet bench sim`` shows the solve in the loop (1.1-1.2 ms there).
 
 The QP: ``min 1/2 z' H z + c' z`` subject to ``A z = b`` (the dynamics), ``G z <= 0`` (the friction pyramids)
 and the variable bounds (contact, force and CoM height limits): ``H`` and ``G`` are constant; ``c``, ``A``'s
