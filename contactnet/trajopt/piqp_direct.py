@@ -44,9 +44,9 @@ class PiqpOcp(_CasadiOcp):
         prob = srbd_problem(model, config, weights, "qp")
         z, p, n_z = prob["x"], prob["p"], prob["x"].shape[0]
         zero = ca.DM.zeros(n_z)
-        stage = NX + 4 * N_LEGS
-        rows = np.arange(config.n_nodes * stage) % stage
-        dynamics, pyramid = np.flatnonzero(rows < NX).tolist(), np.flatnonzero(rows >= NX).tolist()
+        self._argument_constants()  # the constraint bounds: equalities are the dynamics, the rest the pyramids
+        equality = self._lbg == self._ubg
+        dynamics, pyramid = np.flatnonzero(equality).tolist(), np.flatnonzero(~equality).tolist()
         g = prob["g"]
         a_eq, g_in = ca.jacobian(g[dynamics], z), ca.jacobian(g[pyramid], z)
         hessian = ca.hessian(prob["f"], z)[0]
@@ -69,10 +69,8 @@ class PiqpOcp(_CasadiOcp):
 
         self._hessian, self._pyramid = csc(h_dm), csc(g_dm)
         self._a_eq = csc(a_eq, np.zeros(a_eq.nnz()))  # its numbers are written in place at every solve
-        self._pyramid_lo = np.full(len(pyramid), -np.inf)
-        self._pyramid_hi = np.zeros(len(pyramid))
+        self._pyramid_lo, self._pyramid_hi = self._lbg[~equality], self._ubg[~equality]
         self._solver = None
-        self._argument_constants()
 
     def _new_solver(self, c: np.ndarray, b: np.ndarray, lbx: np.ndarray, ubx: np.ndarray) -> piqp.SparseSolver:
         solver = piqp.SparseSolver()
