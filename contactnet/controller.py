@@ -217,10 +217,11 @@ class WholeBodyController:
         rot = data.oMi[1].rotation  # base orientation
         rot_err = pin.log3(np.dot(self._rpy_to_matrix(target.rpy), rot.T))
         external = self._no_force if target.external_force_world is None else target.external_force_world
-        tau, forces, foot_pos = wbc_torques(  # steps 1-5, compiled (contactnet.controller_kernel)
+        tau, forces, foot_pos = np.empty(12), np.empty((4, 3)), np.empty((4, 3))  # new each tick: callers keep them
+        wbc_torques(  # steps 1-5, compiled (contactnet.controller_kernel)
             com, vcom, jacobians, feet, rot, v, rot_err, target.com_pos, target.com_vel, target.ang_vel,
             target.forces, np.asarray(target.stance, dtype=bool), target.swing_pos, target.swing_vel, external,
-            self._gains, self.torque_limit_nm)
+            self._gains, self.torque_limit_nm, tau, forces, foot_pos)
         self.last_forces = forces
         self.last_foot_pos = foot_pos
         self.last_com = com

@@ -60,13 +60,16 @@ def _solve_spd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple, rot: np.ndarray, v: np.ndarray,
                 rot_err: np.ndarray, com_ref: np.ndarray, com_vel_ref: np.ndarray, ang_vel_ref: np.ndarray,
                 forces_ref: np.ndarray, stance: np.ndarray, swing_pos: np.ndarray, swing_vel: np.ndarray,
-                external_force: np.ndarray, gains: np.ndarray, torque_limit: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(joint torques (12,), saturated; ground forces on the stance feet (4, 3), zero on swing feet; foot positions
-    (4, 3)). ``jacobians``: the 4 feet's (6, 18) world-aligned frame Jacobians (linear rows first); ``feet``: their
-    4 positions (3,); ``rot``: base orientation; ``v`` (18,) pinocchio velocity; ``rot_err`` (3,): log of the
-    reference orientation times ``rot``'s transpose; the rest is the ``ControlTarget``, ``external_force`` zero
-    for none, ``gains`` as ``pack_gains``."""
+                external_force: np.ndarray, gains: np.ndarray, torque_limit: np.ndarray, tau: np.ndarray,
+                forces: np.ndarray, foot: np.ndarray) -> None:
+    """Fills ``tau`` (12,), the joint torques, saturated; ``forces`` (4, 3), the ground forces on the stance feet,
+    zero on swing feet; ``foot`` (4, 3), the foot positions. ``jacobians``: the 4 feet's (6, 18) world-aligned frame
+    Jacobians (linear rows first); ``feet``: their 4 positions (3,); ``rot``: base orientation; ``v`` (18,) pinocchio
+    velocity; ``rot_err`` (3,): log of the reference orientation times ``rot``'s transpose; the rest is the
+    ``ControlTarget``, ``external_force`` zero for none, ``gains`` as ``pack_gains``.
+
+    The caller makes the output arrays: arrays made here would be boxed on return through a Python callback
+    (numba's ``_numba_unpickle``), and a Ctrl-C landing in it came back as a SystemError, not KeyboardInterrupt."""
     # 1. Centroidal feedback wrench, spread over the stance feet: delta = S G^T (G S G^T + eps I)^-1 wrench.
     wrench = np.empty(6)
     for i in range(3):
@@ -75,7 +78,6 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
     for i in range(3):
         omega = rot[i, 0] * v[3] + rot[i, 1] * v[4] + rot[i, 2] * v[5]
         wrench[3 + i] = gains[KP_ROT + i] * rot_err[i] + gains[KD_ROT + i] * (ang_vel_ref[i] - omega)
-    foot = np.empty((4, 3))
     for leg in range(4):
         for i in range(3):
             foot[leg, i] = feet[leg][i]
@@ -100,7 +102,7 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
     solved = _solve_spd(normal, wrench)
     # 2-3. Stance legs push with the forces (tau = -J^T f), in the friction pyramid; swing legs track.
     mu, fz_min, fz_max = gains[MU], gains[FZ_MIN], gains[FZ_MAX]
-    forces = np.zeros((4, 3))
+    forces[:] = 0.0
     push = np.empty((4, 3))
     for leg in range(4):
         jac = jacobians[leg]
@@ -126,7 +128,6 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
                 push[leg, i] = (gains[KP_SWING + i] * (swing_pos[leg, i] - foot[leg, i])
                                 + gains[KD_SWING + i] * (swing_vel[leg, i] - vel))
     # 4-5. tau = sum over legs of J_leg^T (joint columns) push_leg, joint damping, saturation.
-    tau = np.empty(12)
     for j in range(12):
         s = 0.0
         for leg in range(4):
@@ -135,4 +136,3 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
                 s += jac[i, 6 + j] * push[leg, i]
         s -= gains[KD_JOINT] * v[6 + j]
         tau[j] = min(max(s, -torque_limit[j]), torque_limit[j])
-    return tau, forces, foot
