@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from contactnet.interrupt import sigint_deferred
 from contactnet.trajopt.casadi_ref import _CasadiOcp
 from contactnet.trajopt.condensed import build_condensed_qp
 from contactnet.trajopt.ipm import solve_condensed_ipm
@@ -53,16 +54,17 @@ class TrajectoryOptimizer:
         solver = self.config.solver
         self._cache: dict = {}  # condensing matrices per support pattern (few patterns occur)
         self._ocp: _CasadiOcp | None = None
-        if solver == "auto":
-            self._ocp = PiqpOcp(self.model, self.config, self.weights)
-        elif solver.startswith("nlp-"):
-            self._ocp = _CasadiOcp(self.model, self.config, self.weights, "nlp", solver[4:])
-        elif solver.startswith("qp-") and solver != "qp-ipm":
-            self._ocp = _CasadiOcp(self.model, self.config, self.weights, "qp", solver[3:])
-        elif solver != "qp-ipm":
-            raise ValueError(
-                f"unknown solver {solver!r}: 'auto', 'qp-ipm', 'qp-<qpsol plugin>' or 'nlp-ipopt'"
-            )
+        if solver != "auto" and not solver.startswith(("nlp-", "qp-")):
+            raise ValueError(f"unknown solver {solver!r}: 'auto', 'qp-ipm', 'qp-<qpsol plugin>' or 'nlp-ipopt'")
+        # casadi states the problem and piqp/casadi solve it: C extensions that may swallow a Ctrl-C raised in
+        # their Python callbacks (`contactnet.interrupt`), so a SIGINT waits for them here and in `solve`.
+        with sigint_deferred():
+            if solver == "auto":
+                self._ocp = PiqpOcp(self.model, self.config, self.weights)
+            elif solver.startswith("nlp-"):
+                self._ocp = _CasadiOcp(self.model, self.config, self.weights, "nlp", solver[4:])
+            elif solver != "qp-ipm":
+                self._ocp = _CasadiOcp(self.model, self.config, self.weights, "qp", solver[3:])
 
     @property
     def n_nodes(self) -> int:
@@ -78,7 +80,8 @@ class TrajectoryOptimizer:
             return _failed("error: non-finite input", self.n_nodes)
         t0 = time.perf_counter()
         try:
-            sol = self._ocp.solve(batch.in_heading_frame(), warm_start)
+            with sigint_deferred():
+                sol = self._ocp.solve(batch.in_heading_frame(), warm_start)
         except Exception as exc:  # noqa: BLE001 - a numerical failure must come back as a status
             return _failed(f"error: {type(exc).__name__}: {exc}", self.n_nodes, time.perf_counter() - t0)
         rot, origin = batch.rotations(), batch.origins()
