@@ -19,6 +19,28 @@ from typing import Any
 
 __version__ = "0.1.0"
 
+def lazy_exports(package: str, exports: dict[str, str], renamed: dict[str, str] | None = None):
+    """``(__getattr__, __dir__)`` for a package face that hands names on from its modules, loaded on first
+    use: ``exports`` maps a public name to the module that defines it (a name equal to that module's last
+    part is the module itself); ``renamed`` gives a public name's name in its module where they differ."""
+    renamed = renamed or {}
+    namespace = importlib.import_module(package).__dict__ if package != __name__ else globals()
+
+    def __getattr__(name: str) -> Any:
+        module = exports.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        loaded = importlib.import_module(module)
+        value = loaded if module.rpartition(".")[2] == name else getattr(loaded, renamed.get(name, name))
+        namespace[name] = value
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted({*namespace.get("__all__", ()), *exports})
+
+    return __getattr__, __dir__
+
+
 #: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
     "registry": "contactnet.registry",
@@ -26,20 +48,20 @@ _EXPORTS: dict[str, str] = {
     "RobotDescription": "contactnet.robots",
     "RobotSpec": "contactnet.robots",
     "load_robot": "contactnet.robots",
-    "GaitSpec": "contactnet.gait",
+    "GaitSpec": "contactnet.motion.gait",
     "Terrain": "contactnet.terrain",
     "TerrainError": "contactnet.terrain",
     "resolve_terrain": "contactnet.terrain",
-    "Planner": "contactnet.planner",
-    "PlannedStep": "contactnet.planner",
-    "PlanningContext": "contactnet.planner",
-    "CostWeights": "contactnet.cost_weights",
-    "RankingCost": "contactnet.cost",
-    "TrajectoryOptimizer": "contactnet.trajopt",
-    "WholeBodyController": "contactnet.controller",
-    "Simulator": "contactnet.sim",
-    "SimConfig": "contactnet.sim",
-    "Push": "contactnet.sim",
+    "Planner": "contactnet.planning.planner",
+    "PlannedStep": "contactnet.planning.planner",
+    "PlanningContext": "contactnet.planning.planner",
+    "CostWeights": "contactnet.motion.cost_weights",
+    "RankingCost": "contactnet.planning.cost",
+    "TrajectoryOptimizer": "contactnet.motion.trajopt",
+    "WholeBodyController": "contactnet.motion.controller",
+    "Simulator": "contactnet.sim.pybullet_world",
+    "SimConfig": "contactnet.sim.pybullet_world",
+    "Push": "contactnet.sim.pybullet_world",
     "Locomotion": "contactnet.locomotion",
     "LocomotionConfig": "contactnet.locomotion",
 }
@@ -48,15 +70,4 @@ _RENAMED = {"resolve_terrain": "resolve"}
 __all__ = ["__version__", *_EXPORTS]
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'contactnet' has no attribute {name!r}")
-    loaded = importlib.import_module(module)
-    value = loaded if module == f"contactnet.{name}" else getattr(loaded, _RENAMED.get(name, name))
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, _RENAMED)

@@ -9,7 +9,7 @@ import json
 import sys
 from pathlib import Path
 
-from app.settings import VELOCITY_LIMIT_M_S
+from app.live.settings import VELOCITY_LIMIT_M_S
 from contactnet import registry
 
 EXIT_USER_ERROR = 2
@@ -22,11 +22,11 @@ class UserError(Exception):
 USER_ERROR_CLASSES = (
     ("contactnet.terrain", "TerrainError"),
     ("contactnet.robots.description", "RobotDataError"),
-    ("contactnet.datagen", "DatasetDirError"),
-    ("contactnet.train", "DatasetError"),
-    ("contactnet.network", "ModelFileError"),
-    ("contactnet.experiment", "ExperimentError"),
-    ("contactnet.ray_engine", "EngineUnavailable"),
+    ("contactnet.jobs.datagen", "DatasetDirError"),
+    ("contactnet.jobs.train", "DatasetError"),
+    ("contactnet.planning.network", "ModelFileError"),
+    ("contactnet.jobs.experiment", "ExperimentError"),
+    ("contactnet.jobs.ray_engine", "EngineUnavailable"),
 )
 
 
@@ -128,11 +128,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from contactnet.bench import format_table, run
 
     if args.what == "live":  # the web tool's benchmarks live with the web tool
-        from app.bench_live import bench_live
+        from app.bench.live import bench_live
 
         rows = bench_live()
     elif args.what == "upload":
-        from app.bench_upload import bench_upload
+        from app.bench.upload import bench_upload
 
         rows = bench_upload()
     else:
@@ -157,9 +157,9 @@ def make_planner(name: str, gait, robot, model: str | Path | None = None):  # no
 def cmd_simulate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from contactnet.disturbance import DEFAULT_OBSERVER
     from contactnet.locomotion import Locomotion, LocomotionConfig
-    from contactnet.sim import Push, SimConfig
+    from contactnet.planning.observer import DEFAULT_OBSERVER
+    from contactnet.sim.pybullet_world import Push, SimConfig
     from contactnet.terrain import resolve
 
     try:
@@ -173,8 +173,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed)
     with contextlib.ExitStack() as stack:
         recording = None
-        if args.record:  # the scene over time, as the web tool draws it (app/recordings.py)
-            from app.recordings import FileRecording, RecordingPathError
+        if args.record:  # the scene over time, as the web tool draws it (app/recordings/recorder.py)
+            from app.recordings.recorder import FileRecording, RecordingPathError
 
             try:  # checks the path now: a bad one fails before the simulation, not after it
                 recording = stack.enter_context(FileRecording(args.record))
@@ -227,8 +227,8 @@ def _port_number(name: str):
 
 
 def cmd_serve(args: argparse.Namespace) -> int:
-    from app.server import serve
-    from app.settings import settings_from_args
+    from app.api.server import serve
+    from app.live.settings import settings_from_args
     from contactnet.terrain import resolve
 
     resolve(args.terrain)  # a bad terrain is a one-line user error before anything starts
@@ -241,7 +241,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 def _check_engine(args: argparse.Namespace) -> None:
     """``--engine`` / ``--address`` fail now, in one line (e.g. Ray not installed), before any work."""
-    from contactnet.jobs import check_engine
+    from contactnet.jobs.runner import check_engine
 
     try:
         check_engine(args.engine, args.address)
@@ -250,7 +250,7 @@ def _check_engine(args: argparse.Namespace) -> None:
 
 
 def cmd_datagen(args: argparse.Namespace) -> int:
-    from contactnet.datagen import DatagenConfig, generate
+    from contactnet.jobs.datagen import DatagenConfig, generate
 
     _check_engine(args)
     config = DatagenConfig(gait=args.gait, robot=args.robot, episodes=args.episodes, seed=args.seed,
@@ -273,7 +273,7 @@ def cmd_datagen(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from contactnet.train import train_command
+    from contactnet.jobs.train import train_command
 
     return train_command(
         args.gait, args.data, args.out, robot=args.robot, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
@@ -283,11 +283,11 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_experiment(args: argparse.Namespace) -> int:
-    from contactnet.experiment import DEFAULT_HEIGHT_M, format_summary, run_experiment, trials_of
+    from contactnet.jobs.experiment import DEFAULT_HEIGHT_M, format_summary, run_experiment, trials_of
 
     _check_engine(args)
     if args.name == "paper":
-        from contactnet.paper.run import paper_command
+        from contactnet.jobs.paper.run import paper_command
 
         return paper_command(args)
     if args.scale is not None or args.report_only:
@@ -317,7 +317,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from contactnet.paper.run import report_command
+    from contactnet.jobs.paper.run import report_command
 
     return report_command(Path(args.dir))
 
@@ -325,11 +325,11 @@ def cmd_report(args: argparse.Namespace) -> int:
 # ---- parser ------------------------------------------------------------------------------------
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean the capture step into it "
-                 "(contactnet.disturbance; off by default)")
+                 "(contactnet.planning.observer; off by default)")
 
 
 def _engine_arguments(parser: argparse.ArgumentParser) -> None:
-    from contactnet.jobs import ENGINES
+    from contactnet.jobs.runner import ENGINES
 
     parser.add_argument("--engine", choices=ENGINES, default="local",
                         help="local: a process pool on this machine (default); ray: Ray tasks (pip install "

@@ -11,8 +11,8 @@ optimizer from the measured state every 2 nodes (80 ms), keeping the contact pla
 milliseconds, and pushes do far less harm.
 
 Terrain with heights (tops at several heights): the optimizer's CoM height and pitch references follow
-the tops under the feet node by node (``contactnet.ground``), swings clear the tops on their way
-(``contactnet.swing``) and touchdown adapts to the contact sensed (``_adapt_to_contact``). A terrain whose
+the tops under the feet node by node (``contactnet.motion.ground``), swings clear the tops on their way
+(``contactnet.motion.swing``) and touchdown adapts to the contact sensed (``_adapt_to_contact``). A terrain whose
 tops are all at one height takes exactly the flat-ground path.
 """
 
@@ -25,19 +25,12 @@ from typing import Any
 
 import numpy as np
 
-from contactnet.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
-from contactnet.disturbance import DisturbanceObserver, ObserverConfig
 from contactnet.frames import rotate_xy
-from contactnet.gait import GaitSpec
-from contactnet.ground import body_pitch, front_to_hind_m
-from contactnet.planner import PlannedStep, Planner, PlanningContext
-from contactnet.records import StepRecord, summary_stats
-from contactnet.retarget import RetargetConfig, retarget
-from contactnet.robots.description import Robot
-from contactnet.sim import Push, SimConfig, SimState, Simulator
-from contactnet.swing import swing_over_terrain
-from contactnet.terrain import Terrain
-from contactnet.trajopt import (
+from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
+from contactnet.motion.gait import GaitSpec
+from contactnet.motion.ground import body_pitch, front_to_hind_m
+from contactnet.motion.swing import swing_over_terrain
+from contactnet.motion.trajopt import (
     SrbdModel,
     TrajectoryOptimizer,
     TrajoptConfig,
@@ -46,6 +39,13 @@ from contactnet.trajopt import (
     TrajoptWeights,
     reference_forces,
 )
+from contactnet.planning.observer import DisturbanceObserver, ObserverConfig
+from contactnet.planning.planner import PlannedStep, Planner, PlanningContext
+from contactnet.planning.retarget import RetargetConfig, retarget
+from contactnet.records import StepRecord, summary_stats
+from contactnet.robots.description import Robot
+from contactnet.sim.pybullet_world import Push, SimConfig, SimState, Simulator
+from contactnet.terrain import Terrain
 
 
 @dataclass(frozen=True)
@@ -56,7 +56,7 @@ class LocomotionConfig:
     # Re-solve the optimizer from the measured state every this many nodes between plans (2: every
     # 80 ms, 12.5 Hz); 0: only after each touchdown, as in the paper.
     reoptimize_every_nodes: int = 2
-    # At those re-solves a swing may get a new landing (contactnet.retarget); None: never, as in the paper (the
+    # At those re-solves a swing may get a new landing (contactnet.planning.retarget); None: never, as in the paper (the
     # default until retargeting is shown to help: issue 14).
     retarget: RetargetConfig | None = None
     fall_check_every_ticks: int = 10
@@ -67,7 +67,7 @@ class LocomotionConfig:
     trajopt: TrajoptConfig = TrajoptConfig()
     trajopt_weights: TrajoptWeights = TrajoptWeights()
     # Terrain with heights (tops at several heights; a single-height terrain takes the flat-ground path):
-    # swings pass this far above the tops they travel over (contactnet.swing) ...
+    # swings pass this far above the tops they travel over (contactnet.motion.swing) ...
     swing_clearance_m: float = 0.015
     # ... and touchdown adapts to the contact sensed: a swinging foot that touches down in the last quarter
     # of its swing near its landing point becomes a stance foot; one that has not touched at the planned
@@ -80,7 +80,7 @@ class LocomotionConfig:
     early_touchdown_radius_m: float = 0.03
     # None: adapt touchdown only on terrain with heights; True / False: always / never.
     adapt_touchdown: bool | None = None
-    # A push estimated from the body's momentum, cancelled and leaned into (contactnet.disturbance: DEFAULT_OBSERVER);
+    # A push estimated from the body's momentum, cancelled and leaned into (contactnet.planning.observer: DEFAULT_OBSERVER);
     # None: off, the default until the paper's evaluation is run with it (it also acts on stumbles over holes).
     observer: ObserverConfig | None = None
 
@@ -119,7 +119,7 @@ class _Plan:
     foot_pos: np.ndarray  # (N, 4, 3) contact points from plan_t0_s
     solution: TrajoptSolution | None
     swings: dict[int, SwingTrajectory] = field(default_factory=dict)
-    tops_z: np.ndarray | None = None  # (N, 4) the top under each foot at each node (contactnet.ground)
+    tops_z: np.ndarray | None = None  # (N, 4) the top under each foot at each node (contactnet.motion.ground)
     touched: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))  # swung legs that touched down
 
 
@@ -365,7 +365,7 @@ class Locomotion:
         self._optimize(state, plan, fallback=previous)
 
     def _retarget(self, state: SimState, plan: _Plan) -> None:
-        """Give the swinging legs a new landing if the measured state calls for one (``contactnet.retarget``):
+        """Give the swinging legs a new landing if the measured state calls for one (``contactnet.planning.retarget``):
         the swings, the first step and its footholds in the plan until those legs' next planned step."""
         new = retarget(self.planner, self._context(state), plan.steps[0], plan.swings, self.sim.t_s,
                        self.foot_radius_m, self.config.retarget)
@@ -409,7 +409,7 @@ class Locomotion:
         remaining = len(plan.contact) - offset
         contact[:remaining] = plan.contact[offset:]
         foot_pos[:remaining] = plan.foot_pos[offset:]
-        # The CoM height and pitch references follow the tops under the feet (contactnet.ground), node by node.
+        # The CoM height and pitch references follow the tops under the feet (contactnet.motion.ground), node by node.
         tops = np.repeat(plan.tops_z[-1][None], n + 1, axis=0)
         tops[:remaining] = plan.tops_z[offset:]
         com, vcom, _, _ = self.controller.kinematics(state.q_pinocchio(), state.v_pinocchio())
@@ -561,7 +561,7 @@ class Locomotion:
         ``steps`` counts the steps that swung legs; ``stand_steps`` the step horizons the planner chose to stand;
         ``useless_steps`` the steps whose feet landed less than ``USELESS_STEP_M`` from where they lifted off;
         ``capture_steps`` the steps whose candidates moved towards the capture point after a push
-        (``contactnet.capture``)."""
+        (``contactnet.planning.capture``)."""
         ranks = [r.rank for r in self.records if r.rank is not None]
         sim_time = float(self.sim.t_s)
         displacement = self._state.base_pos_world[:2] - self.start_xy

@@ -28,7 +28,7 @@ class StepRecord:
     # How far (m, horizontally) the swinging feet moved from lift-off, the most of them, measured at the next plan
     # (NaN until then; 0 for standing).
     moved_m: float = math.nan
-    # The planner shifted this step's candidates towards the capture point after a push (contactnet.capture).
+    # The planner shifted this step's candidates towards the capture point after a push (contactnet.planning.capture).
     captured: bool = False
 
     @property

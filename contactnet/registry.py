@@ -7,7 +7,7 @@ offered everywhere::
     from contactnet import registry
     registry.register_planner("my_planner", lambda gait, robot, model: MyPlanner(gait, robot))
 
-The tables of gaits (``contactnet.gait``) and robots (``contactnet.robots``) live beside their
+The tables of gaits (``contactnet.motion.gait``) and robots (``contactnet.robots``) live beside their
 definitions and are re-exported here. Built in: gaits ``walk`` and ``trot``; planners ``contactnet``, ``fixed``, ``heuristic``, ``oracle``;
 robots ``solo12`` and ``go2`` (``contactnet.robots``). Trained models ship as
 ``contactnet/models/{gait}.pt`` for Solo12 and ``{robot}_{gait}.pt`` for other robots.
@@ -20,9 +20,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from contactnet.gait import GaitSpec, gait_by_name, gait_names, register_gait
-from contactnet.oracle import OraclePlanner
-from contactnet.planner import (
+from contactnet.motion.gait import GaitSpec, gait_by_name, gait_names, register_gait
+from contactnet.planning.oracle import OraclePlanner
+from contactnet.planning.planner import (
     ContactNetPlanner,
     FixedGaitPlanner,
     HeuristicPlanner,
@@ -78,14 +78,14 @@ def make_planner(name: str, gait: GaitSpec, robot: Robot | RobotDescription | No
                  model: str | Path | None = None) -> Planner:
     """The planner called ``name`` for ``gait`` and ``robot`` (default Solo12). Planners that rank with the
     network load ``model`` (default: the shipped ``model_path(robot, gait)``); a missing, broken or foreign
-    model file raises ``contactnet.network.ModelFileError``."""
+    model file raises ``contactnet.planning.network.ModelFileError``."""
     entry = planner_entry(name)
     if robot is None:
         robot = load_robot(DEFAULT_ROBOT)
     description = robot.description if isinstance(robot, Robot) else robot
     loaded = None
     if entry.needs_model:
-        from contactnet.network import load_model
+        from contactnet.planning.network import load_model
 
         path = model_path(description.name, gait.name) if model is None else Path(model)
         loaded = load_model(path, expect_gait=gait.name, expect_robot=description.name, dtype="float32")

@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 
 from contactnet import Locomotion, registry, resolve_terrain
-from contactnet.planner import ContactNetPlanner, PlannedStep, PlanningContext
+from contactnet.planning.planner import ContactNetPlanner, PlannedStep, PlanningContext
 
 
 class CautiousPlanner:

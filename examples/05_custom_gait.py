@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 
 from contactnet import Locomotion, registry, resolve_terrain
-from contactnet.cost_weights import TROT_WEIGHTS
-from contactnet.gait import FL, FR, HL, HR, GaitSpec
+from contactnet.motion.cost_weights import TROT_WEIGHTS
+from contactnet.motion.gait import FL, FR, HL, HR, GaitSpec
 
 PACE = registry.register_gait(GaitSpec(
     name="pace",

@@ -1,5 +1,6 @@
 """Shared fixtures: one Solo12 model per test session (loading it takes a few ms, but keep it one), and one folder of
-random-weight walk/trot models for the tests that must not depend on the shipped ones."""
+random-weight walk/trot models for the tests that must not depend on the shipped ones. Also: every test that drives a
+browser is marked ``browser``, and the run ends with a warning naming modules over the 600-line cap."""
 
 from __future__ import annotations
 
@@ -21,3 +22,21 @@ def random_models(tmp_path_factory):
     folder = tmp_path_factory.mktemp("models")
     save_random_models(folder)
     return folder
+
+
+def pytest_collection_modifyitems(items) -> None:  # noqa: ANN001 - pytest's hook
+    """Mark ``browser`` every test that drives Debian's chromium (its module's marks, or a ``browser`` fixture),
+    so ``pytest -m "not browser"`` runs everything else."""
+    for item in items:
+        if "browser" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.browser)
+
+
+def pytest_terminal_summary(terminalreporter) -> None:  # noqa: ANN001 - pytest's hook
+    """The line cap is a warning, not a goal: split a long module by concern when it says one grew."""
+    from test_architecture import MAX_LINES, long_modules
+
+    long = long_modules()
+    if long:
+        terminalreporter.write_line(f"warning: modules over {MAX_LINES} lines (split by concern): " + ", ".join(long),
+                                    yellow=True)

@@ -38,7 +38,7 @@ def save_random_models(folder, stand: bool = False) -> None:
     import torch
 
     from contactnet import registry
-    from contactnet.network import ContactNet, Normalizer, save_model
+    from contactnet.planning.network import ContactNet, Normalizer, save_model
 
     rng = np.random.default_rng(0)
     u = rng.normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
@@ -65,17 +65,18 @@ ARTIFACTS = _artifacts()
 
 
 def browser_marks() -> list:
-    """The marks of a browser test module: slow, app, and skipped without Debian's chromium."""
+    """The marks of a browser test module: slow, app, browser, and skipped without Debian's chromium."""
     import shutil
     from pathlib import Path
 
     import pytest
 
-    from app.headless import CHROMIUM
+    from app.bench.headless import CHROMIUM
 
     return [
         pytest.mark.slow,
         pytest.mark.app,
+        pytest.mark.browser,
         pytest.mark.skipif(
             shutil.which(CHROMIUM) is None and not Path(CHROMIUM).exists(),
             reason="needs Debian chromium (apt-get install -y chromium)",
@@ -89,7 +90,7 @@ def chromium():
 
     from playwright.sync_api import sync_playwright
 
-    from app.headless import CHROMIUM, LAUNCH_ARGS
+    from app.bench.headless import CHROMIUM, LAUNCH_ARGS
 
     @contextmanager
     def launched():
@@ -114,16 +115,16 @@ def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
 
 def viser_client(app):  # noqa: ANN001, ANN201
     """The first viser client connected to ``app``'s 3D view (waits for one)."""
-    return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]
+    return wait_for(lambda: list(app.viewer.live_viewer.server.get_clients().values()), what="the viser client")[0]
 
 
 def live_app(tmp_path_factory, stand_models: bool = False, **settings):  # noqa: ANN001, ANN201
     """A ContactnetApp (the live session and its 3D view on a free loopback port) with shipped-format random
     models (``stand_models``: that can choose to stand) and its own recordings folder; ``settings`` are
     ServeSettings fields. Close it when done."""
-    from app.recordings import free_port
-    from app.server import ContactnetApp
-    from app.settings import ServeSettings
+    from app.api.server import ContactnetApp
+    from app.live.settings import ServeSettings
+    from app.recordings.recorder import free_port
 
     models = tmp_path_factory.mktemp("models")
     save_random_models(models, stand=stand_models)
@@ -134,8 +135,8 @@ def live_app(tmp_path_factory, stand_models: bool = False, **settings):  # noqa:
 @contextlib.contextmanager
 def served(app):  # noqa: ANN001, ANN201
     """``app``'s HTTP API served on a free loopback port while in the block; yields the port."""
-    from app.recordings import free_port
-    from app.server import BackgroundServer
+    from app.api.server import BackgroundServer
+    from app.recordings.recorder import free_port
 
     port = free_port()
     web = BackgroundServer(app.api, "127.0.0.1", port)

@@ -1,4 +1,4 @@
-"""The REST API (app/server.py) against a real live session and viser server (no browser)."""
+"""The REST API (app/api/server.py) against a real live session and viser server (no browser)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ import pytest
 from fastapi.testclient import TestClient
 from helpers import wait_for
 
-from app.recordings import free_port
-from app.server import ContactnetApp
-from app.settings import ServeSettings
+from app.api.server import ContactnetApp
+from app.live.settings import ServeSettings
+from app.recordings.recorder import free_port
 from contactnet import registry
 from contactnet.terrain import Terrain, terrains_dir
 
@@ -25,7 +25,7 @@ def save_random_model(path, gait: str) -> None:
     import numpy as np
     import torch
 
-    from contactnet.network import ContactNet, Normalizer, save_model
+    from contactnet.planning.network import ContactNet, Normalizer, save_model
 
     torch.manual_seed(0)
     u = np.random.default_rng(0).normal(size=(64, 14)) * 0.1 + np.r_[np.zeros(8), 0.22, np.zeros(5)]
@@ -330,14 +330,14 @@ def test_clicks_in_the_3d_view_edit_the_terrain(client, app):
     """The editor's click path without a browser: a ray from above hits the plane z = surface_z."""
     from types import SimpleNamespace
 
-    from app import editor
-    from app.panels.terrain_editor import ray_to_plane
+    from app.live import editor
+    from app.viewer.panels.terrain_editor import ray_to_plane
 
     assert ray_to_plane((0.3, 0.1, 1.0), (0.0, 0.0, -1.0), 0.0) == pytest.approx((0.3, 0.1))
     assert ray_to_plane((0.3, 0.1, 1.0), (0.0, 0.0, 1.0), 0.0) is None  # looking up
     assert ray_to_plane((0.3, 0.1, 1.0), (1.0, 0.0, 0.0), 0.0) is None  # parallel
     client.post("/api/session/terrain", json={"name": "stepping_stones"})
-    panel = app.viewer.panel.editor
+    panel = app.viewer.live_viewer.panel.editor
     before = Terrain.from_dict(app.terrains.current).steppable.area
     version = app.session.view.terrain_version
 

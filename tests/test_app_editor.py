@@ -1,4 +1,4 @@
-"""The terrain editor's app side (app/editor.py): terrain files in a folder and uploads.
+"""The terrain editor's app side (app/live/editor.py): terrain files in a folder and uploads.
 
 The pure edit operations it re-exports are tested in test_terrain_edits.py.
 """
@@ -9,8 +9,8 @@ import json
 
 import pytest
 
-from app import editor
-from app.editor import EditError, ShippedTerrainError, TerrainStore
+from app.live import editor
+from app.live.editor import EditError, ShippedTerrainError, TerrainStore
 from contactnet.terrain import Terrain, edits, stepping_stones
 
 pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
@@ -26,7 +26,7 @@ def area(data: dict) -> float:
 
 
 def test_the_app_re_exports_the_pure_edits():
-    """app/editing.py, app/gui.py and app/server.py use these through app.editor."""
+    """app/live/editing.py, app/viewer/gui.py and app/api/server.py use these through app.live.editor."""
     for name in edits.__all__:
         assert getattr(editor, name) is getattr(edits, name), name
 
@@ -78,8 +78,8 @@ def test_good_upload(stones):
 
 def test_the_service_says_what_a_save_would_replace(tmp_path, stones):
     """The editor asks before a save that replaces something: the user's own file, or a shipped name."""
-    from app.editing import TerrainService
-    from app.terrain_files import TerrainLibrary
+    from app.live.editing import TerrainService
+    from app.live.terrain_files import TerrainLibrary
 
     library = TerrainLibrary(tmp_path / "user", shipped_dir=tmp_path / "shipped")
     TerrainStore(tmp_path / "shipped").save(stones, "stepping_stones")

@@ -1,13 +1,13 @@
 """The web tool on terrain with heights, without a browser: a click ray lands on the top the user sees
-(app/terrain_pick.py), and the CoM lines and the goal line are drawn above the tops (app/scene.py)."""
+(app/scene/terrain_pick.py), and the CoM lines and the goal line are drawn above the tops (app/scene/live_scene.py)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from app.scene import _on_ground, goal_line_z
-from app.terrain_pick import ray_hit_xy, ray_to_plane
+from app.scene.live_scene import _on_ground, goal_line_z
+from app.scene.terrain_pick import ray_hit_xy, ray_to_plane
 from contactnet.terrain import Terrain, flat, raised_stones, stairs, stepping_stones
 
 pytestmark = pytest.mark.app

@@ -1,4 +1,4 @@
-"""The live session (app/live.py) without any web layer, the serve settings, the scene's fast robot
+"""The live session (app/live/session.py) without any web layer, the serve settings, the scene's fast robot
 posing, and the recorder driven from a plain loop."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from app.commands import (
+from app.live.commands import (
     ApplyPush,
     NudgeVelocity,
     Reset,
@@ -20,10 +20,10 @@ from app.commands import (
     SetTerrain,
     SetVelocity,
 )
-from app.live import LiveSession
-from app.planners import default_planner_factory
-from app.settings import ServeSettings
-from app.view import ViewTracker, gait_chart
+from app.live.planners import default_planner_factory
+from app.live.session import LiveSession
+from app.live.settings import ServeSettings
+from app.live.view import ViewTracker, gait_chart
 from contactnet import registry
 from contactnet.terrain import flat, stepping_stones
 
@@ -117,7 +117,7 @@ def test_missing_model_falls_back_to_heuristic(session):
 
 
 def test_broken_model_falls_back_with_the_reason(tmp_path):
-    from contactnet.gait import WALK
+    from contactnet.motion.gait import WALK
 
     (tmp_path / "walk.pt").write_bytes(b"not a model")
     planner, active, note = default_planner_factory("contactnet", WALK, model_dir=tmp_path)
@@ -127,7 +127,7 @@ def test_broken_model_falls_back_with_the_reason(tmp_path):
 
 def test_shipped_model_is_the_default(monkeypatch, random_models):
     """Without a model folder the factory loads contactnet/models/{gait}.pt."""
-    from contactnet.gait import WALK
+    from contactnet.motion.gait import WALK
 
     monkeypatch.setattr(registry, "MODELS_DIR", random_models)
     planner, active, note = default_planner_factory("contactnet", WALK)
@@ -164,8 +164,8 @@ def test_contactnet_session_shows_the_ranking(random_models, tmp_path):
     finally:
         live.stop()
     # drawn: one disk per candidate at its place, coloured and sized as disk_style says
-    from app.recordings import quiet_viser_server, stop_quietly
-    from app.scene import HIDDEN_POS, LiveScene, disk_style
+    from app.recordings.recorder import quiet_viser_server, stop_quietly
+    from app.scene.live_scene import HIDDEN_POS, LiveScene, disk_style
     from contactnet.robots import load_robot
 
     server = quiet_viser_server()
@@ -183,7 +183,7 @@ def test_contactnet_session_shows_the_ranking(random_models, tmp_path):
 
 
 def test_disk_colours_follow_the_ranking():
-    from app.scene import BEST_COLOR, CHOSEN_COLOR, UNSAFE_COLOR, WORST_COLOR, disk_style
+    from app.scene.live_scene import BEST_COLOR, CHOSEN_COLOR, UNSAFE_COLOR, WORST_COLOR, disk_style
 
     rank = np.array([5, 0, 1, 9, 2, 40, 3])
     safe = np.array([True, False, True, True, True, True, False])
@@ -244,8 +244,8 @@ def test_gait_chart_is_a_step_shape(session):
 
 
 def test_candidates_of_the_swinging_leg(robot):
-    from contactnet.gait import WALK
     from contactnet.locomotion import Locomotion
+    from contactnet.motion.gait import WALK
 
     terrain = stepping_stones()
     planner = registry.make_planner("heuristic", WALK, robot)
@@ -271,8 +271,8 @@ def test_fast_robot_pose_matches_yourdfpy(robot_name, collada, tmp_path, monkeyp
     (no pycollada), its collision meshes are shown instead."""
     import trimesh
 
-    from app.recordings import quiet_viser_server, stop_quietly
-    from app.robot_display import ROBOT_MESH_CELL_M, ROBOT_TRIANGLE_BUDGET, RobotDisplay
+    from app.recordings.recorder import quiet_viser_server, stop_quietly
+    from app.scene.robot_display import ROBOT_MESH_CELL_M, ROBOT_TRIANGLE_BUDGET, RobotDisplay
     from contactnet.robots import load_robot
 
     if not collada:
@@ -303,11 +303,11 @@ def test_fast_robot_pose_matches_yourdfpy(robot_name, collada, tmp_path, monkeyp
 
 
 def test_recorder_from_a_plain_loop(robot, tmp_path):
-    from app.recordings import SceneRecorder, view_of, viser_html
-    from contactnet.gait import WALK
+    from app.recordings.recorder import SceneRecorder, view_of, viser_html
     from contactnet.locomotion import Locomotion
-    from contactnet.planner import HeuristicPlanner
-    from contactnet.sim import Push
+    from contactnet.motion.gait import WALK
+    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.sim.pybullet_world import Push
 
     terrain = flat()
     with (
@@ -329,7 +329,7 @@ def test_recorder_from_a_plain_loop(robot, tmp_path):
 
 
 def test_arrow_segments_have_a_shaft_and_a_symmetric_head():
-    from app.scene import arrow_segments
+    from app.scene.live_scene import arrow_segments
 
     tails = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
     tips = np.array([[0.0, 0.0, 1.0], [1.0, 2.0, 0.0], [0.0, 2.0, 0.0]])  # vertical, horizontal, zero
@@ -346,8 +346,8 @@ def test_arrow_segments_have_a_shaft_and_a_symmetric_head():
 def test_the_session_owns_the_terrain_and_its_history(tmp_path):
     """Loads, edits, undos and renames are session commands: every published view's terrain, terrain
     dict, undo state and label belong together (the terrain service keeps no copy)."""
-    from app import editor
-    from app.commands import EditTerrain, RenameTerrain, UndoTerrainEdit
+    from app.live import editor
+    from app.live.commands import EditTerrain, RenameTerrain, UndoTerrainEdit
     from contactnet.terrain import Terrain
 
     published = []

@@ -11,11 +11,11 @@ import pytest
 from fastapi.testclient import TestClient
 from helpers import wait_for
 
-from app.recording_meta import MetaCollector, RecordingMeta, read_meta, sidecar_path, write_meta
-from app.recording_store import RecordingStore
-from app.recordings import free_port, read_recording
-from app.server import ContactnetApp
-from app.settings import ServeSettings
+from app.api.server import ContactnetApp
+from app.live.settings import ServeSettings
+from app.recordings.meta import MetaCollector, RecordingMeta, read_meta, sidecar_path, write_meta
+from app.recordings.recorder import free_port, read_recording
+from app.recordings.store import RecordingStore
 
 pytestmark = pytest.mark.app
 
@@ -140,9 +140,9 @@ def client(app):
 
 @pytest.fixture
 def folder(app):
-    for path in app.recordings.directory.iterdir():
+    for path in app.recordings.recorder.directory.iterdir():
         path.unlink()
-    return app.recordings.directory
+    return app.recordings.recorder.directory
 
 
 def record(client, app, title: str = "", label: str = "api", seconds: float = 1.0) -> dict:
@@ -279,11 +279,11 @@ def test_a_run_that_ends_between_two_frames_ends_the_recording():
     result."""
     from dataclasses import replace
 
-    from app.recordings import SceneRecorder, view_of
-    from app.view import ViewTracker
-    from contactnet.gait import WALK
+    from app.live.view import ViewTracker
+    from app.recordings.recorder import SceneRecorder, view_of
     from contactnet.locomotion import Locomotion
-    from contactnet.planner import HeuristicPlanner
+    from contactnet.motion.gait import WALK
+    from contactnet.planning.planner import HeuristicPlanner
     from contactnet.robots import load_robot
     from contactnet.terrain import resolve
 

@@ -15,9 +15,9 @@ pytestmark = browser_marks()
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
-    from app.recordings import free_port
-    from app.server import ContactnetApp
-    from app.settings import ServeSettings
+    from app.api.server import ContactnetApp
+    from app.live.settings import ServeSettings
+    from app.recordings.recorder import free_port
     from contactnet.cli import main
 
     folder = tmp_path_factory.mktemp("recordings")
@@ -82,7 +82,7 @@ def test_the_list_shows_what_each_recording_is(live, page):
 
 def test_rename_sets_the_title_and_the_file_name(live, page):
     app, _ = live
-    folder = app.recordings.directory
+    folder = app.recordings.recorder.directory
     item(page, "cli-run.viser").get_by_role("button", name="Rename").dispatch_event("click")
     page.locator(".rec-edit input[name=title]").fill("My first run")
     page.locator(".rec-edit input[name=name]").fill("first-run")
@@ -102,7 +102,7 @@ def test_rename_sets_the_title_and_the_file_name(live, page):
 
 def test_delete_asks_first(live, page):
     app, _ = live
-    folder = app.recordings.directory
+    folder = app.recordings.recorder.directory
     asked = []
 
     def answer(accept: bool):

@@ -1,5 +1,5 @@
 """The live session's runs: waiting for the first viewer, the count-down, the end of a run and the loop,
-notices, terrain edits with and without a restart, and compare mode (app/live.py, app/compare.py)."""
+notices, terrain edits with and without a restart, and compare mode (app/live/session.py, app/live/compare.py)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from functools import partial
 
 import pytest
 
-from app import editor
-from app.commands import (
+from app.live import editor
+from app.live.commands import (
     ApplyPush,
     CommandConflict,
     EditTerrain,
@@ -24,11 +24,11 @@ from app.commands import (
     UndoTerrainEdit,
     ViewerConnected,
 )
-from app.live import LiveSession
-from app.panels.status import run_markdown
-from app.planners import default_planner_factory
-from app.settings import ServeSettings
-from app.view import status_line
+from app.live.planners import default_planner_factory
+from app.live.session import LiveSession
+from app.live.settings import ServeSettings
+from app.live.view import status_line
+from app.viewer.panels.status import run_markdown
 from contactnet.terrain import Terrain, flat
 
 pytestmark = pytest.mark.app

@@ -12,11 +12,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from app.camera import CameraControl, top_down_pose
-from app.panels.legend import legend_html
-from app.panels.notices import NoticeToasts, toast_text
-from app.panels.plots import PlotHistory, steps_shape
-from app.scene import (
+from app.live.step_events import StepCounts
+from app.live.view import CandidateView, Notice
+from app.scene.camera import CameraControl, top_down_pose
+from app.scene.live_scene import (
     BEST_COLOR,
     RANK_FADE,
     UNSAFE_COLOR,
@@ -27,8 +26,9 @@ from app.scene import (
     safe_positions,
     shown_rank_color,
 )
-from app.step_events import StepCounts
-from app.view import CandidateView, Notice
+from app.viewer.panels.legend import legend_html
+from app.viewer.panels.notices import NoticeToasts, toast_text
+from app.viewer.panels.plots import PlotHistory, steps_shape
 
 pytestmark = pytest.mark.app
 

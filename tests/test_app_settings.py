@@ -1,4 +1,4 @@
-"""The serve settings (app/settings.py): one place for the web tool's start-up values and limits."""
+"""The serve settings (app/live/settings.py): one place for the web tool's start-up values and limits."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from app.settings import (
+from app.live.settings import (
     PUSH_DURATION_LIMIT_S,
     PUSH_FORCE_LIMIT_N,
     SIM_SPEED_RANGE,

@@ -1,5 +1,5 @@
-"""Stand steps and swing retargets in the web tool (issue 14): what the views carry (`app/step_events.py`,
-`app/view.py`), how the 3D view marks them (`app/scene_marks.py`), the panel's words, and the retarget setting
+"""Stand steps and swing retargets in the web tool (issue 14): what the views carry (`app/live/step_events.py`,
+`app/live/view.py`), how the 3D view marks them (`app/scene/marks.py`), the panel's words, and the retarget setting
 of the live session. Real Locomotion runs (PyBullet), no browser (tests/test_app_marks_browser.py has one)."""
 
 from __future__ import annotations
@@ -11,20 +11,20 @@ import numpy as np
 import pytest
 from helpers import save_random_models, wait_for
 
-from app.commands import ApplyPush, Reset, SetPaused, SetPlanner, SetRetarget, SetVelocity
-from app.live import LiveSession
-from app.panels.status import details_markdown, status_markdown
-from app.planners import default_planner_factory
-from app.recordings import quiet_viser_server, stop_quietly, view_of
-from app.scene import LiveScene
-from app.scene_marks import HIDDEN_POS, PULSE_GROWTH, PULSES, RETARGET_COLOR, flash_style
-from app.settings import ServeSettings
-from app.step_events import FLASH_S, RetargetFlash, StepCounts, StepEvents, loco_config, use_retarget
-from app.view import STANDING, ViewTracker, is_stand, stand_chart, status_line
+from app.live.commands import ApplyPush, Reset, SetPaused, SetPlanner, SetRetarget, SetVelocity
+from app.live.planners import default_planner_factory
+from app.live.session import LiveSession
+from app.live.settings import ServeSettings
+from app.live.step_events import FLASH_S, RetargetFlash, StepCounts, StepEvents, loco_config, use_retarget
+from app.live.view import STANDING, ViewTracker, is_stand, stand_chart, status_line
+from app.recordings.recorder import quiet_viser_server, stop_quietly, view_of
+from app.scene.live_scene import LiveScene
+from app.scene.marks import HIDDEN_POS, PULSE_GROWTH, PULSES, RETARGET_COLOR, flash_style
+from app.viewer.panels.status import details_markdown, status_markdown
 from contactnet import registry
 from contactnet.locomotion import Locomotion
-from contactnet.retarget import RetargetedSwing
-from contactnet.sim import SimConfig
+from contactnet.planning.retarget import RetargetedSwing
+from contactnet.sim.pybullet_world import SimConfig
 from contactnet.terrain import flat
 
 pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these

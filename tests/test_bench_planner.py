@@ -7,8 +7,8 @@ import numpy as np
 
 from contactnet.bench import format_table
 from contactnet.bench.planner import bench_planner, planning_contexts
-from contactnet.gait import WALK
-from contactnet.ground import support_height
+from contactnet.motion.gait import WALK
+from contactnet.motion.ground import support_height
 from contactnet.terrain import resolve
 
 

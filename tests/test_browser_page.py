@@ -13,7 +13,7 @@ from urllib.parse import parse_qs, urlsplit
 import pytest
 from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
 
-from app.commands import EditTerrain, Reset, SetCompare, SetGait, SetLoop, SetPaused
+from app.live.commands import EditTerrain, Reset, SetCompare, SetGait, SetLoop, SetPaused
 
 pytestmark = browser_marks()
 
@@ -33,14 +33,14 @@ class Tool:
     restart (same address, new session)."""
 
     def __init__(self, settings):
-        from app.recordings import free_port
+        from app.recordings.recorder import free_port
 
         self.settings = settings
         self.port = free_port()
         self.start()
 
     def start(self) -> None:
-        from app.server import BackgroundServer, ContactnetApp
+        from app.api.server import BackgroundServer, ContactnetApp
 
         self.app = ContactnetApp(self.settings)
         try:
@@ -63,8 +63,8 @@ class Tool:
 
 @pytest.fixture(scope="module")
 def tool(tmp_path_factory):
-    from app.recordings import free_port
-    from app.settings import ServeSettings
+    from app.live.settings import ServeSettings
+    from app.recordings.recorder import free_port
 
     models = tmp_path_factory.mktemp("models")
     save_random_models(models)

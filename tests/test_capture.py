@@ -1,4 +1,4 @@
-"""The capture step (contactnet.capture): after a push the first step's candidate grid moves towards the capture
+"""The capture step (contactnet.planning.capture): after a push the first step's candidate grid moves towards the capture
 point; below the threshold the plan is exactly the plan without it."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import pytest
 from helpers import save_random_models
 
 from contactnet.bench.planner import planning_contexts
-from contactnet.capture import CaptureConfig, capture_offset
-from contactnet.gait import TROT, WALK
-from contactnet.planner import ContactNetPlanner
+from contactnet.motion.gait import TROT, WALK
+from contactnet.planning.capture import CaptureConfig, capture_offset
+from contactnet.planning.planner import ContactNetPlanner
 from contactnet.registry import make_planner
 from contactnet.terrain import random_field, random_heights
 
@@ -126,9 +126,9 @@ def test_the_pushed_trot_catches_itself_on_holed_ground(robot):
     along y for 1 s at 11.5 s: the body drifted sideways until the HL thigh touched the ground): it stands, with
     capture steps, and every landing is safe."""
     from contactnet import registry
-    from contactnet.experiment import PUSH_DURATION_S, PUSH_SETTLE_S
+    from contactnet.jobs.experiment import PUSH_DURATION_S, PUSH_SETTLE_S
     from contactnet.locomotion import Locomotion
-    from contactnet.sim import Push, SimConfig
+    from contactnet.sim.pybullet_world import Push, SimConfig
     from contactnet.terrain import resolve
 
     gait = registry.gait_by_name("trot")

@@ -174,7 +174,7 @@ def test_simulate_contactnet_uses_the_shipped_model(gait):
         return
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
-    # every step horizon a step or a stand (a model with the stand choice stands at times: contactnet.stand)
+    # every step horizon a step or a stand (a model with the stand choice stands at times: contactnet.planning.stand)
     assert not report["fell"] and report["steps"] + report["stand_steps"] >= 8 and report["steps"] >= 3
     assert report["unsafe_landings"] == 0
     assert report["reached_x"] > 0.05 and report["planner_ms"]["median"] < 50

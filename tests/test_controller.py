@@ -8,15 +8,15 @@ import dataclasses
 import numpy as np
 import pytest
 
-from contactnet.controller import (
+from contactnet.frames import quat_to_matrix, rotation_rpy
+from contactnet.motion.controller import (
     ControlTarget,
     SwingTrajectory,
     WholeBodyController,
     clip_to_friction_pyramid,
 )
-from contactnet.frames import quat_to_matrix, rotation_rpy
 from contactnet.robots import Robot
-from contactnet.sim import Push, Simulator
+from contactnet.sim.pybullet_world import Push, Simulator
 from contactnet.terrain import flat
 
 

@@ -1,4 +1,4 @@
-"""Tests of the ranking cost (contactnet.cost) and of the OraclePlanner that uses it."""
+"""Tests of the ranking cost (contactnet.planning.cost) and of the OraclePlanner that uses it."""
 
 from __future__ import annotations
 
@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 from shapely.geometry import MultiPoint, Point
 
-from contactnet.cost import (
+from contactnet.frames import rotate_xy, rotation_2d
+from contactnet.motion.cost_weights import TROT_WEIGHTS, WALK_WEIGHTS, CostWeights
+from contactnet.motion.gait import TROT, WALK
+from contactnet.motion.support_polygon import hull_area_centroid, support_distance
+from contactnet.motion.trajopt import TrajectoryOptimizer, TrajoptConfig, TrajoptProblem
+from contactnet.planning.cost import (
     TERM_NAMES,
     CostBreakdown,
     CostState,
@@ -18,16 +23,11 @@ from contactnet.cost import (
     nominal_state,
     predicted_state,
 )
-from contactnet.cost_study import greedy_rollout
-from contactnet.cost_weights import TROT_WEIGHTS, WALK_WEIGHTS, CostWeights
-from contactnet.frames import rotate_xy, rotation_2d
-from contactnet.gait import TROT, WALK
-from contactnet.oracle import OraclePlanner
-from contactnet.planner import PlanningContext
+from contactnet.planning.cost_study import greedy_rollout
+from contactnet.planning.oracle import OraclePlanner
+from contactnet.planning.planner import PlanningContext
 from contactnet.robots import load_robot
-from contactnet.support_polygon import hull_area_centroid, support_distance
 from contactnet.terrain import Terrain, flat
-from contactnet.trajopt import TrajectoryOptimizer, TrajoptConfig, TrajoptProblem
 
 SOLO12 = load_robot("solo12").description
 FOOT_RADIUS_M = SOLO12.foot_radius_m

@@ -17,9 +17,9 @@ import pytest
 from helpers import default_sigint
 
 from contactnet.cli import EXIT_USER_ERROR, main
-from contactnet.datagen import DatagenConfig, DatasetDirError, generate, shard_name
-from contactnet.gait import WALK
-from contactnet.network import INPUT_NAMES, load_model
+from contactnet.jobs.datagen import DatagenConfig, DatasetDirError, generate, shard_name
+from contactnet.motion.gait import WALK
+from contactnet.planning.network import INPUT_NAMES, load_model
 from contactnet.registry import make_planner
 
 pytestmark = pytest.mark.slow  # real episodes in PyBullet with the oracle: seconds each

@@ -1,4 +1,4 @@
-"""The disturbance observer (contactnet.disturbance): it estimates a push from the CoM momentum, the controller
+"""The disturbance observer (contactnet.planning.observer): it estimates a push from the CoM momentum, the controller
 cancels it and the capture step leans into it; below its threshold nothing changes."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from contactnet.capture import CaptureConfig, capture_offset
-from contactnet.controller import WholeBodyController
-from contactnet.disturbance import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
-from contactnet.gait import WALK
 from contactnet.locomotion import Locomotion, LocomotionConfig
-from contactnet.planner import HeuristicPlanner
+from contactnet.motion.controller import WholeBodyController
+from contactnet.motion.gait import WALK
+from contactnet.planning.capture import CaptureConfig, capture_offset
+from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
+from contactnet.planning.planner import HeuristicPlanner
 from contactnet.terrain import flat
 
 
@@ -55,7 +55,7 @@ def test_below_its_threshold_the_estimate_is_not_used():
 
 
 def test_the_observer_is_off_by_default_and_its_trials_are_named(tmp_path):
-    from contactnet.experiment import trial_inputs, trials_of
+    from contactnet.jobs.experiment import trial_inputs, trials_of
 
     assert LocomotionConfig().observer is None
     plain, observed = trials_of("push", 1, ("walk",), ("contactnet",)), trials_of("push", 1, ("walk",), ("contactnet",),
@@ -118,7 +118,7 @@ def test_the_walk_withstands_a_sideways_push_it_fell_under_before():
     """A push experiment trial (push_field seed 0, +7.5 N along y for 1 s at 4 s) in which the shipped walk tipped
     over its left feet without the observer (roll -0.95 rad at 4.85 s): with it (``experiment push --observer``),
     it walks on."""
-    from contactnet.experiment import Trial, run_trial
+    from contactnet.jobs.experiment import Trial, run_trial
 
     record = run_trial(Trial("push", "push_field", None, 0, "walk", "contactnet", 0.05, 0.0, None, push_t0_s=4.0,
                              push_force_xy=(0.0, 7.5), observer=True))
@@ -130,7 +130,7 @@ def test_the_walk_withstands_a_sideways_push_it_fell_under_before():
 def test_a_summary_tells_observer_rows_apart():
     from test_paper import _record
 
-    from contactnet.experiment import format_summary, summarize
+    from contactnet.jobs.experiment import format_summary, summarize
 
     def trial(observer):
         return {"gait": "walk", "planner": "contactnet", "removed": None, "noise": 0.0, "seed": 0,

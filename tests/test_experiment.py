@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from contactnet.experiment import (
+from contactnet.jobs.experiment import (
     ExperimentError,
     Trial,
     format_summary,
@@ -52,7 +52,7 @@ def test_the_terrains_with_heights_have_their_experiments():
     assert len(fields) == 2 * 20 and {(t.removed, t.height_m) for t in fields} == {(80, 0.04)}
     assert fields[0].key == "random_heights/80/h0.04/seed0/walk/contactnet/noise0"
     # every trial's terrain is the one its seed names, with heights (seed 0 of raised_stones: the shipped file)
-    from contactnet.experiment import _terrain
+    from contactnet.jobs.experiment import _terrain
     from contactnet.terrain import resolve
 
     field = _terrain("random_heights", 80, 3, None, None, 0.04)
@@ -140,7 +140,7 @@ def test_a_real_trial_is_logged_summarized_and_not_rerun(tmp_path):
 
 
 def test_push_trials_cover_forces_directions_and_times():
-    from contactnet.experiment import PUSH_DIRECTIONS, push_times_s
+    from contactnet.jobs.experiment import PUSH_DIRECTIONS, push_times_s
 
     trials = trials_of("push")
     assert len(trials) == 2 * 4 * 10  # walk and trot, +-x and +-y, 10 push times, 5 N

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactnet.gait import TROT, WALK
+from contactnet.motion.gait import TROT, WALK
 from contactnet.registry import gait_by_name
 
 

@@ -1,7 +1,7 @@
 """Issue 13, items 2 and 3 (planning side): footholds and swings on terrain with heights.
 
-The height checks of candidate footholds (``contactnet.footholds``), the swing over the tops on its way
-(``contactnet.swing``), the support height and body pitch (``contactnet.ground``), and the ContactNet
+The height checks of candidate footholds (``contactnet.planning.footholds``), the swing over the tops on its way
+(``contactnet.motion.swing``), the support height and body pitch (``contactnet.motion.ground``), and the ContactNet
 planner using them on the shipped stairs while a flat terrain keeps today's plan."""
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from contactnet.bench.planner import planning_contexts
-from contactnet.controller import SwingTrajectory
-from contactnet.footholds import FootholdChecker, HeightChecks, path_top_z
-from contactnet.gait import TROT, WALK
-from contactnet.ground import PITCH_SHARE, body_pitch, front_to_hind_m, support_height
-from contactnet.planner import ContactNetPlanner, PlanningContext
-from contactnet.swing import STEP_FRACTION, swing_over_terrain
+from contactnet.motion.controller import SwingTrajectory
+from contactnet.motion.gait import TROT, WALK
+from contactnet.motion.ground import PITCH_SHARE, body_pitch, front_to_hind_m, support_height
+from contactnet.motion.swing import STEP_FRACTION, swing_over_terrain
+from contactnet.planning.footholds import FootholdChecker, HeightChecks, path_top_z
+from contactnet.planning.planner import ContactNetPlanner, PlanningContext
 from contactnet.terrain import Terrain, flat, random_field, resolve
 
 FL, FR, HL, HR = range(4)

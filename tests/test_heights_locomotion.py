@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactnet.gait import TROT, WALK
 from contactnet.locomotion import Locomotion
+from contactnet.motion.gait import TROT, WALK
 from contactnet.registry import make_planner
 from contactnet.terrain import resolve
 
@@ -74,7 +74,7 @@ def test_touchdown_adapts_to_early_and_late_contact(robot):
     with Locomotion(robot, resolve("stairs"), gait, make_planner("contactnet", gait, robot),
                     vel_cmd_xy=(0.05, 0.0)) as loco:
         loco.advance(1)  # plans the first step
-        while not loco.plan.swings:  # the walk may stand first (contactnet.stand): on to its first swing
+        while not loco.plan.swings:  # the walk may stand first (contactnet.planning.stand): on to its first swing
             loco.advance(loco.ticks_per_step)
         plan = loco.plan
         (leg, swing), = plan.swings.items()

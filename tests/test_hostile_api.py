@@ -17,9 +17,9 @@ import httpx
 import pytest
 from helpers import served, wait_for
 
-from app.recordings import free_port, read_recording
-from app.server import ContactnetApp
-from app.settings import ServeSettings
+from app.api.server import ContactnetApp
+from app.live.settings import ServeSettings
+from app.recordings.recorder import free_port, read_recording
 from contactnet.terrain import Terrain, terrains_dir
 
 pytestmark = pytest.mark.app
@@ -69,7 +69,7 @@ def one_line(response: httpx.Response) -> str:
 # ---- finding 1: a large upload runs off the event loop, validated once --------------------------------------
 @pytest.mark.slow
 def test_state_keeps_answering_while_a_large_terrain_is_uploaded(live):
-    from app.bench_upload import grid_terrain, state_during_upload
+    from app.bench.upload import grid_terrain, state_during_upload
 
     app, port = live
     body = json.dumps(grid_terrain(500, 500, 20_000)).encode()  # the 232 KB terrain
@@ -245,8 +245,8 @@ def test_viser_accepts_websockets_only_from_the_page(live):
 def test_viser_share_link_is_disabled(app):
     from viser import _messages
 
-    assert app.viewer.server.request_share_url() is None  # no relay contacted
-    buffer = app.viewer.server._websock_server.get_message_buffer()
+    assert app.viewer.live_viewer.server.request_share_url() is None  # no relay contacted
+    buffer = app.viewer.live_viewer.server._websock_server.get_message_buffer()
     themes = [m for m in buffer.message_from_id.values() if isinstance(m, _messages.ThemeConfigurationMessage)]
     assert themes and not themes[-1].show_share_button
 
@@ -255,7 +255,7 @@ def test_beyond_loopback_a_token_is_required():
     from fastapi import FastAPI
     from fastapi.testclient import TestClient
 
-    from app.security import TOKEN_COOKIE, AccessPolicy, RequestGuard, viser_refusal
+    from app.security.guards import TOKEN_COOKIE, AccessPolicy, RequestGuard, viser_refusal
 
     policy = AccessPolicy(ServeSettings(host="0.0.0.0", port=8000))
     assert policy.needs_token and len(policy.token) >= 24
@@ -381,7 +381,7 @@ def test_every_error_is_declared_with_its_model_and_shows_no_path(client, app):
     (app.terrains.store.directory / "broken_file.json").write_text('{"name": "broken_file", "start": [0, 0]')
     schema = client.get("/openapi.json").json()
     components = schema["components"]["schemas"]
-    secret_dirs = {str(app.terrains.store.directory), str(app.recordings.directory), str(REPO), str(Path.home())}
+    secret_dirs = {str(app.terrains.store.directory), str(app.recordings.recorder.directory), str(REPO), str(Path.home())}
     for method, path, body in HOSTILE:
         headers = {"content-type": "application/json"} if body is not None else {}
         response = client.request(method, path, content=body, headers=headers)

@@ -20,17 +20,17 @@ import numpy as np
 import pytest
 import torch
 
-import contactnet.datagen as datagen
-import contactnet.experiment as experiment
+import contactnet.jobs.datagen as datagen
+import contactnet.jobs.experiment as experiment
 from contactnet.cli import EXIT_USER_ERROR, main
-from contactnet.datagen import DatagenConfig, DatasetDirError, generate, shard_name
-from contactnet.experiment import ExperimentError, Trial, run_experiment, trial_inputs
-from contactnet.gait import WALK
-from contactnet.jobs import code_identity, file_sha256
-from contactnet.network import ModelFileError, Normalizer, load_model
-from contactnet.network_torch import ContactNet, save_model
+from contactnet.jobs.datagen import DatagenConfig, DatasetDirError, generate, shard_name
+from contactnet.jobs.experiment import ExperimentError, Trial, run_experiment, trial_inputs
+from contactnet.jobs.runner import code_identity, file_sha256
+from contactnet.jobs.train import DatasetError, load_dataset
+from contactnet.motion.gait import WALK
+from contactnet.planning.network import ModelFileError, Normalizer, load_model
+from contactnet.planning.network_torch import ContactNet, save_model
 from contactnet.registry import model_path
-from contactnet.train import DatasetError, load_dataset
 
 
 # ---- helpers -------------------------------------------------------------------------------------

@@ -1,5 +1,5 @@
 """Issue 11, finding 7 (model files), replayed as a hostile tester did it, and issue 12's torch-free
-loader (``contactnet.model_file``) attacked the same way:
+loader (``contactnet.planning.model_file``) attacked the same way:
 
 - 7a: a 204 KB model file declaring hidden sizes 20000 x 20000 reached 1.96 GB before being refused.
 - 7b: flipped bytes in the weights (3,999 of 16,384 weights changed) loaded silently.
@@ -30,9 +30,16 @@ import pytest
 import torch
 
 from contactnet.cli import EXIT_USER_ERROR, main
-from contactnet.jobs import file_sha256
-from contactnet.network import MAX_HIDDEN_UNITS, ModelFileError, Normalizer, content_hash, load_model, rehash
-from contactnet.network_torch import ContactNet, save_model
+from contactnet.jobs.runner import file_sha256
+from contactnet.planning.network import (
+    MAX_HIDDEN_UNITS,
+    ModelFileError,
+    Normalizer,
+    content_hash,
+    load_model,
+    rehash,
+)
+from contactnet.planning.network_torch import ContactNet, save_model
 from contactnet.registry import model_path
 
 
@@ -87,7 +94,7 @@ def _write_lying_storage_file(source: Path, path: Path, name: str, numel: int) -
 
 _MEASURE = textwrap.dedent("""
     import json, resource, sys
-    from contactnet.network import ModelFileError, load_model
+    from contactnet.planning.network import ModelFileError, load_model
 
     def vm_bytes():
         for line in open("/proc/self/status"):
@@ -197,7 +204,7 @@ class _Call:
 
 
 def test_7c_pickled_code_is_refused_before_anything_runs(tmp_path):
-    """The loader reads model files without torch (contactnet.model_file): an allow-list of globals
+    """The loader reads model files without torch (contactnet.planning.model_file): an allow-list of globals
     (_rebuild_tensor_v2, the storage types, OrderedDict) and of pickle opcodes, checked before unpickling."""
     marker = tmp_path / "ran"
     payload = torch.load(_save_random(tmp_path / "good.pt"), weights_only=True)

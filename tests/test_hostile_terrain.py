@@ -24,10 +24,10 @@ import numpy as np
 import pytest
 import shapely
 
-from app import editor
+from app.live import editor
 from contactnet import cli
 from contactnet.bench.terrain import benchmark_validation, large_grid_dict
-from contactnet.sim import Simulator, standing_torques
+from contactnet.sim.pybullet_world import Simulator, standing_torques
 from contactnet.strict_json import JsonInputError, JsonLimits, loads_strict
 from contactnet.terrain import Terrain, TerrainError, resolve, schema, union, validate_terrain_bytes
 from contactnet.terrain.mesh import split_mesh

@@ -1,4 +1,4 @@
-"""The idle rule (contactnet.stand.IdleConfig): with a zero command and a balanced state a ContactNet planner stands
+"""The idle rule (contactnet.planning.stand.IdleConfig): with a zero command and a balanced state a ContactNet planner stands
 instead of a swing that barely moves its feet, with any model; anything else plans as before."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 
 from contactnet.bench.planner import planning_contexts
-from contactnet.gait import TROT, WALK
 from contactnet.locomotion import Locomotion
-from contactnet.planner import ContactNetPlanner, FixedGaitPlanner
+from contactnet.motion.gait import TROT, WALK
+from contactnet.planning.planner import ContactNetPlanner, FixedGaitPlanner
+from contactnet.planning.stand import DEFAULT_IDLE, IdleConfig, is_idle, useless_swing
 from contactnet.registry import make_planner, model_path
-from contactnet.sim import SimConfig
-from contactnet.stand import DEFAULT_IDLE, IdleConfig, is_idle, useless_swing
+from contactnet.sim.pybullet_world import SimConfig
 from contactnet.terrain import flat, resolve
 
 

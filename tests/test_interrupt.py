@@ -93,8 +93,8 @@ def test_a_ctrl_c_while_casadi_states_the_mpc_problem_is_never_lost(robot):
     """The CI failure: casadi's wrappers call Python (``DM_from_array``) to test arguments and clear what it
     raises, so a Ctrl-C landing there vanished (measured: 7 of 40 random moments in building the optimizer,
     without `sigint_deferred`). Every one of 30 random moments must raise."""
-    from contactnet.gait import WALK
-    from contactnet.trajopt import SrbdModel, TrajectoryOptimizer, TrajoptConfig
+    from contactnet.motion.gait import WALK
+    from contactnet.motion.trajopt import SrbdModel, TrajectoryOptimizer, TrajoptConfig
 
     model = SrbdModel.for_robot(robot.description)
     config = TrajoptConfig(n_nodes=WALK.horizon_nodes, dt_s=WALK.node_dt_s)
@@ -114,9 +114,9 @@ def test_a_ctrl_c_while_casadi_states_the_mpc_problem_is_never_lost(robot):
 
 def test_a_ctrl_c_at_a_random_moment_of_a_walk_is_raised(robot):
     """Simulation, controller (numba), MPC (casadi data, piqp), planner: a Ctrl-C anywhere in the tick loop."""
-    from contactnet.gait import WALK
     from contactnet.locomotion import Locomotion
-    from contactnet.planner import HeuristicPlanner
+    from contactnet.motion.gait import WALK
+    from contactnet.planning.planner import HeuristicPlanner
     from contactnet.terrain import flat
 
     rng = random.Random(1)

@@ -12,7 +12,7 @@ import time
 import pytest
 from helpers import default_sigint
 
-from contactnet.jobs import ENGINES, Job, run_jobs
+from contactnet.jobs.runner import ENGINES, Job, run_jobs
 
 
 def test_in_process_runs_the_missing_jobs_in_order():
@@ -46,7 +46,7 @@ def test_errors_keep_finished_results_and_bad_calls_are_refused():
 
 SCRIPT = """
 import sys, time
-from contactnet.jobs import Job, run_jobs
+from contactnet.jobs.runner import Job, run_jobs
 
 jobs = [Job(i, 0.05 if i < 2 else 60.0) for i in range(6)]
 try:
@@ -79,8 +79,7 @@ def test_ctrl_c_stops_the_pool_at_once_without_worker_tracebacks():
 def test_resume_key_helpers(tmp_path):
     import ast
 
-    from contactnet import jobs
-
+    from contactnet.jobs import runner as jobs
     a = "def f(x):\n    '''doc'''\n    return x + 1  # note\n"
     b = "def f(x):\n    '''other words'''\n\n    return x + 1\n"
     c = "def f(x):\n    return x + 2\n"

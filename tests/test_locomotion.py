@@ -11,12 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from contactnet.gait import TROT, WALK
 from contactnet.locomotion import Locomotion
-from contactnet.planner import HeuristicPlanner, PlanningContext
-from contactnet.sim import Push
+from contactnet.motion.gait import TROT, WALK
+from contactnet.motion.trajopt import TrajoptSolution
+from contactnet.planning.planner import HeuristicPlanner, PlanningContext
+from contactnet.sim.pybullet_world import Push
 from contactnet.terrain import flat, resolve
-from contactnet.trajopt import TrajoptSolution
 
 REPO = Path(__file__).resolve().parent.parent
 SIMULATE_KEYS = {

@@ -1,4 +1,4 @@
-"""The model file read without torch (``contactnet.model_file``, ``contactnet.network.load_model``): no torch
+"""The model file read without torch (``contactnet.planning.model_file``, ``contactnet.planning.network.load_model``): no torch
 import, the same weights bit for bit as ``torch.load``, the same scores, the same content hash as the torch
 computation of it, every storage type and byte order torch reads, and the torch network built on demand."""
 
@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 import torch
 
-from contactnet.gait import gait_by_name
-from contactnet.model_file import MODEL_FORMAT, content_hash
-from contactnet.network import ModelFileError, Normalizer, NumpyContactNet, load_model
-from contactnet.network_torch import ContactNet, save_model, torch_scores
+from contactnet.motion.gait import gait_by_name
+from contactnet.planning.model_file import MODEL_FORMAT, content_hash
+from contactnet.planning.network import ModelFileError, Normalizer, NumpyContactNet, load_model
+from contactnet.planning.network_torch import ContactNet, save_model, torch_scores
 from contactnet.registry import model_path
 
 SHIPPED = [model_path("solo12", gait) for gait in ("walk", "trot") if model_path("solo12", gait).exists()]
@@ -61,16 +61,16 @@ def _models(tmp_path: Path) -> list[Path]:
 
 def test_load_model_does_not_import_torch():
     code = ("import sys\n"
-            "import contactnet.network as n\n"
+            "import contactnet.planning.network as n\n"
             "from contactnet import registry\n"
-            "from contactnet.gait import gait_by_name\n"
+            "from contactnet.motion.gait import gait_by_name\n"
             "for gait in ('walk', 'trot'):\n"
             "    path = registry.model_path('solo12', gait)\n"
             "    if path.exists():\n"
             "        n.load_model(path).scores([0.1] * 14)\n"
             "        registry.make_planner('contactnet', gait_by_name(gait))\n"
             "assert 'torch' not in sys.modules, 'torch imported'\n"
-            "assert n.ContactNet.__module__ == 'contactnet.network_torch' and 'torch' in sys.modules\n")
+            "assert n.ContactNet.__module__ == 'contactnet.planning.network_torch' and 'torch' in sys.modules\n")
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
 

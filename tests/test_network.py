@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 import torch
 
-import contactnet.network as network_module
-from contactnet.network import (
+import contactnet.planning.network as network_module
+from contactnet.planning.network import (
     INPUT_NAMES,
     MODEL_FORMAT,
     ContactNet,
@@ -25,7 +25,7 @@ from contactnet.network import (
     topk_accuracy,
     torch_scores,
 )
-from contactnet.network_input import (
+from contactnet.planning.network_input import (
     N_INPUTS,
     network_input,
     network_input_of_context,
@@ -104,7 +104,7 @@ def test_network_input_of_context_and_state_match_the_general_function():
 
 
 def test_the_torch_names_are_re_exported_from_network_torch():
-    import contactnet.network_torch as network_torch
+    import contactnet.planning.network_torch as network_torch
 
     assert ContactNet is network_torch.ContactNet and save_model is network_torch.save_model
     assert torch_scores is network_torch.torch_scores and network_module.HIDDEN == (128, 128, 128)
@@ -116,7 +116,7 @@ def test_network_input_module_does_not_need_torch():
     import subprocess
     import sys
 
-    code = ("import sys; import contactnet.network_input; "
+    code = ("import sys; import contactnet.planning.network_input; "
             "sys.exit(1 if 'torch' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 

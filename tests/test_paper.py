@@ -10,12 +10,12 @@ from pathlib import Path
 import pytest
 
 from contactnet.cli import main
-from contactnet.experiment import ExperimentError
-from contactnet.paper.plan import Section, plan_trials, scaled
-from contactnet.paper.report import write_report
-from contactnet.paper.results import outcome
-from contactnet.paper.run import run_paper
-from contactnet.paper.stats import wilson_interval
+from contactnet.jobs.experiment import ExperimentError
+from contactnet.jobs.paper.plan import Section, plan_trials, scaled
+from contactnet.jobs.paper.report import write_report
+from contactnet.jobs.paper.results import outcome
+from contactnet.jobs.paper.run import run_paper
+from contactnet.jobs.paper.stats import wilson_interval
 
 
 # ---- Wilson interval -----------------------------------------------------------------------------

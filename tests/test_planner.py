@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from contactnet.bench.planner import planning_contexts
-from contactnet.cost import CostState, candidate_footholds_world, predicted_state
 from contactnet.frames import rotate_xy
-from contactnet.gait import TROT, WALK
-from contactnet.network import (
+from contactnet.motion.gait import TROT, WALK
+from contactnet.planning.cost import CostState, candidate_footholds_world, predicted_state
+from contactnet.planning.network import (
     ContactNet,
     ModelFileError,
     Normalizer,
@@ -21,7 +21,7 @@ from contactnet.network import (
     network_input_of_state,
     save_model,
 )
-from contactnet.planner import (
+from contactnet.planning.planner import (
     ContactNetPlanner,
     FixedGaitPlanner,
     PlannedStep,
@@ -209,8 +209,8 @@ def test_model_errors_are_clear(robot, models, tmp_path):
 
 
 def test_oracle_continues_the_cyclic_order_past_its_evaluated_steps(robot):
-    from contactnet.cost import nominal_state
-    from contactnet.oracle import OraclePlanner
+    from contactnet.planning.cost import nominal_state
+    from contactnet.planning.oracle import OraclePlanner
 
     for gait in (WALK, TROT):
         oracle = OraclePlanner(gait, robot.description, evaluated_steps=1)

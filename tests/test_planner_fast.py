@@ -12,13 +12,13 @@ import pytest
 import shapely
 from helpers import save_random_models
 
-from contactnet import safe_walk
 from contactnet.bench.planner import planning_contexts
-from contactnet.footholds import FootholdChecker
-from contactnet.gait import TROT, WALK
-from contactnet.ground import support_height
-from contactnet.network_input import network_input_one
-from contactnet.planner import (
+from contactnet.motion.gait import TROT, WALK
+from contactnet.motion.ground import support_height
+from contactnet.planning import safe_walk
+from contactnet.planning.footholds import FootholdChecker
+from contactnet.planning.network_input import network_input_one
+from contactnet.planning.planner import (
     CORNERED_BACKSTEP_M,
     CORNERED_LOOKAHEAD_STEPS,
     ContactNetPlanner,
@@ -27,7 +27,7 @@ from contactnet.planner import (
     PlanningContext,
     touchdown_times_s,
 )
-from contactnet.ranking import ActionCells, OneLevelWalk
+from contactnet.planning.ranking import ActionCells, OneLevelWalk
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, random_field, random_heights, resolve
 
@@ -153,7 +153,7 @@ _HIPS_XY_BASE = np.array([[0.19, 0.15], [0.19, -0.15], [-0.19, 0.15], [-0.19, -0
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
 def test_the_compiled_walk_is_a_walk_down_a_stable_sort(gait, monkeypatch):
-    """``OneLevelWalk.first_safe`` (the compiled walk of ``contactnet.safe_walk``, shapely asked about cells near an
+    """``OneLevelWalk.first_safe`` (the compiled walk of ``contactnet.planning.safe_walk``, shapely asked about cells near an
     outline) against the obvious reference: ``np.argsort(kind="stable")`` of the costs, then every action's landing
     points asked of ``Terrain.is_safe`` in that order. Costs with many ties, NaN and infinities, whole rankings and
     one group's, on random grids over holed fields; some walks must ask shapely."""

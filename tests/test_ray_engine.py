@@ -1,4 +1,4 @@
-"""The ``ray`` engine of the job runner (`--engine ray`, contactnet/ray_engine.py) on a real local Ray: every
+"""The ``ray`` engine of the job runner (`--engine ray`, contactnet/jobs/ray_engine.py) on a real local Ray: every
 missing job runs once and its result reaches its own key whatever the completion order, done keys are
 skipped, worker_init runs in the Ray workers, a job's error comes back as itself, workers running other code
 refuse; the same experiment summary and the same dataset as the local engine (slow: real PyBullet trials);
@@ -20,8 +20,8 @@ import pytest
 from helpers import default_sigint
 
 from contactnet.cli import EXIT_USER_ERROR, main
-from contactnet.jobs import ENGINES, Job, run_jobs
-from contactnet.ray_engine import EngineUnavailable, ray_engine, session
+from contactnet.jobs.ray_engine import EngineUnavailable, ray_engine, session
+from contactnet.jobs.runner import ENGINES, Job, run_jobs
 
 #: Per-trial fields that are timings (they differ between any two runs); everything else must match.
 TIMINGS = ("wall_time_s", "planner_ms", "trajopt_ms", "planner_ms_median", "planner_ms_mean", "planner_ms_samples",
@@ -106,7 +106,7 @@ def _without_timings(value):
 
 @pytest.mark.slow
 def test_an_experiment_on_ray_gives_the_summary_and_trials_of_the_local_engine(local_ray, tmp_path):
-    from contactnet.experiment import Trial, run_experiment
+    from contactnet.jobs.experiment import Trial, run_experiment
 
     # Short push trials (pushed at 0.2 s, 4 s to settle): two stand their push (one with joint noise, so the
     # seed matters), one falls.
@@ -128,7 +128,7 @@ def test_an_experiment_on_ray_gives_the_summary_and_trials_of_the_local_engine(l
 
 @pytest.mark.slow
 def test_datagen_on_ray_writes_the_local_engine_dataset_and_resumes(local_ray, tmp_path):
-    from contactnet.datagen import DatagenConfig, generate, shard_name
+    from contactnet.jobs.datagen import DatagenConfig, generate, shard_name
 
     config = DatagenConfig(gait="walk", episodes=2, instances_per_episode=3, episodes_per_shard=1, seed=5)
     generate(tmp_path / "local", config, workers=1, progress=False)
@@ -152,7 +152,7 @@ def test_datagen_on_ray_writes_the_local_engine_dataset_and_resumes(local_ray, t
 
 SCRIPT = """
 import sys, time
-from contactnet.jobs import Job, run_jobs
+from contactnet.jobs.runner import Job, run_jobs
 
 jobs = [Job(i, 0.05 if i < 2 else 60.0) for i in range(6)]
 try:

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.recording_meta import read_meta
-from app.recordings import RecordingStore, read_recording
+from app.recordings.meta import read_meta
+from app.recordings.recorder import RecordingStore, read_recording
 from contactnet.cli import EXIT_USER_ERROR, main
 
 pytestmark = pytest.mark.app  # the web tool: `pytest -m "not app"` skips these
@@ -68,7 +68,7 @@ def test_record_writes_a_viser_recording(tmp_path, capsys):
     assert x[-1] - x[0] > 0.05 and np.all(np.diff(x) > -0.01)  # it walks forward over time
     assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.viser", "walk.viser.json"]  # no temporary file
     assert oct(path.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
-    # the metadata the recordings list shows, next to the file (app.recording_meta)
+    # the metadata the recordings list shows, next to the file (app.recordings.meta)
     meta = read_meta(path).meta
     assert (meta.robot, meta.terrain, meta.gait, meta.planner) == ("solo12", "flat", "walk", "heuristic")
     assert meta.frames == len(x) and meta.duration_s == pytest.approx(contents.duration_s, abs=0.1)
@@ -103,9 +103,9 @@ def test_the_web_tool_lists_and_plays_a_cli_recording(tmp_path):
     (`/viewer/?playbackPath=...`); a CLI recording saved there is served like a live one."""
     from fastapi.testclient import TestClient
 
-    from app.recordings import free_port, viser_html
-    from app.server import ContactnetApp
-    from app.settings import ServeSettings
+    from app.api.server import ContactnetApp
+    from app.live.settings import ServeSettings
+    from app.recordings.recorder import free_port, viser_html
 
     folder = tmp_path / "recordings"
     folder.mkdir()

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from contactnet import registry
-from contactnet.controller import SwingTrajectory
 from contactnet.locomotion import Locomotion, LocomotionConfig
-from contactnet.retarget import RetargetConfig, RetargetedSwing
-from contactnet.sim import Push, SimConfig
+from contactnet.motion.controller import SwingTrajectory
+from contactnet.planning.retarget import RetargetConfig, RetargetedSwing
+from contactnet.sim.pybullet_world import Push, SimConfig
 from contactnet.terrain import resolve
 
 

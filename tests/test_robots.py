@@ -135,8 +135,8 @@ def test_no_solo12_number_outside_its_module():
 @pytest.mark.parametrize("name", ["solo12", "go2"])
 def test_robot_stands_10_s_under_the_whole_body_controller(name, tmp_path):
     """All four feet in stance, the controller holding the initial CoM with the weight shared: no fall."""
-    from contactnet.controller import ControlTarget, WholeBodyController
-    from contactnet.sim import Simulator
+    from contactnet.motion.controller import ControlTarget, WholeBodyController
+    from contactnet.sim.pybullet_world import Simulator
     from contactnet.terrain import flat
 
     robot = load_robot(name, cache_dir=tmp_path)

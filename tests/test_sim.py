@@ -6,7 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from contactnet.sim import BodyContact, Push, SimConfig, Simulator, describe_body_contacts, standing_torques
+from contactnet.sim.pybullet_world import (
+    BodyContact,
+    Push,
+    SimConfig,
+    Simulator,
+    describe_body_contacts,
+    standing_torques,
+)
 from contactnet.terrain import Terrain, flat, random_field, resolve
 
 

@@ -1,16 +1,16 @@
-"""The stand choice (contactnet.stand): ranking it among the stepping actions, and the oracle standing still."""
+"""The stand choice (contactnet.planning.stand): ranking it among the stepping actions, and the oracle standing still."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from contactnet.gait import TROT, WALK
 from contactnet.locomotion import Locomotion
-from contactnet.oracle import OraclePlanner
-from contactnet.planner import PlannedStep
-from contactnet.sim import SimConfig
-from contactnet.stand import prefer_stand, split_stand
+from contactnet.motion.gait import TROT, WALK
+from contactnet.planning.oracle import OraclePlanner
+from contactnet.planning.planner import PlannedStep
+from contactnet.planning.stand import prefer_stand, split_stand
+from contactnet.sim.pybullet_world import SimConfig
 from contactnet.terrain import flat
 
 
@@ -38,7 +38,7 @@ def test_standing_wins_when_it_ranks_above_the_first_safe_step(rank, stand_posit
 
 
 def test_a_network_stands_when_standing_outranks_the_step_or_rounds_to_the_top_rank():
-    from contactnet.stand import network_stands
+    from contactnet.planning.stand import network_stands
 
     costs = -np.linspace(0.0, 0.999, 100)  # minus the outputs of 100 stepping actions, the best 0.999
     assert not network_stands(costs, None, -0.999)  # a model without the stand output
@@ -94,7 +94,7 @@ def test_contactnet_stands_when_standing_outranks_the_first_usable_step_or_tops_
     top rank (>= 1 - 0.5 / N_a), unless a leg is cornered (terrain with heights: then it steps); the fixed gait
     never stands."""
     from contactnet.bench.planner import planning_contexts
-    from contactnet.planner import ContactNetPlanner, FixedGaitPlanner
+    from contactnet.planning.planner import ContactNetPlanner, FixedGaitPlanner
     from contactnet.terrain import resolve
 
     terrain = flat() if terrain_name == "flat" else resolve(terrain_name, removed=100, seed=3)
@@ -128,7 +128,7 @@ def test_contactnet_stands_when_standing_outranks_the_first_usable_step_or_tops_
 
 def _cornered(planner, ctx) -> bool:  # noqa: ANN001
     """Whether a leg is cornered at step 1 (``ContactNetPlanner._swing_cornered_legs_first``'s test)."""
-    from contactnet.planner import CORNERED_LOOKAHEAD_STEPS
+    from contactnet.planning.planner import CORNERED_LOOKAHEAD_STEPS
 
     if not planner.footholds.applies(ctx.terrain):
         return False

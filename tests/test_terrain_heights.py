@@ -465,7 +465,7 @@ def test_the_top_view_colours_tops_by_height(tmp_path: Path) -> None:
 
 
 def test_the_simulator_loads_the_stairs(robot) -> None:  # noqa: ANN001 - the conftest fixture
-    from contactnet.sim import Simulator, standing_torques
+    from contactnet.sim.pybullet_world import Simulator, standing_torques
 
     with Simulator(robot, T.stairs()) as sim:
         state = sim.state(True)

@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 import torch
 
-import contactnet.train as train_module
-from contactnet.network import INPUT_NAMES, ContactNet, ModelFileError, load_model, topk_accuracy
-from contactnet.train import (
+import contactnet.jobs.train as train_module
+from contactnet.jobs.train import (
     DATASET_FORMAT,
     Dataset,
     DatasetError,
@@ -22,6 +21,7 @@ from contactnet.train import (
     train,
     train_command,
 )
+from contactnet.planning.network import INPUT_NAMES, ContactNet, ModelFileError, load_model, topk_accuracy
 
 N_ACTIONS = {"walk": 100, "trot": 162}
 
@@ -255,8 +255,8 @@ def test_the_model_records_the_datasets_robot(tmp_path, walk_data):
 def test_a_gait_without_a_paper_figure(tmp_path, walk_data, monkeypatch, capsys):
     from dataclasses import replace
 
-    from contactnet import gait as gait_table
-    from contactnet.gait import WALK
+    from contactnet.motion import gait as gait_table
+    from contactnet.motion.gait import WALK
 
     monkeypatch.setitem(gait_table._GAITS, "crawl", replace(WALK, name="crawl", paper_top5=None))
     u, V, episode = walk_data

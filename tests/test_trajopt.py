@@ -1,4 +1,4 @@
-"""Tests of the SRBD trajectory optimizer (contactnet.trajopt)."""
+"""Tests of the SRBD trajectory optimizer (contactnet.motion.trajopt)."""
 
 from __future__ import annotations
 
@@ -9,12 +9,11 @@ import pickle
 import numpy as np
 import pytest
 
-from contactnet import trajopt as T
 from contactnet.bench import format_table
 from contactnet.bench.trajopt import example_problem, trot_candidates, walk_candidates
-from contactnet.gait import horizon_schedule, step_schedule
-from contactnet.robots import RobotDescription
-from contactnet.trajopt import (
+from contactnet.motion import trajopt as T
+from contactnet.motion.gait import horizon_schedule, step_schedule
+from contactnet.motion.trajopt import (
     ProblemBatch,
     SrbdModel,
     TrajectoryOptimizer,
@@ -27,7 +26,8 @@ from contactnet.trajopt import (
     srbd_step,
     trajectory_cost,
 )
-from contactnet.trajopt.casadi_ref import _casadi_step
+from contactnet.motion.trajopt.casadi_ref import _casadi_step
+from contactnet.robots import RobotDescription
 
 WALK = ((0,), (3,), (1,))
 TROT = ((0, 3), (1, 2), (0, 3))

@@ -13,8 +13,8 @@ robot (``contactnet bench sim --robot go2``).
 | cost       | ``contactnet.bench.cost``        | the ranking cost V of all candidates                      |
 | terrain    | ``contactnet.bench.terrain``     | ``Terrain.is_safe`` against plain shapely                 |
 | locomotion | ``contactnet.bench.locomotion``  | walking quality matrix (velocities, pushes, noise)        |
-| live       | ``app.bench_live`` (the web tool) | real time with browsers connected; recording size         |
-| upload     | ``app.bench_upload`` (the web tool) | ``GET /api/state`` latency while a large terrain uploads  |
+| live       | ``app.bench.live`` (the web tool) | real time with browsers connected; recording size         |
+| upload     | ``app.bench.upload`` (the web tool) | ``GET /api/state`` latency while a large terrain uploads  |
 
 ``live`` and ``upload`` run the web tool, so they live in ``app/`` (the library never imports the app); the command
 line reaches them as ``contactnet bench live`` / ``upload``.

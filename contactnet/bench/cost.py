@@ -10,8 +10,8 @@ def benchmark(n_states: int = 20, seed: int = 0, single_core: bool = True, robot
     rows of gait, total_ms, optimizer_ms, rest_ms (medians per state). ``single_core`` pins the process to
     one CPU and torch to one thread while timing (as the trajopt benchmark)."""
     from contactnet.bench.timing import pin_single_core
-    from contactnet.cost import RankingCost, nominal_state
-    from contactnet.gait import TROT, WALK
+    from contactnet.motion.gait import TROT, WALK
+    from contactnet.planning.cost import RankingCost, nominal_state
     from contactnet.robots import load_robot
 
     robot = load_robot(robot_name).description

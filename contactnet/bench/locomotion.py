@@ -15,9 +15,9 @@ from contactnet.robots import DEFAULT_ROBOT
 
 def run_case(case: dict) -> dict:
     from contactnet.locomotion import Locomotion
-    from contactnet.planner import HeuristicPlanner
+    from contactnet.planning.planner import HeuristicPlanner
     from contactnet.registry import gait_by_name, load_robot
-    from contactnet.sim import Push, SimConfig
+    from contactnet.sim.pybullet_world import Push, SimConfig
     from contactnet.terrain import flat
 
     gait = gait_by_name(case["gait"])

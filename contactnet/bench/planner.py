@@ -19,11 +19,11 @@ def planning_contexts(gait, terrain, robot: RobotDescription, n: int, seed: int 
     """``n`` walking states spread over the random field (x in 0.3..1.7 m), perturbed feet, random commands.
 
     Each foot stands on the top under it (``Terrain.ground_z``: the nominal ground over a hole) and the CoM at
-    the nominal height over the feet's support (``contactnet.ground.support_height``), as the locomotion loop
+    the nominal height over the feet's support (``contactnet.motion.ground.support_height``), as the locomotion loop
     holds it; on a flat terrain both are ``surface_z``."""
     from contactnet.frames import rotate_xy
-    from contactnet.ground import support_height
-    from contactnet.planner import PlanningContext
+    from contactnet.motion.ground import support_height
+    from contactnet.planning.planner import PlanningContext
 
     hip_ref_xy_base = robot.foot_nominal_base[:, :2]
     rng = np.random.default_rng(seed)
@@ -52,12 +52,12 @@ def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool 
     paper's random field with 0 and with 100 of its 300 squares removed; the ratio of the medians says
     whether planning time grows with terrain complexity. The network's forward pass alone is the
     reference in the same run. Then the same on ``random_heights`` (the field with each square's top within
-    +-3 cm), where the planner adds the height checks (``contactnet.footholds``); its ``vs_0_holes`` is against
+    +-3 cm), where the planner adds the height checks (``contactnet.planning.footholds``); its ``vs_0_holes`` is against
     ``random_heights`` with 0 removed. Uses the shipped models (random weights when a model is missing, said so
     in the ``model`` column). Planning is single-threaded; ``single_core`` also pins the process to CPU 0,
     which on this 2-core machine makes it slower whenever anything else runs there, so it is off."""
-    from contactnet.gait import TROT, WALK
-    from contactnet.network_input import network_input_of_context
+    from contactnet.motion.gait import TROT, WALK
+    from contactnet.planning.network_input import network_input_of_context
     from contactnet.terrain import random_field, resolve
 
     robot = load_robot(robot_name)
@@ -114,7 +114,7 @@ def _random_model_file(gait, robot_name: str) -> str:  # noqa: ANN001
     """A model file with random weights (for timing only, when no trained model is shipped)."""
     import tempfile
 
-    from contactnet.network import ContactNet, Normalizer, save_model
+    from contactnet.planning.network import ContactNet, Normalizer, save_model
 
     rng = np.random.default_rng(0)
     folder = tempfile.mkdtemp(prefix="contactnet-bench-")

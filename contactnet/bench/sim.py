@@ -20,7 +20,7 @@ def standing_real_time_factor(
 
     The loop reads the sensors a joint PD needs (and the foot contacts too with `with_contacts`).
     """
-    from contactnet.sim import SimConfig, Simulator, standing_torques
+    from contactnet.sim.pybullet_world import SimConfig, Simulator, standing_torques
     from contactnet.terrain import resolve
 
     robot = load_robot(robot_name)

@@ -13,16 +13,16 @@ import numpy as np
 
 from contactnet.bench.timing import pin_single_core
 from contactnet.frames import rotation_z
-from contactnet.gait import horizon_schedule
-from contactnet.robots import DEFAULT_ROBOT, RobotDescription, load_robot
-from contactnet.trajopt import (
+from contactnet.motion.gait import horizon_schedule
+from contactnet.motion.trajopt import (
     NX,
     SrbdModel,
     TrajectoryOptimizer,
     TrajoptConfig,
     TrajoptProblem,
 )
-from contactnet.trajopt.model import N_LEGS
+from contactnet.motion.trajopt.model import N_LEGS
+from contactnet.robots import DEFAULT_ROBOT, RobotDescription, load_robot
 
 # ----------------------------------------------------------------------------------------------------
 # Example problems (tests, benchmark)

@@ -3,7 +3,7 @@
 Every edit takes a terrain dict and returns a new, validated one (the input is never modified);
 a change that would make the terrain invalid raises :class:`EditError` with the terrain's own
 one-line message. :class:`EditHistory` adds undo. Nothing here knows about files, viser or the
-browser: the web app (``app/editor.py`` for files, ``app/editing.py`` for the 3D view) turns clicks,
+browser: the web app (``app/live/editor.py`` for files, ``app/live/editing.py`` for the 3D view) turns clicks,
 drags and uploads into these calls.
 
 Holes. A terrain is a union of regions, so a punched square must leave every region that covers

@@ -103,7 +103,7 @@ class PointLocator:
     code_bytes: bytes = field(init=False, repr=False, compare=False)
     #: ``covers_xy`` as a function with the raster's constants bound (no attribute lookups: the planner's hot path)
     covers_xy: Callable[[float, float], bool] = field(init=False, repr=False, compare=False)
-    #: (inv_cell, col0, row0, clamp_hi, n) as float64, for compiled lookups (``contactnet.safe_walk``)
+    #: (inv_cell, col0, row0, clamp_hi, n) as float64, for compiled lookups (``contactnet.planning.safe_walk``)
     raster: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -304,7 +304,7 @@ class HeightLocator:
 
     def upper_heights_of(self, points_xy_world: np.ndarray, outside: float = -math.inf) -> np.ndarray:
         """``upper_heights`` of points given coordinate first, (2, ...) -> (...): numpy's loops run along the
-        long axes (the checks of ``contactnet.footholds`` look up hundreds of points at once)."""
+        long axes (the checks of ``contactnet.planning.footholds`` look up hundreds of points at once)."""
         shape = points_xy_world.shape[1:]
         cell = points_xy_world * self.inv_cell
         cell -= self.first_cell.reshape((2,) + (1,) * len(shape))

@@ -1,0 +1,183 @@
+"""How the REST API says no: the error models its OpenAPI schema declares, the handlers that produce exactly
+those shapes, and the route class that reads every JSON body with `contactnet.strict_json.loads_strict`.
+
+Every refusal is ``{"detail": "one line"}`` (`Problem`), except 422, whose ``detail`` is either FastAPI's
+list of field errors (a body or parameter that does not fit its model: `FieldError`, with at most a short
+excerpt of the bad input, never the input itself) or one line (a request that fits the model but not the
+session: a terrain that is not valid, a bad command). `responses(...)` declares the codes a route returns
+with these models, so the schema tells the truth (schemathesis checks it).
+
+Messages never show absolute paths of the machine: `one_line` keeps only a path's last component.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import reprlib
+from collections.abc import Callable, Coroutine
+from typing import Any
+
+from fastapi import FastAPI, Request, Response
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from fastapi.routing import APIRoute
+from pydantic import BaseModel, Field
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
+
+from app.live.settings import COMMAND_BODY_LIMIT_BYTES
+from app.security.guards import is_json
+from contactnet.strict_json import JsonInputError, JsonLimits, loads_strict
+
+#: JSON limits of a command body (the terrain upload has its own, `app.live.terrain_files.UPLOAD_JSON_LIMITS`).
+COMMAND_JSON_LIMITS = JsonLimits(max_bytes=COMMAND_BODY_LIMIT_BYTES, max_depth=16, max_values=10_000)
+MAX_DETAIL_CHARS = 300
+MAX_FIELD_ERRORS = 20
+
+
+class Problem(BaseModel):
+    """A refused request: one line saying why."""
+
+    detail: str
+
+
+class FieldError(BaseModel):
+    """One field of the request that does not fit its model (FastAPI's validation error, bounded)."""
+
+    loc: list[str | int] = Field(description="where: 'body', 'query' or 'path', then the field")
+    msg: str
+    type: str
+    input: Any = Field(None, description="the bad value, or a short excerpt of it")
+
+
+class ValidationProblem(BaseModel):
+    """422: field errors (the request does not fit its model) or one line (it fits, but is refused)."""
+
+    detail: list[FieldError] | str
+
+
+DESCRIPTIONS = {
+    400: "Malformed request (a bad Content-Length, ...)",
+    401: "Access token missing or wrong (only when the tool listens beyond loopback)",
+    403: "Cross-site request refused (Origin or Sec-Fetch-Site of another site)",
+    404: "No such terrain or recording",
+    409: "Not possible in the session's current state",
+    413: "Request body over the limit",
+    415: "A request body that is not application/json",
+    421: "Host header not one of the tool's names (DNS rebinding protection)",
+    422: "Invalid request",
+    503: "The live session is not running",
+    504: "The live session did not answer in time",
+}
+
+
+def responses(*codes: int, json_route: bool = True) -> dict[int | str, dict[str, Any]]:
+    """The OpenAPI ``responses`` of a route that can answer with these error codes. ``json_route=False`` for a
+    route whose own answer is not JSON (HTML, a file): its errors are still JSON, which FastAPI would not say
+    (its models' schemas must then come from other routes, as they do here)."""
+    result: dict[int | str, dict[str, Any]] = {}
+    for code in sorted(set(codes)):
+        model = ValidationProblem if code == 422 else Problem
+        if json_route:
+            result[code] = {"model": model, "description": DESCRIPTIONS[code]}
+        else:
+            schema = {"$ref": f"#/components/schemas/{model.__name__}"}
+            result[code] = {"description": DESCRIPTIONS[code], "content": {"application/json": {"schema": schema}}}
+    return result
+
+
+# ---- messages ---------------------------------------------------------------------------------------------
+_ABSOLUTE_PATH = re.compile(r"(?<![\w:/.~\-])/(?:[^\s'\"()<>,;:/]+/)+([^\s'\"()<>,;:/]*)")
+_EXCERPT = reprlib.Repr()
+_EXCERPT.maxlevel, _EXCERPT.maxstring, _EXCERPT.maxother, _EXCERPT.maxlong = 2, 40, 40, 40
+_EXCERPT.maxlist = _EXCERPT.maxtuple = _EXCERPT.maxdict = _EXCERPT.maxset = 4
+
+
+def one_line(text: object, limit: int = MAX_DETAIL_CHARS) -> str:
+    """``text`` on one line, absolute paths cut to their last component, at most ``limit`` characters."""
+    line = " ".join(str(text).split())
+    line = _ABSOLUTE_PATH.sub(lambda m: m.group(1) or "<folder>", line)
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+def excerpt(value: Any) -> Any:
+    """A JSON value small enough to send back: small scalars as they are, anything else a short repr."""
+    if value is None or isinstance(value, bool):
+        return value
+    if isinstance(value, int) and abs(value) < 10**15:
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, str) and len(value) <= 40:
+        return value
+    try:
+        return _EXCERPT.repr(value)[:80]
+    except Exception:  # noqa: BLE001 - a value whose repr fails is still refused, without excerpt
+        return f"<{type(value).__name__}>"
+
+
+def field_errors(errors: Any) -> list[dict[str, Any]]:
+    """FastAPI's validation errors as `FieldError` dicts (bounded: excerpts, one-line messages, at most 20)."""
+    result = []
+    for error in list(errors)[:MAX_FIELD_ERRORS]:
+        loc = [part if isinstance(part, int) else one_line(part, 64) for part in error.get("loc", ())]
+        result.append(
+            {
+                "loc": loc,
+                "msg": one_line(error.get("msg", "")),
+                "type": str(error.get("type", "value_error"))[:64],
+                "input": excerpt(error.get("input")),
+            }
+        )
+    return result
+
+
+def install_error_handlers(api: FastAPI) -> None:
+    """422s as bounded `FieldError` lists; every other refusal (and a one-line 422) as `Problem`."""
+
+    @api.exception_handler(RequestValidationError)
+    async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
+        return JSONResponse(status_code=422, content={"detail": field_errors(exc.errors())})
+
+    @api.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, exc: StarletteHTTPException) -> Response:
+        headers = dict(exc.headers or {})
+        if exc.status_code == 405:  # Starlette names the methods of one route of the path; give them all
+            headers["Allow"] = ", ".join(allowed_methods(request))
+        if exc.status_code in (204, 304):
+            return Response(status_code=exc.status_code, headers=headers)
+        return JSONResponse(status_code=exc.status_code, content={"detail": one_line(exc.detail)}, headers=headers)
+
+
+def allowed_methods(request: Request) -> list[str]:
+    """The methods of every route whose path matches the request's."""
+    methods: set[str] = set()
+    for route in request.app.router.routes:
+        match, _ = route.matches(request.scope)
+        if match != Match.NONE:
+            methods |= set(getattr(route, "methods", None) or ())
+    return sorted(methods)
+
+
+# ---- strict JSON bodies -------------------------------------------------------------------------------------
+class StrictJsonRoute(APIRoute):
+    """A route whose JSON body is read by `loads_strict` (size, depth, number length, duplicate keys) before
+    FastAPI validates it against the model: a refusal is a 422 field error at ``["body"]`` with one line."""
+
+    def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
+        handler = super().get_route_handler()
+
+        async def strict_handler(request: Request) -> Response:
+            if self.body_field is not None and is_json(request.headers.get("content-type")):
+                body = await request.body()
+                if body:
+                    try:
+                        request._json = loads_strict(body, source="request body", limits=COMMAND_JSON_LIMITS)
+                    except JsonInputError as exc:
+                        raise RequestValidationError(
+                            [{"type": "json_invalid", "loc": ("body",), "msg": str(exc), "input": None}]
+                        ) from None
+            return await handler(request)
+
+        return strict_handler

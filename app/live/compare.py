@@ -1,0 +1,137 @@
+"""Compare mode: other robots beside the live session's own, each with its own planner, on the same terrain,
+with the same gait, command and pushes (the paper's Fig. 6 made live).
+
+`CompareRobots` belongs to the session thread (`app/live/session.py`) like the main `Locomotion`: it builds one
+`Locomotion` (its own PyBullet world) per other planner, steps those still walking when the main one is
+stepped, and sums each up as a `CompareRobot` (drawn as a ghost) or a `CompareResult` (a run's end).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from app.live.planners import PlannerFactory
+from app.live.view import CompareResult, CompareRobot
+from contactnet.locomotion import Locomotion, LocomotionConfig, Snapshot
+from contactnet.motion.gait import GaitSpec
+from contactnet.robots import Robot
+from contactnet.sim.pybullet_world import Push, SimConfig
+from contactnet.terrain import Terrain
+
+
+def rank_stats(loco: Locomotion) -> tuple[float | None, int | None]:
+    """(mean, max) ranking position of the actions chosen so far; (None, None) for planners that do not rank."""
+    ranks = [r.rank for r in loco.records if r.rank is not None]
+    if not ranks:
+        return None, None
+    return sum(ranks) / len(ranks), max(ranks)
+
+
+def end_of(loco: Locomotion) -> str | None:
+    """How the robot's run ended ("fell: ...", "goal reached"), None while it walks."""
+    if loco.fall_reason is not None:
+        return f"fell: {loco.fall_reason}"
+    if loco.reached_goal:
+        return "goal reached"
+    return None
+
+
+@dataclass
+class _Other:
+    planner: str
+    planner_active: str
+    loco: Locomotion
+
+
+class CompareRobots:
+    """The other robots of compare mode (session thread only)."""
+
+    def __init__(
+        self,
+        planners: tuple[str, ...],
+        robot: Robot,
+        terrain: Terrain,
+        gait: GaitSpec,
+        planner_factory: PlannerFactory,
+        sim_config: SimConfig,
+        vel_cmd_xy: tuple[float, float],
+        config: LocomotionConfig = LocomotionConfig(),
+    ):
+        self.robot = robot
+        self.others: list[_Other] = []
+        try:
+            for name in planners:
+                planner, active, _ = planner_factory(name, gait, robot)
+                loco = Locomotion(robot, terrain, gait, planner, sim_config, config=config, vel_cmd_xy=vel_cmd_xy)
+                self.others.append(_Other(name, active, loco))
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def planners(self) -> tuple[str, ...]:
+        return tuple(o.planner for o in self.others)
+
+    def advance(self, ticks: int) -> None:
+        for other in self.others:
+            if end_of(other.loco) is None:
+                other.loco.advance(ticks)
+
+    @property
+    def ended(self) -> list[bool]:
+        return [end_of(o.loco) is not None for o in self.others]
+
+    def set_command(self, vx: float, vy: float) -> None:
+        for other in self.others:
+            other.loco.set_command(vx, vy)
+
+    def push(self, push: Push) -> None:
+        for other in self.others:
+            other.loco.push(push)
+
+    def reset(self, vel_cmd_xy: tuple[float, float]) -> None:
+        for other in self.others:
+            other.loco.reset()
+            other.loco.set_command(*vel_cmd_xy)
+
+    def replace_terrain(self, terrain: Terrain) -> None:
+        for other in self.others:
+            other.loco.replace_terrain(terrain)
+
+    def results(self) -> tuple[CompareResult, ...]:
+        return tuple(self._result(other, other.loco.snapshot()) for other in self.others)
+
+    def views(self) -> tuple[CompareRobot, ...]:
+        """Each other robot now: its result so far and its pose (forward kinematics on the session's robot)."""
+        out = []
+        for other in self.others:
+            snap = other.loco.snapshot()
+            out.append(
+                CompareRobot(
+                    **vars(self._result(other, snap)),
+                    planner_active=other.planner_active,
+                    snapshot=snap,
+                    foot_pos_world=self.robot.foot_positions_world(snap.q),
+                )
+            )
+        return tuple(out)
+
+    @staticmethod
+    def _result(other: _Other, snap: Snapshot) -> CompareResult:
+        loco = other.loco
+        done = end_of(loco)
+        return CompareResult(
+            planner=other.planner,
+            x_m=float(snap.q[0]),
+            fell=loco.fall_reason is not None,
+            success=done == "goal reached",
+            steps=loco.steps_taken,
+            rank_mean=rank_stats(loco)[0],
+            done=done,
+        )
+
+    def close(self) -> None:
+        for other in self.others:
+            other.loco.close()
+        self.others = []
+

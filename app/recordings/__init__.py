@@ -1,0 +1,15 @@
+"""Recordings: ``recorder`` (the scene over time as .viser files, live recording, HTML export),
+``store`` (the folder of recordings), ``meta`` (their metadata), ``overlay`` (the status drawn on them).
+"""
+
+from __future__ import annotations
+
+from contactnet import lazy_exports
+
+_EXPORTS = {
+    "SceneRecorder": "app.recordings.recorder",
+    "LiveRecorder": "app.recordings.recorder",
+    "RecordingStore": "app.recordings.store",
+}
+__all__ = list(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

@@ -1,0 +1,144 @@
+"""The recordings folder: its .viser files with their metadata sidecars (`app.recordings.meta`), listed,
+saved, renamed, retitled and deleted by name.
+
+A name is a file name of the folder, ``RECORDING_NAME`` (letters, digits, ``_``, ``-``, then ``.viser``),
+so no name reaches outside the folder. A recording and its sidecar move and go together. Errors are
+one-line exceptions that name recordings, never paths: ``ValueError`` (a bad name), ``FileNotFoundError``
+(no such recording), ``FileExistsError`` (a rename onto another recording).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from app.recordings.meta import MetaRead, RecordingMeta, read_meta, retitled, sidecar_path, write_meta
+from contactnet.atomic import atomic_write_bytes
+
+log = logging.getLogger("contactnet.app.recordings")
+
+RECORDING_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")
+
+
+@dataclass(frozen=True)
+class RecordingInfo:
+    """One recording of the folder: its file (name, bytes, modification time, Unix s) and its metadata
+    (`meta`, None without a usable sidecar; then `meta_note` says why)."""
+
+    name: str
+    size_bytes: int
+    modified: float
+    meta: RecordingMeta | None = None
+    meta_note: str | None = None
+
+
+class RecordingStore:
+    """The .viser files of one folder and their sidecars. Safe to use from several threads."""
+
+    def __init__(self, directory: Path):
+        self.directory = Path(directory)
+        self._lock = threading.RLock()
+        self._reported: dict[str, str] = {}  # name -> the sidecar problem already logged for it
+
+    def path(self, name: str) -> Path:
+        if not isinstance(name, str) or not RECORDING_NAME.fullmatch(name):
+            raise ValueError(
+                f"invalid recording name {name!r}: expected letters, digits, '_', '-' and .viser"
+            )
+        return self.directory / name
+
+    def _existing(self, name: str) -> Path:
+        path = self.path(name)
+        if not path.is_file():
+            raise FileNotFoundError(f"no recording named {name!r}")
+        return path
+
+    def info(self, name: str) -> RecordingInfo:
+        """The recording `name` with its metadata (FileNotFoundError when there is none)."""
+        path = self._existing(name)
+        stat = path.stat()
+        read = self._read_meta(path)
+        return RecordingInfo(path.name, stat.st_size, stat.st_mtime, read.meta, read.note)
+
+    def _read_meta(self, path: Path) -> MetaRead:
+        read = read_meta(path)
+        if read.meta is None and read.note and "unreadable" in read.note:
+            if self._reported.get(path.name) != read.note:  # once per problem, not at every listing
+                self._reported[path.name] = read.note
+                log.warning("recording %s: %s; listed without metadata", path.name, read.note)
+        else:
+            self._reported.pop(path.name, None)
+        return read
+
+    def list(self) -> list[RecordingInfo]:
+        """Every recording of the folder, newest first (a file that vanishes meanwhile is left out)."""
+        if not self.directory.is_dir():
+            return []
+        infos = []
+        for path in self.directory.glob("*.viser"):
+            if RECORDING_NAME.fullmatch(path.name):
+                try:
+                    infos.append(self.info(path.name))
+                except FileNotFoundError:
+                    continue
+        return sorted(infos, key=lambda r: r.modified, reverse=True)
+
+    def new_name(self, label: str = "", taken: tuple[str | None, ...] = ()) -> str:
+        """A free name from the time and `label` (``20250101-120000-label.viser``), none of `taken`."""
+        stem = re.sub(r"[^A-Za-z0-9_-]+", "-", label).strip("-")[:40]
+        base = time.strftime("%Y%m%d-%H%M%S") + (f"-{stem}" if stem else "")
+        name, k = f"{base}.viser", 1
+        while name in taken or (self.directory / name).exists():
+            k += 1
+            name = f"{base}-{k}.viser"
+        return name
+
+    def save(self, data: bytes, name: str, meta: RecordingMeta | None = None) -> Path:
+        """Write the recording (atomically), then its sidecar; a sidecar that cannot be written is logged
+        (the recording then lists without metadata), never lost with the recording."""
+        path = self.path(name)
+        with self._lock:
+            atomic_write_bytes(path, data)
+            if meta is not None:
+                try:
+                    write_meta(path, meta)
+                except OSError as exc:
+                    log.warning("recording %s: metadata not saved (%s)", name, exc.strerror or exc)
+        return path
+
+    def set_title(self, name: str, title: str) -> RecordingInfo:
+        """Give recording `name` a title (kept in its sidecar; one is made if it had none)."""
+        with self._lock:
+            path = self._existing(name)
+            write_meta(path, retitled(self._read_meta(path).meta, title))
+            return self.info(name)
+
+    def rename(self, name: str, new_name: str) -> RecordingInfo:
+        """Rename recording `name` (and its sidecar) to `new_name`; FileExistsError if that exists."""
+        with self._lock:
+            source = self._existing(name)
+            target = self.path(new_name)
+            if new_name == name:
+                return self.info(name)
+            if target.exists():
+                raise FileExistsError(f"a recording named {new_name!r} exists already")
+            os.replace(source, target)
+            try:
+                os.replace(sidecar_path(source), sidecar_path(target))
+            except FileNotFoundError:
+                sidecar_path(target).unlink(missing_ok=True)  # a stale sidecar must not describe it
+            self._reported.pop(name, None)
+            return self.info(new_name)
+
+    def delete(self, name: str) -> None:
+        """Delete recording `name` and its sidecar."""
+        with self._lock:
+            path = self._existing(name)
+            path.unlink()
+            sidecar_path(path).unlink(missing_ok=True)
+            self._reported.pop(name, None)

@@ -1,0 +1,113 @@
+"""The "Robot and planner" folder: which robot runs, its gait, the contact planner, joint-velocity noise,
+swing retargeting and the disturbance observer (on or off without a restart), and compare mode (a second robot with another planner on the same terrain, drawn as a ghost)."""
+
+from __future__ import annotations
+
+import viser
+
+from app.live.commands import SetCompare, SetGait, SetNoise, SetObserver, SetPlanner, SetRetarget
+from app.live.session import LiveSession
+from app.live.view import LiveView
+from app.viewer.panels.common import ChangeTracker, submit
+from contactnet import registry
+
+RETARGET_HINT = (
+    "During a swing, when a push throws the robot off its command, rank the swinging legs' landings again and "
+    "move the swing to the new one (it flashes in the 3D view). ContactNet and fixed planners; no restart."
+)
+OBSERVER_HINT = (
+    "Estimate a push from the body's momentum: the feet push against it and the next step leans into it "
+    "(the disturbance observer; no restart)."
+)
+COMPARE_HINT = "A second robot with this planner walks the same terrain with the same command (a teal ghost)"
+
+
+def compare_label(comparing: bool, other: str) -> str:
+    """The compare button's label: what pressing it does."""
+    return "Stop comparing" if comparing else f"Compare with {other}"
+
+
+class GaitPlannerPanel:
+    """Gait and planner dropdowns (the registry's names) and the noise switch, each restarting the robot; the
+    retarget switch (no restart)."""
+
+    def __init__(self, gui: viser.GuiApi, session: LiveSession, order: float = 40.0):
+        self.session = session
+        self._seen = ChangeTracker()
+        settings = session.settings
+        spec = registry.robot_spec(settings.robot)
+        with gui.add_folder("Robot and planner", order=order):
+            self.robot = gui.add_markdown(
+                f"Robot **{spec.name}**" + (f" ({spec.description})" if spec.description else "")
+            )
+            self.gait = gui.add_dropdown("Gait", registry.gait_names(), initial_value=settings.gait)
+            self.planner = gui.add_dropdown("Planner", registry.planner_names(), initial_value=settings.planner)
+            self.noise = gui.add_checkbox(
+                "Joint-velocity noise", settings.noise, hint="Gaussian, variance 0.01 (rad/s)^2"
+            )
+            self.retarget = gui.add_checkbox("Retarget swings", settings.retarget, hint=RETARGET_HINT)
+            self.observer = gui.add_checkbox("Resist pushes", settings.observer, hint=OBSERVER_HINT)
+            others = self._others(settings.planner)
+            self.compare_with = gui.add_dropdown(
+                "Compare with", others, initial_value="fixed" if "fixed" in others else others[0], hint=COMPARE_HINT
+            )
+            self.compare_button = gui.add_button(
+                compare_label(False, self.compare_with.value), icon=viser.Icon.ARROWS_SPLIT, hint=COMPARE_HINT
+            )
+        self._comparing = False
+
+        @self.gait.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetGait(self.gait.value), event.client, "Gait change failed")
+
+        @self.planner.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetPlanner(self.planner.value), event.client, "Planner change failed")
+
+        @self.noise.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetNoise(bool(self.noise.value)), event.client)
+
+        @self.retarget.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetRetarget(bool(self.retarget.value)), event.client)
+
+        @self.observer.on_update
+        def _(event) -> None:
+            if event.client is not None:
+                submit(self.session, SetObserver(bool(self.observer.value)), event.client)
+
+        @self.compare_with.on_update
+        def _(event) -> None:
+            self.compare_button.label = compare_label(self._comparing, self.compare_with.value)
+
+        @self.compare_button.on_click
+        def _(event) -> None:
+            planners = () if self._comparing else (self.planner.value, self.compare_with.value)
+            submit(self.session, SetCompare(planners), event.client, "Compare mode failed")
+
+    @staticmethod
+    def _others(planner: str) -> tuple[str, ...]:
+        names = registry.planner_names()
+        return tuple(n for n in names if n != planner) or names
+
+    def refresh(self, view: LiveView) -> None:
+        s = view.status
+        for key, handle, value in (("gait", self.gait, s.gait), ("planner", self.planner, s.planner),
+                                   ("noise", self.noise, s.noise), ("retarget", self.retarget, s.retarget),
+                                   ("observer", self.observer, s.observer)):
+            if self._seen.changed(key, value):
+                handle.value = value
+        others = self._others(s.planner)
+        if tuple(self.compare_with.options) != others:
+            self.compare_with.options = others  # viser keeps the value if it is still an option
+        comparing = bool(view.compare)
+        label = compare_label(comparing, self.compare_with.value)
+        if self._seen.changed("compare", (comparing, label)):
+            self._comparing = comparing
+            self.compare_button.label = label
+            self.compare_button.color = "teal" if comparing else None

@@ -1,0 +1,62 @@
+"""The "Record" folder: start and stop a recording of the scene (listed on the front page)."""
+
+from __future__ import annotations
+
+import logging
+
+import viser
+
+from app.live.view import LiveView
+from app.recordings.recorder import LiveRecorder
+from app.viewer.panels.common import ChangeTracker
+
+log = logging.getLogger("contactnet.app.panels.recording")
+
+IDLE_TEXT = "Recordings are listed on the front page."
+
+
+class RecordingPanel:
+    """One start/stop button and a line saying what is being (or was last) recorded."""
+
+    def __init__(self, gui: viser.GuiApi, recorder: LiveRecorder, order: float = 60.0):
+        self.recorder = recorder
+        self._seen = ChangeTracker()
+        with gui.add_folder("Record", order=order, expand_by_default=False):
+            self.record_button = gui.add_button("Start recording", icon=viser.Icon.PLAYER_RECORD, color="red")
+            self.record_info = gui.add_markdown(IDLE_TEXT)
+
+        @self.record_button.on_click
+        def _(event) -> None:
+            try:
+                if self.recorder.recording:
+                    info = self.recorder.stop()
+                    if event.client is not None:
+                        event.client.add_notification(
+                            "Recording saved",
+                            f"{info.name} ({info.size_bytes / 1e6:.1f} MB): see the front page",
+                            color="green",
+                            auto_close_seconds=8,
+                        )
+                else:
+                    self.recorder.start()
+            except Exception as exc:  # noqa: BLE001 - shown to the user
+                log.exception("recording failed")
+                if event.client is not None:
+                    event.client.add_notification("Recording", str(exc), color="red", auto_close_seconds=8)
+            self._refresh_button()
+
+    def _refresh_button(self) -> None:
+        recording = self.recorder.recording
+        self.record_button.label = "Stop recording" if recording else "Start recording"
+        self.record_button.icon = viser.Icon.PLAYER_STOP if recording else viser.Icon.PLAYER_RECORD
+
+    def refresh(self, view: LiveView) -> None:
+        self._refresh_button()
+        status = self.recorder.status()
+        text = (
+            f"**recording** {status['name']}: {status['duration_s']:.1f} s, {status['frames']} frames"
+            if status["recording"]
+            else (f"last saved: {status['last_saved']}" if status["last_saved"] else IDLE_TEXT)
+        )
+        if self._seen.changed("record_info", text):
+            self.record_info.content = text

@@ -1,0 +1,507 @@
+"""The paper's experiments (Sec. IV), run in PyBullet: `contactnet experiment NAME --out DIR`.
+
+- ``stepping_stones``: walk at vx = 0.05 m/s across the 8 stones (Fig. 2, 4).
+- ``narrow_stones``: the 3 narrow stones where the fixed cyclic gait fails and the acyclic ContactNet
+  gait succeeds (Fig. 6).
+- ``narrow_map``: the narrow-stones scene over a grid of bar widths x last gaps (all three bars as
+  wide, the gap before the last bar varied): where a fixed leg order stops crossing and where the
+  acyclic ContactNet does. ``success.png`` is then one success map per planner.
+- ``random``: the 1.5 x 0.5 m field of 300 squares with ``removed`` squares missing, one terrain per
+  seed (Fig. 5, Table I); walk and trot.
+
+Beyond the paper (terrain with heights; walk and trot):
+
+- ``stairs``: up 3 steps and down 3 (5 cm risers, 20 cm treads).
+- ``raised_stones``: the shipped stepping stones with tops spread over +-6 cm, 5 seeds by default (the seed is
+  the noise's: with ``--noise`` each seed is another run on the same stones; ``simulate --seed`` builds other
+  spreads of heights).
+- ``random_heights``: the random field with each square's top at a random height within +-``height_m``
+  (default 3 cm), ``removed`` squares missing, one terrain per seed, 20 seeds by default.
+
+Beyond the paper's figures, its push experiment (Sec. IV), measured:
+
+- ``push``: walk and trot at vx = 0.05 m/s on ``push_field`` (10 x 10 cm holes); each trial pushes the base once,
+  for ``PUSH_DURATION_S`` along +x, -x, +y or -y with a force of ``forces_n`` newtons (default 5 N), at one of
+  ``trials`` times (``push_times_s``: from 4 s every 1.5 s; 10 by default, so 40 trials per gait and force). A
+  trial runs ``PUSH_SETTLE_S`` past the push's end; success = no fall by then.
+
+Every trial is one `Locomotion` run (the same loop as `contactnet simulate`) until the goal, a fall or a
+time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Trials run in worker
+processes (``contactnet.jobs.runner``); each finished trial is appended to ``DIR/trials.jsonl`` at once, so an
+interrupted experiment resumes with the trials still missing. At the end: ``summary.json``, a table on stdout, and
+``success.png`` (the success rates, looked at before they are quoted). A record is the trial's `simulate --json`
+summary (without the gait sequence) plus the trial, its time limit, the time of every planner call and optimizer
+solve in ms (``planner_ms_samples``, ``trajopt_ms_samples``) and the trial's wall time in its worker
+(``trial_wall_s``). `open_batch`, `log_record` and `close_batch` are `run_experiment`'s steps, for a caller that runs
+several experiment folders in one job run (``contactnet.jobs.paper``).
+
+Resume is keyed on everything that determines a trial's result (`trial_inputs`): the trial's settings
+(terrain, removed squares, seed, gait, planner, robot, vx, noise, bar width and gap), the terrain's
+content, the gait's spec, the model's content hash (`contactnet.planning.network.LoadedModel.identity`: its
+recorded hash, else the file's sha256; not its path) and the code (`contactnet.jobs.runner.code_identity`). Each
+logged record carries its inputs and their digest (``fingerprint``); a record is reused only when its
+fingerprint is the trial's now. Any other record of the trial (other models, other code, or a log written
+before records had fingerprints) is kept in the log but not reused: the trial runs again, with one line
+on stderr saying why. ``DIR/experiment.json`` (the folder's header) names the experiment and the
+fingerprints of its last run; a folder of another experiment is refused.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import sys
+import time
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from contactnet.atomic import atomic_write_text
+from contactnet.jobs.runner import Job, code_identity, differences, digest, run_jobs
+from contactnet.robots import DEFAULT_ROBOT
+
+HEADER_FORMAT = "contactnet-experiment-v1"
+EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights",
+               "push")
+DEFAULT_PLANNERS = {
+    "stepping_stones": ("contactnet", "fixed", "heuristic"),
+    "narrow_stones": ("contactnet", "fixed", "heuristic"),
+    "narrow_map": ("contactnet", "fixed"),
+    "random": ("contactnet", "fixed", "heuristic"),
+    "stairs": ("contactnet", "fixed"),
+    "raised_stones": ("contactnet", "fixed"),
+    "random_heights": ("contactnet", "fixed"),
+    "push": ("contactnet",),
+}
+DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "narrow_map": ("walk",),
+                 "random": ("walk", "trot"), "stairs": ("walk", "trot"), "raised_stones": ("walk", "trot"),
+                 "random_heights": ("walk", "trot"), "push": ("walk", "trot")}
+DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5, "push": 10}  # 1 elsewhere
+FIELDS = ("random", "random_heights")  # one generated terrain per (removed, seed)
+DEFAULT_HEIGHT_M = 0.03  # random_heights: each top within +-3 cm
+PUSH_DURATION_S = 1.0
+PUSH_SETTLE_S = 4.0  # a push trial runs this long after the push ends
+PUSH_DIRECTIONS = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))  # +x, -x, +y, -y (world)
+
+
+def push_times_s(n: int) -> list[float]:
+    """The push experiment's ``n`` push start times (s): from 4 s (the robot walks over holes from about 6 s)
+    every 1.5 s."""
+    return [4.0 + 1.5 * k for k in range(n)]
+# The narrow_map grid: bar width 3-7 cm (the candidate spacing is 5 cm), last gap 12-24 cm.
+NARROW_MAP_WIDTHS_CM = (3.0, 4.0, 5.0, 6.0, 7.0)
+NARROW_MAP_GAPS_CM = (12.0, 15.0, 18.0, 21.0, 24.0)
+
+
+class ExperimentError(ValueError):
+    """A bad experiment request or output directory (one-line message)."""
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One run: a terrain, a gait, a planner, a seed (sim noise and, for ``random``, the terrain), a robot."""
+
+    experiment: str
+    terrain: str
+    removed: int | None
+    seed: int
+    gait: str
+    planner: str
+    vx: float = 0.05
+    noise: float = 0.0
+    model_dir: str | None = None
+    bar_width_m: float | None = None  # narrow_map: all three bars this wide
+    last_gap_m: float | None = None  # narrow_map: the gap before the last bar
+    robot: str = DEFAULT_ROBOT  # contactnet.registry name
+    height_m: float | None = None  # random_heights: each square's top within +-height_m
+    push_t0_s: float | None = None  # push: when the push starts ...
+    push_force_xy: tuple[float, float] | None = None  # ... and its force (N, world), for PUSH_DURATION_S
+    observer: bool = False  # the disturbance observer on (contactnet.planning.observer; off by default)
+
+    @property
+    def key(self) -> str:
+        """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
+        random_heights and the observer only when on (older logs resume)."""
+        removed = "" if self.removed is None else f"/{self.removed}"
+        height = "" if self.height_m is None else f"/h{self.height_m:g}"
+        robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
+        push = ""
+        if self.push_force_xy is not None:
+            push = f"/push{self.push_force_xy[0]:g},{self.push_force_xy[1]:g}@{self.push_t0_s:g}"
+        return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
+                f"{robot}{'/observer' if self.observer else ''}")
+
+
+def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
+              planners: tuple[str, ...] | None = None, removed: tuple[int, ...] = (80,), noise: float = 0.0,
+              vx: float = 0.05, model_dir: str | None = None,
+              widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
+              robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
+              forces_n: tuple[float, ...] = (5.0,), observer: bool = False) -> list[Trial]:
+    """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
+    on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
+    ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 push times x 4
+    directions per force of ``forces_n``)."""
+    if name not in EXPERIMENTS:
+        raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
+    gaits = gaits or DEFAULT_GAITS[name]
+    planners = planners or DEFAULT_PLANNERS[name]
+    n = trials or DEFAULT_TRIALS.get(name, 1)
+    out = []
+    for gait in gaits:
+        for planner in planners:
+            if name in FIELDS:
+                height = height_m if name == "random_heights" else None
+                out += [Trial(name, name, k, seed, gait, planner, vx, noise, model_dir, robot=robot, height_m=height)
+                        for k in removed for seed in range(n)]
+            elif name == "push":
+                out += [Trial(name, "push_field", None, k, gait, planner, vx, noise, model_dir, robot=robot,
+                              push_t0_s=t0, push_force_xy=(force * dx + 0.0, force * dy + 0.0))
+                        for force in forces_n for dx, dy in PUSH_DIRECTIONS for k, t0 in enumerate(push_times_s(n))]
+            elif name == "narrow_map":
+                from contactnet.terrain import narrow_stones
+
+                for width_cm in widths_cm or NARROW_MAP_WIDTHS_CM:
+                    for gap_cm in gaps_cm or NARROW_MAP_GAPS_CM:
+                        width_m, gap_m = round(width_cm / 100, 6), round(gap_cm / 100, 6)
+                        terrain = narrow_stones(width_m, gap_m).name
+                        out += [Trial(name, terrain, None, seed, gait, planner, vx, noise, model_dir, width_m, gap_m,
+                                      robot=robot) for seed in range(n)]
+            else:
+                out += [Trial(name, name, None, seed, gait, planner, vx, noise, model_dir, robot=robot)
+                        for seed in range(n)]
+    return [replace(t, observer=True) for t in out] if observer else out
+
+
+def run_trial(trial: Trial) -> dict:
+    """Run one trial in this process and return its record (the trial, the simulate summary, facts)."""
+    from contactnet.locomotion import Locomotion, LocomotionConfig
+    from contactnet.planning.observer import DEFAULT_OBSERVER
+    from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
+    from contactnet.sim.pybullet_world import SimConfig
+
+    t0 = time.perf_counter()
+    terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m)
+    gait = gait_by_name(trial.gait)
+    robot = load_robot(trial.robot)
+    model = None if trial.model_dir is None else model_path(trial.robot, trial.gait, Path(trial.model_dir))
+    planner = make_planner(trial.planner, gait, robot, model=model)
+    distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
+    limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
+    sim_config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed)
+    loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if trial.observer else None)
+    with Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
+        if trial.push_force_xy is not None:  # success: no fall until the push has settled
+            from contactnet.sim.pybullet_world import Push
+
+            loco.push(Push(trial.push_t0_s, PUSH_DURATION_S, (*trial.push_force_xy, 0.0)))
+            limit_s = trial.push_t0_s + PUSH_DURATION_S + PUSH_SETTLE_S
+        summary = loco.run(limit_s)
+        samples = {"planner_ms_samples": _ms_samples(loco.planner_times_s),
+                   "trajopt_ms_samples": _ms_samples(loco.trajopt_times_s)}
+    if trial.push_force_xy is not None:
+        summary["success"] = not summary["fell"]
+    summary.pop("gait_sequence", None)  # long; the table does not need it
+    return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary, **samples,
+            "trial_wall_s": time.perf_counter() - t0}
+
+
+def _ms_samples(times_s: list[float]) -> list[float]:
+    """Every call's time in ms to the microsecond (the report's time distributions)."""
+    return [round(1e3 * t, 3) for t in times_s]
+
+
+def _terrain(name: str, removed: int | None, seed: int, bar_width_m: float | None, last_gap_m: float | None,
+             height_m: float | None = None):
+    from contactnet.terrain import narrow_stones, resolve
+
+    if bar_width_m is not None or last_gap_m is not None:
+        return narrow_stones(bar_width_m, last_gap_m)
+    # The seed draws the fields' terrains; on the scenes it seeds only the noise (the shipped terrain every time).
+    return resolve(name, removed=removed, seed=seed if name in FIELDS else 0, height_m=height_m)
+
+
+@functools.lru_cache(maxsize=64)
+def _terrain_inputs(*args: object) -> dict:
+    terrain = _terrain(*args)  # type: ignore[arg-type]
+    return {"name": terrain.name, "sha256": digest(terrain.to_dict())}
+
+
+@functools.lru_cache(maxsize=64)
+def _model_identity(path: str, stamp: tuple[int, int]) -> str:
+    from contactnet.planning.network import load_model
+
+    return load_model(path).identity
+
+
+def trial_inputs(trial: Trial) -> dict:
+    """Everything that determines ``trial``'s result, as plain values (see the module docstring). Raises
+    ModelFileError when the trial's planner needs a model file that is missing or bad."""
+    from contactnet.registry import gait_by_name, model_path, planner_entry
+
+    model = None
+    if planner_entry(trial.planner).needs_model:
+        path = model_path(trial.robot, trial.gait, None if trial.model_dir is None else Path(trial.model_dir))
+        try:
+            stat = path.stat()
+            stamp = (stat.st_mtime_ns, stat.st_size)
+        except OSError:
+            stamp = (0, 0)  # load_model names the problem
+        model = _model_identity(str(path), stamp)
+    settings = asdict(trial)
+    del settings["model_dir"]  # where the model lies does not matter, its content does
+    if not settings["observer"]:
+        del settings["observer"]  # as before the observer existed (older logs resume)
+    terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
+                              trial.height_m)
+    return {"trial": settings, "terrain": terrain, "gait": digest(repr(gait_by_name(trial.gait))),
+            "model": model, "code": code_identity()}
+
+
+def _one_torch_thread() -> None:
+    """Worker processes: one torch thread each (the workers already use every core)."""
+    import torch
+
+    torch.set_num_threads(1)
+
+
+def _read_log(path: Path) -> list[dict]:
+    """The trial records in the log, in order. A last line cut by a kill is dropped (that trial runs again)
+    and the log rewritten without it; a bad line elsewhere is an error (the file is not ours)."""
+    records: list[dict] = []
+    if not path.exists():
+        return records
+    lines = path.read_text().splitlines()
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+            if not isinstance(record["key"], str):
+                raise TypeError
+            records.append(record)
+        except (json.JSONDecodeError, KeyError, TypeError):
+            if number < len(lines):
+                raise ExperimentError(f"{path}: line {number} is not a trial record") from None
+            atomic_write_text(path, "".join(f"{kept}\n" for kept in lines[:-1]))
+    return records
+
+
+def _reusable(log: Path, records: list[dict], inputs: dict[str, dict], fingerprints: dict[str, str]) -> dict:
+    """The logged records whose fingerprint is their trial's now (the last one of each trial). One line on
+    stderr when other records of these trials are not reused, naming what changed."""
+    done: dict[str, dict] = {}
+    stale: dict[str, dict] = {}
+    for record in records:
+        key = record["key"]
+        if key in fingerprints:
+            (done if record.get("fingerprint") == fingerprints[key] else stale)[key] = record
+    rerun = [key for key in stale if key not in done]
+    changed: set[str] = set()
+    for key in rerun:
+        old = stale[key].get("inputs")
+        changed.update(differences(old, inputs[key]) if isinstance(old, dict) else ["?"])
+    if rerun:
+        words = {"trial": "settings", "terrain": "terrain", "gait": "gait spec", "model": "model", "code": "code"}
+        why = [f"with other {', '.join(words.get(c, c) for c in sorted(changed - {'?'}))}"] if changed - {"?"} else []
+        why += ["logged before trials recorded their inputs"] if "?" in changed else []
+        print(f"contactnet: {len(rerun)} trial(s) in {log} were run {' or '.join(why)}: not reused, running them "
+              "again", file=sys.stderr)
+    return done
+
+
+def _check_header(out: Path, name: str) -> None:
+    path = out / "experiment.json"
+    if not path.exists():
+        return
+    try:
+        header = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        raise ExperimentError(f"{path}: unreadable experiment header") from None
+    if not isinstance(header, dict) or header.get("format") != HEADER_FORMAT:
+        raise ExperimentError(f"{path}: not a {HEADER_FORMAT} header")
+    if header.get("experiment") != name:
+        raise ExperimentError(f"{out} holds the experiment {str(header.get('experiment'))[:40]!r}, not {name!r}; "
+                              "use another --out")
+
+
+@dataclass
+class Batch:
+    """One experiment folder open for running: its trials, what determines each (``inputs``) and their
+    ``fingerprints``, and the records already done (reused from the log, then each new one as it comes)."""
+
+    name: str
+    out: Path
+    trials: list[Trial]
+    inputs: dict[str, dict]
+    fingerprints: dict[str, str]
+    done: dict[str, dict]
+
+    @property
+    def log(self) -> Path:
+        return self.out / "trials.jsonl"
+
+
+def open_batch(name: str, out_dir: str | Path, trials: list[Trial]) -> Batch:
+    """Check ``out_dir`` (refused when it holds another experiment), write its header naming ``trials``'
+    fingerprints and read the logged records that can be reused."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ExperimentError(f"{out} exists and is not a directory")
+    if len({t.key for t in trials}) != len(trials):
+        raise ExperimentError("two trials have the same key")
+    inputs = {t.key: trial_inputs(t) for t in trials}
+    fingerprints = {key: digest(value) for key, value in inputs.items()}
+    out.mkdir(parents=True, exist_ok=True)
+    _check_header(out, name)
+    log = out / "trials.jsonl"
+    done = _reusable(log, _read_log(log), inputs, fingerprints)
+    atomic_write_text(out / "experiment.json", json.dumps(
+        {"format": HEADER_FORMAT, "experiment": name, "code": code_identity(), "trials": fingerprints}, indent=1))
+    return Batch(name, out, list(trials), inputs, fingerprints, done)
+
+
+def log_record(batch: Batch, record: dict) -> dict:
+    """Append a finished trial's ``record`` (from `run_trial`) to the batch's log with its inputs and
+    fingerprint, at once; returns the stored record."""
+    key = record["key"]
+    record = {**record, "fingerprint": batch.fingerprints[key], "inputs": batch.inputs[key]}
+    with open(batch.log, "a") as file:
+        file.write(json.dumps(record) + "\n")
+    batch.done[key] = record
+    return record
+
+
+def close_batch(batch: Batch, wall_s: float) -> dict:
+    """The summary of a batch whose trials are all done: summary.json and success.png; returns the summary."""
+    records = [batch.done[t.key] for t in batch.trials]
+    summary = summarize(batch.name, records, wall_s)
+    atomic_write_text(batch.out / "summary.json", json.dumps(summary, indent=1))
+    plot_success(summary, batch.out / "success.png")
+    return summary
+
+
+def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers: int | None = None,
+                   progress: bool = True, engine: str = "local", address: str | None = None) -> dict:
+    """Run (or resume) ``trials`` into ``out_dir`` with ``workers`` processes (default: all cores; 1: in this
+    process), run by ``contactnet.jobs.runner`` (``engine``, ``address``: see `contactnet.jobs.runner.run_jobs`); returns
+    the summary (also written to summary.json). The progress bar shows trials/s, the ETA and the successes
+    so far (of the trials done, the reused ones included)."""
+    batch = open_batch(name, out_dir, trials)
+    done = batch.done
+    t0 = time.perf_counter()
+    tally = {"ok": sum(bool(done[t.key]["success"]) for t in trials if t.key in done),
+             "done": sum(t.key in done for t in trials)}
+
+    def append(job: Job, record: dict) -> dict:
+        record = log_record(batch, record)
+        tally["ok"] += bool(record["success"])
+        tally["done"] += 1
+        return {"successes": f"{tally['ok']}/{tally['done']}",
+                "last": f"{record['key']}: {'ok' if record['success'] else 'fail'}"}
+
+    run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=dict(done), workers=workers,
+             progress=progress, unit="trial", engine=engine, worker_init=_one_torch_thread, address=address)
+    return close_batch(batch, time.perf_counter() - t0)
+
+
+def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
+    """Success rate and the planner's facts per (gait, planner, removed, noise, bar width, last gap) group."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in records:
+        t = r["trial"]
+        force = t.get("push_force_xy")
+        group = (t["gait"], t["planner"], t["removed"], t["noise"], t.get("bar_width_m"), t.get("last_gap_m"),
+                 t.get("height_m"), None if force is None else round(math.hypot(*force), 6), t.get("observer", False))
+        groups.setdefault(group, []).append(r)
+    rows = []
+    for (gait, planner, removed, noise, width_m, gap_m, height_m, push_n, observer), rs in sorted(
+            groups.items(), key=lambda kv: tuple(map(str, kv[0]))):
+        ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
+        rows.append({
+            "gait": gait, "planner": planner, "removed": removed, "noise": noise,
+            "bar_width_m": width_m, "last_gap_m": gap_m, "height_m": height_m, "push_n": push_n, "trials": len(rs),
+            "successes": sum(r["success"] for r in rs),
+            "success_rate": sum(r["success"] for r in rs) / len(rs),
+            "falls": sum(r["fell"] for r in rs),
+            "mean_reached_x": float(np.mean([r["reached_x"] for r in rs])),
+            "planner_ms_median": float(np.median([r["planner_ms"]["median"] for r in rs])),
+            "planner_ms_mean": float(np.mean([r["planner_ms"]["mean"] for r in rs])),
+            "rank_chosen_mean": float(np.mean(ranks)) if ranks else 0.0,
+            "rank_chosen_max": max((r["rank_chosen"]["max"] for r in rs), default=0),
+            "unsafe_landings": sum(r["unsafe_landings"] for r in rs),
+            "max_height_change_m": max((r.get("max_height_change_m", 0.0) for r in rs), default=0.0),
+            "failed_seeds": [r["trial"]["seed"] for r in rs if not r["success"]],
+            **({"failed_pushes": [r["key"].split("/")[1] for r in rs if not r["success"]]} if push_n is not None else {}),
+            **({"observer": True} if observer else {}),
+        })
+    return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
+
+
+def plot_success(summary: dict, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = summary["rows"]
+    if any(r.get("bar_width_m") is not None for r in rows):
+        _plot_success_maps(rows, summary["experiment"], path, plt)
+        return
+    labels = [f"{r['gait']}\n{r['planner']}" + (f"\n{r['removed']} removed" if r["removed"] is not None else "")
+              + (f"\npush {r['push_n']:g} N" if r.get("push_n") is not None else "")
+              + ("\nobserver" if r.get("observer") else "") for r in rows]
+    fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
+    bars = ax.bar(range(len(rows)), [100 * r["success_rate"] for r in rows], color="#3b7dd8")
+    for bar, r in zip(bars, rows, strict=True):
+        ax.text(bar.get_x() + bar.get_width() / 2, bar.get_height() + 1, f"{r['successes']}/{r['trials']}",
+                ha="center", fontsize=8)
+    ax.set_xticks(range(len(rows)), labels, fontsize=8)
+    ax.set_ylim(0, 110)
+    ax.set_ylabel("success %")
+    ax.set_title(f"experiment {summary['experiment']}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_success_maps(rows: list[dict], experiment: str, path: Path, plt) -> None:  # noqa: ANN001
+    """One bar width x last gap success map per (gait, planner), cells labelled successes/trials."""
+    panels = sorted({(r["gait"], r["planner"]) for r in rows})
+    widths_m = sorted({r["bar_width_m"] for r in rows})
+    gaps_m = sorted({r["last_gap_m"] for r in rows})
+    fig, axes = plt.subplots(1, len(panels), figsize=(0.9 * len(gaps_m) * len(panels) + 1.5, 0.7 * len(widths_m) + 1.4),
+                             squeeze=False)
+    for ax, (gait, planner) in zip(axes[0], panels, strict=True):
+        rate = np.full((len(widths_m), len(gaps_m)), np.nan)
+        for r in rows:
+            if (r["gait"], r["planner"]) == (gait, planner):
+                i, j = widths_m.index(r["bar_width_m"]), gaps_m.index(r["last_gap_m"])
+                rate[i, j] = r["success_rate"]
+                ax.text(j, i, f"{r['successes']}/{r['trials']}", ha="center", va="center", fontsize=8)
+        ax.imshow(rate, vmin=0.0, vmax=1.0, cmap="RdYlGn", origin="lower", aspect="auto")
+        ax.set_xticks(range(len(gaps_m)), [f"{100 * g:g}" for g in gaps_m])
+        ax.set_yticks(range(len(widths_m)), [f"{100 * w:g}" for w in widths_m])
+        ax.set_xlabel("gap before the last bar (cm)")
+        ax.set_ylabel("bar width (cm)")
+        ax.set_title(f"{gait}, {planner}")
+    fig.suptitle(f"experiment {experiment}: crossings / trials", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def format_summary(summary: dict) -> str:
+    from contactnet.bench import format_table
+
+    rows = summary["rows"]
+    scene = ("bar_width_m", "last_gap_m") if any(r.get("bar_width_m") is not None for r in rows) else ("removed",)
+    scene += ("height_m",) if any(r.get("height_m") is not None for r in rows) else ()
+    scene += ("push_n",) if any(r.get("push_n") is not None for r in rows) else ()
+    keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "falls",
+            "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
+    keep += ("max_height_change_m",) if any(r.get("max_height_change_m") for r in rows) else ()
+    keep += ("observer",) if any(r.get("observer") for r in rows) else ()
+    return format_table([{k: r.get(k) for k in keep} for r in rows])

@@ -1,0 +1,134 @@
+"""The stand choice (issue 14): beside its stepping actions a ranking planner may choose not to step.
+
+Standing (``GaitSpec.stand_index``) keeps all four feet in stance for the next step horizon. A ranking over
+choices (the ranking cost's, or a network's with N_a + 1 outputs) holds it like any action; since no foot
+moves, standing is always safe, so the planner takes it when it ranks above the best *safe* stepping action
+(or when no stepping action is safe at all). See ``contactnet.planning.cost`` for how the cost scores it.
+
+A network ranks less sharply than the cost: its outputs regress the rank targets (1 for the cheapest of the
+N_a + 1 choices, 1 - 1/N_a for the next, ...), so near the top of the ranking two choices a rank apart differ
+by less than the network's error. A network planner therefore also stands when the network puts standing at the
+top rank (its output rounds to it, ``network_stands``), even if a step scores a little higher: standing moves
+nothing and is always safe. Without this tie rule a trot model with the stand choice (163 outputs) ranked
+standing first in 36 % of its dataset's states where standing is the cheapest choice and never stood with a zero
+command; with it 58 % (and stands in 2.9 % of the states where a step is cheaper, against 1.0 %).
+
+The idle rule (``IdleConfig``) stands with any model, one without the stand output as well: with a zero command
+and a balanced state, a step whose swinging feet all land within 2 cm of where they are (a useless swing) is
+replaced by standing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from contactnet.motion.gait import GaitSpec
+from contactnet.planning.ranking import PlannedStep
+
+
+def split_stand(gait: GaitSpec, order: np.ndarray) -> tuple[np.ndarray, int | None]:
+    """A ranking of choices (best first) as the stepping actions in their order and the position of standing
+    (``gait.stand_index``) in it, None when standing is not in the ranking."""
+    order = np.asarray(order)
+    stand = order == gait.stand_index
+    if not stand.any():
+        return order, None
+    return order[~stand], int(stand.argmax())
+
+
+def prefer_stand(gait: GaitSpec, step, stand_position: int | None):  # noqa: ANN001, ANN201 - planner.PlannedStep
+    """``step`` (a ``PlannedStep``: the first safe stepping action, ``rank`` its position among the stepping
+    actions, or a step in place with ``rank`` None) or standing, whichever ranks first. Standing is a step with
+    no legs, ranked at ``stand_position`` (every stepping action ranked above it was unsafe)."""
+    if stand_position is None or (step.rank is not None and step.rank < stand_position):
+        return step
+    return dataclasses.replace(step, legs=(), footholds_xy_world=np.zeros((0, 2)), action_index=gait.stand_index,
+                               rank=stand_position, discarded=stand_position, safe=True)
+
+
+#: ``network_stands``: standing's output within this many ranks of the top rank counts as the top rank.
+TOP_RANK_TIE = 0.5
+
+
+def network_stands(costs: np.ndarray, stand_cost: float | None, step_cost: float | None) -> bool:
+    """Whether a network planner stands: ``costs`` (N_a,) and ``stand_cost`` are minus the network's outputs,
+    ``step_cost`` the first usable stepping action's (None when no step is usable). It stands when standing ranks
+    above that step, when no step is usable, or when standing's output rounds to the top rank (at least
+    1 - ``TOP_RANK_TIE`` / N_a; see the module doc). Never with ``stand_cost`` None (a model without the output)."""
+    if stand_cost is None:
+        return False
+    return step_cost is None or stand_cost < step_cost or -stand_cost >= 1.0 - TOP_RANK_TIE / len(costs)
+
+
+def stand_step(gait: GaitSpec, costs: np.ndarray, stand_cost: float) -> PlannedStep:
+    """Standing, chosen from a network's costs (lower first; ``costs`` the N_a stepping actions'): its rank is
+    how many stepping actions cost no more (they come before it in a stable sort; all of them were unusable)."""
+    return idle_stand_step(gait, int(np.count_nonzero(costs <= stand_cost)))
+
+
+@dataclass(frozen=True)
+class IdleConfig:
+    """The idle rule: a ranking planner stands instead of a *useless swing* when nothing needs to move.
+
+    The paper's Sec. V: "ContactNet can choose small steps in a row with the same leg ... an energy-based cost term
+    could be added to prevent useless swings". The retrained walk model learned that term (its stand output); the
+    shipped trot model has none (N_a outputs) and with a zero command on flat put its feet back within 2 cm of
+    where they lifted off in 91 of 94 steps. The rule applies the term at plan time, to any model: when the
+    command is zero (at most ``max_command_m_s``) and the state balanced (the CoM velocity within
+    ``max_velocity_error_m_s`` of it), a chosen step whose swinging feet all land less than ``min_swing_m`` from
+    where they are is replaced by standing. A push (a larger velocity error) or any command keeps it stepping.
+    """
+
+    max_command_m_s: float = 0.005  # |command| at or below this counts as zero
+    max_velocity_error_m_s: float = 0.05  # |CoM velocity (xy) - command| at or below this counts as balanced
+    min_swing_m: float = 0.02  # a swing moving every foot less than this is useless (simulate --json's measure)
+
+    def __post_init__(self) -> None:
+        for name in ("max_command_m_s", "max_velocity_error_m_s", "min_swing_m"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"IdleConfig.{name} must be a finite number >= 0, got {value!r}")
+
+
+#: The planners' default: the idle rule on (``ContactNetPlanner(idle=None)`` turns it off).
+DEFAULT_IDLE = IdleConfig()
+
+
+def is_idle(com_vel_world: np.ndarray, vel_cmd_xy: np.ndarray, config: IdleConfig | None) -> bool:
+    """Whether nothing needs to move: a zero command (heading frame; its length does not depend on the heading)
+    and a CoM velocity (world, horizontal) within ``config.max_velocity_error_m_s`` of it. False when ``config``
+    is None."""
+    if config is None:
+        return False
+    cmd_x, cmd_y = float(vel_cmd_xy[0]), float(vel_cmd_xy[1])
+    if not math.hypot(cmd_x, cmd_y) <= config.max_command_m_s:
+        return False
+    # The command is (almost) zero, so the velocity error is the velocity itself, up to max_command_m_s.
+    return math.hypot(float(com_vel_world[0]), float(com_vel_world[1])) <= config.max_velocity_error_m_s
+
+
+def useless_swing(legs: tuple[int, ...], landing_xy_world, feet_xy_world, min_swing_m: float) -> bool:  # noqa: ANN001
+    """Whether every swinging foot (``legs``) lands less than ``min_swing_m`` from where it is: ``landing_xy_world``
+    one [x, y] per leg of ``legs``, ``feet_xy_world`` one [x, y] per leg (lists or arrays)."""
+    if not legs:
+        return False
+    for leg, (x, y) in zip(legs, landing_xy_world, strict=True):
+        foot = feet_xy_world[leg]
+        if not math.hypot(x - foot[0], y - foot[1]) < min_swing_m:
+            return False
+    return True
+
+
+def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
+    """Standing at ``rank`` of the ranking (the actions above it discarded): the idle rule's choice over the useless
+    step at ``rank`` (standing takes its place), and ``stand_step``'s."""
+    return PlannedStep(legs=(), footholds_xy_world=np.zeros((0, 2)), action_index=gait.stand_index, rank=rank,
+                       discarded=rank)
+
+
+__all__ = ["DEFAULT_IDLE", "TOP_RANK_TIE", "IdleConfig", "idle_stand_step", "is_idle", "network_stands",
+           "prefer_stand", "split_stand", "stand_step", "useless_swing"]
