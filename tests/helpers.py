@@ -115,7 +115,7 @@ def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
 
 def viser_client(app):  # noqa: ANN001, ANN201
     """The first viser client connected to ``app``'s 3D view (waits for one)."""
-    return wait_for(lambda: list(app.viewer.live_viewer.server.get_clients().values()), what="the viser client")[0]
+    return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]
 
 
 def live_app(tmp_path_factory, stand_models: bool = False, **settings):  # noqa: ANN001, ANN201

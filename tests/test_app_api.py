@@ -337,7 +337,7 @@ def test_clicks_in_the_3d_view_edit_the_terrain(client, app):
     assert ray_to_plane((0.3, 0.1, 1.0), (0.0, 0.0, 1.0), 0.0) is None  # looking up
     assert ray_to_plane((0.3, 0.1, 1.0), (1.0, 0.0, 0.0), 0.0) is None  # parallel
     client.post("/api/session/terrain", json={"name": "stepping_stones"})
-    panel = app.viewer.live_viewer.panel.editor
+    panel = app.viewer.panel.editor
     before = Terrain.from_dict(app.terrains.current).steppable.area
     version = app.session.view.terrain_version
 

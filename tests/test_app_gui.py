@@ -107,7 +107,7 @@ def app(tmp_path_factory):
 @pytest.fixture(scope="module")
 def browser(app):
     client = ViserProtocolClient(app.viser_port)
-    wait_for(lambda: app.viewer.live_viewer.server.get_clients(), what="the client to connect")
+    wait_for(lambda: app.viewer.server.get_clients(), what="the client to connect")
     yield client
     client.close()
 
@@ -117,7 +117,7 @@ def state(app):
 
 
 def test_velocity_sliders_stop_and_hotkeys(app, browser):
-    panel = app.viewer.live_viewer.panel.drive
+    panel = app.viewer.panel.drive
     browser.set(panel.vx, 0.12)
     browser.set(panel.vy, -0.04)
     wait_for(lambda: state(app).vel_cmd == (0.12, -0.04), what="the sliders' velocity")
@@ -138,7 +138,7 @@ def test_velocity_sliders_stop_and_hotkeys(app, browser):
 
 
 def test_pause_run_reset_and_speed(app, browser):
-    panel = app.viewer.live_viewer.panel.drive
+    panel = app.viewer.panel.drive
     browser.key(panel.shortcuts["P"])
     wait_for(lambda: state(app).paused, what="P pauses")
     browser.key(panel.shortcuts["P"])
@@ -161,7 +161,7 @@ def test_pause_run_reset_and_speed(app, browser):
 
 
 def test_push_buttons_use_the_force_and_duration_sliders(app, browser):
-    panel = app.viewer.live_viewer.panel.push
+    panel = app.viewer.panel.push
     browser.set(panel.push_force, 3.0)
     browser.set(panel.push_duration, 5.0)
     wait_for(lambda: (panel.push_force.value, panel.push_duration.value) == (3.0, 5.0), what="sliders")
@@ -170,12 +170,12 @@ def test_push_buttons_use_the_force_and_duration_sliders(app, browser):
         browser.click(panel.push_buttons, direction)  # 5 s pushes: each adds to those still active
         wait_for(lambda total=total: np.allclose(state(app).push_force[:2], total), what=f"push {direction}")
     assert state(app).pushes == pushes + 4
-    browser.click(app.viewer.live_viewer.panel.drive.reset_button)
+    browser.click(app.viewer.panel.drive.reset_button)
     wait_for(lambda: state(app).pushes == 0, what="reset")
 
 
 def test_gait_planner_and_noise(app, browser):
-    panel = app.viewer.live_viewer.panel.gait_planner
+    panel = app.viewer.panel.gait_planner
     browser.set(panel.gait, "trot")
     wait_for(lambda: state(app).gait == "trot", what="trot")
     browser.set(panel.planner, "contactnet")
@@ -196,7 +196,7 @@ def test_gait_planner_and_noise(app, browser):
 
 def test_the_retarget_switch(app, browser):
     """The "Retarget swings" checkbox turns swing retargeting on and off without a restart; REST shows in it."""
-    panel = app.viewer.live_viewer.panel.gait_planner
+    panel = app.viewer.panel.gait_planner
     assert panel.retarget.value is False and not state(app).retarget  # off by default, like the library
     browser.set(panel.retarget, True)
     wait_for(lambda: state(app).retarget, what="retargeting on")
@@ -212,14 +212,14 @@ def test_the_retarget_switch(app, browser):
 
 def test_the_resist_pushes_switch(app, browser):
     """The "Resist pushes" checkbox turns the disturbance observer on and off without a restart; REST shows it."""
-    panel = app.viewer.live_viewer.panel.gait_planner
+    panel = app.viewer.panel.gait_planner
     assert panel.observer.value is False and not state(app).observer  # off by default, like the library
     browser.set(panel.observer, True)
     wait_for(lambda: state(app).observer, what="the observer on")
     assert app.session._loco.observer is not None
     was_paused = state(app).paused
     app.session.call(SetPaused(False))
-    arrow = app.viewer.live_viewer.scene.estimated_push
+    arrow = app.viewer.scene.estimated_push
     assert float(np.max(arrow.points[..., 2])) < -50.0  # hidden while nothing pushes
     app.session.call(ApplyPush(0.0, 5.0, 1.0))
     wait_for(lambda: float(np.max(arrow.points[..., 2])) > -50.0, what="the estimated push drawn")
@@ -236,7 +236,7 @@ def test_the_resist_pushes_switch(app, browser):
 
 
 def test_terrain_picker_files_and_random_field(app, browser):
-    panel = app.viewer.live_viewer.panel.terrain
+    panel = app.viewer.panel.terrain
     assert panel.terrain_pick.value == "flat"  # the picker starts on the session's terrain
     browser.set(panel.terrain_pick, "random")
     wait_for(lambda: panel.removed.visible and panel.seed.visible, what="N and seed to show")
@@ -256,7 +256,7 @@ def test_terrain_picker_files_and_random_field(app, browser):
     wait_for(lambda: state(app).terrain == "stepping_stones", what="stepping stones")
     notice = app.session.view.notices[-1]  # the restart is said, in a toast to every browser
     assert notice.text.startswith("Terrain stepping_stones loaded")
-    wait_for(lambda: app.viewer.live_viewer.panel.toasts.shown_seq == notice.seq, what="the toast")
+    wait_for(lambda: app.viewer.panel.toasts.shown_seq == notice.seq, what="the toast")
     wait_for(lambda: panel._label == "stepping_stones", what="the picker to see the load")
     assert panel.terrain_pick.value == "stepping_stones"
     browser.set(panel.terrain_pick, "flat")
@@ -267,7 +267,7 @@ def test_terrain_picker_files_and_random_field(app, browser):
 def test_record_button(app, browser):
     from app.live.commands import SetPaused
 
-    panel = app.viewer.live_viewer.panel.recording
+    panel = app.viewer.panel.recording
     app.session.call(SetPaused(False))  # a loaded terrain starts at once (a toast says it restarted)
     browser.click(panel.record_button)
     wait_for(lambda: app.recorder.recording, what="recording")
@@ -275,13 +275,13 @@ def test_record_button(app, browser):
     wait_for(lambda: app.recorder.status()["frames"] >= 10, what="10 frames")
     browser.click(panel.record_button)
     wait_for(lambda: not app.recorder.recording and app.recorder.last_saved, what="the recording to be saved")
-    (entry,) = app.recordings.recorder.list()
+    (entry,) = app.recordings.list()
     assert entry.name == app.recorder.last_saved and entry.size_bytes > 10_000
 
 
 def test_terrain_editor(app, browser):
     from app.live import editor
-    panel = app.viewer.live_viewer.panel.editor
+    panel = app.viewer.panel.editor
     app.terrains.load("stepping_stones")
     area = Terrain.from_dict(app.terrains.current).steppable.area
     n = len(app.terrains.current["regions"])
@@ -339,7 +339,7 @@ def test_terrain_editor(app, browser):
     wait_for(saved.exists, what="the saved file")
     assert Terrain.load(saved).to_dict()["regions"] == app.terrains.current["regions"]
     wait_for(lambda: state(app).terrain == "gui_saved", what="the label to follow the saved name")
-    wait_for(lambda: app.viewer.live_viewer.panel.terrain.terrain_pick.value == "gui_saved", what="the picker to follow")
+    wait_for(lambda: app.viewer.panel.terrain.terrain_pick.value == "gui_saved", what="the picker to follow")
 
     browser.set(panel.tool, "add rect")  # one more edit, then save again under the same name: asks first
     wait_for(lambda: panel.tool.value == "add rect", what="the rect tool")
@@ -388,7 +388,7 @@ def test_terrain_editor(app, browser):
 
 
 def test_terrain_upload(app, browser):
-    panel = app.viewer.live_viewer.panel.editor
+    panel = app.viewer.panel.editor
     narrow = (terrains_dir() / "narrow_stones.json").read_bytes()
     browser.upload(panel.upload, "narrow.json", narrow)
     wait_for(lambda: state(app).terrain == "narrow_stones (uploaded)", what="the uploaded terrain")
@@ -401,9 +401,9 @@ def test_terrain_upload(app, browser):
 
 
 def test_camera_modes_per_browser(app, browser):
-    camera = app.viewer.live_viewer.panel.camera
-    client_id = next(iter(app.viewer.live_viewer.server.get_clients()))
-    client = app.viewer.live_viewer.server.get_clients()[client_id]
+    camera = app.viewer.panel.camera
+    client_id = next(iter(app.viewer.server.get_clients()))
+    client = app.viewer.server.get_clients()[client_id]
     mode, recenter = camera.controls[client_id]  # this browser's own camera block
     assert mode.value == "follow" and camera.following(client_id)
     browser.set(mode, "top-down")
@@ -431,16 +431,16 @@ def test_disk_click_shows_leg_rank_and_safety(app, browser):
     wait_for(lambda: app.session.view.candidates is not None and app.session.view.candidates.rank is not None,
              what="ranked candidates")
     app.session.call(SetPaused(True))
-    scene = app.viewer.live_viewer.scene
+    scene = app.viewer.scene
     wait_for(lambda: scene._drawn[0] is app.session.view.candidates, what="the disks drawn")
     cand = scene._drawn[0]
     (chosen,) = cand.chosen
     browser.click_node("/plan/candidates", chosen)
-    legend = app.viewer.live_viewer.panel.legend
+    legend = app.viewer.panel.legend
     leg = ("FL", "FR", "HL", "HR")[int(cand.leg[chosen])]
     wait_for(lambda: f"{leg} · rank {int(cand.rank[chosen])}" in legend.picked.content, what="the picked disk")
     assert "chosen" in legend.picked.content
-    client_id = next(iter(app.viewer.live_viewer.server.get_clients()))
+    client_id = next(iter(app.viewer.server.get_clients()))
     assert scene._pick_labels[client_id].text.startswith(leg)  # the 3D label next to the disk
     unsafe = np.flatnonzero(~cand.safe)
     if len(unsafe):
@@ -451,13 +451,13 @@ def test_disk_click_shows_leg_rank_and_safety(app, browser):
 
 
 def test_compare_button_toggles_compare_mode(app, browser):
-    panel = app.viewer.live_viewer.panel.gait_planner
+    panel = app.viewer.panel.gait_planner
     browser.set(panel.compare_with, "fixed")
     wait_for(lambda: panel.compare_button.label == "Compare with fixed", what="the button label")
     browser.click(panel.compare_button)
     wait_for(lambda: app.session.view.compare, what="compare mode on")
     assert [c.planner for c in app.session.view.compare] == ["fixed"]
-    ghosts = app.viewer.live_viewer.scene.ghosts
+    ghosts = app.viewer.scene.ghosts
     wait_for(lambda: ghosts.ghosts and ghosts.ghosts[0].visible, what="the ghost robot drawn")
     wait_for(lambda: ghosts.labels[1].text.startswith("fixed"), what="the ghost's label")
     wait_for(lambda: panel.compare_button.label == "Stop comparing", what="the button to say Stop")
@@ -469,8 +469,8 @@ def test_compare_button_toggles_compare_mode(app, browser):
 def test_status_panel_says_what_the_header_says(app, browser):
     from app.live.view import status_line
 
-    status = app.viewer.live_viewer.panel.status
+    status = app.viewer.panel.status
     wait_for(lambda: status.text.content.startswith(f"**{status_line(app.session.view)}**"), what="one status")
     assert 0.0 <= status.progress.value <= 100.0
-    plots = app.viewer.live_viewer.panel.plots
+    plots = app.viewer.panel.plots
     assert plots.gait_plot.axes[1]["values"] == ("FL", "FR", "HL", "HR", "stand")  # the legs, then the stand band

@@ -37,9 +37,9 @@ def page(live):
 def look_at(app, point: np.ndarray, offset: tuple[float, float, float]) -> None:
     """This browser's camera, free, looking at ``point`` from ``point + offset`` (a close look for a screenshot)."""
     client = viser_client(app)
-    mode, _ = app.viewer.live_viewer.panel.camera.controls[client.client_id]
+    mode, _ = app.viewer.panel.camera.controls[client.client_id]
     mode.value = "free"
-    wait_for(lambda: not app.viewer.live_viewer.panel.camera.following(client.client_id), what="the camera free")
+    wait_for(lambda: not app.viewer.panel.camera.following(client.client_id), what="the camera free")
     client.camera.position = tuple(np.asarray(point) + offset)
     client.camera.look_at = tuple(point)
     time.sleep(2.0)  # software WebGL draws the new view
@@ -49,7 +49,7 @@ def test_a_stand_by_choice_shows_in_the_3d_view_the_panel_and_the_gait_plot(live
     app = live
     wait_for(lambda: not app.session.view.run.waiting_for_viewer, timeout=30, what="the session to start")
     app.session.wait_view(lambda v: v.counts.stand_steps >= 3, timeout=90)
-    marks = app.viewer.live_viewer.scene.marks
+    marks = app.viewer.scene.marks
     wait_for(lambda: marks.standing, what="the stand marks")
     assert marks.stand_label.visible and marks.stand_outline.visible and marks.stand_label.text == STANDING
     assert app.session.view.snapshot.steps == 0  # standing, not stepping
@@ -57,7 +57,7 @@ def test_a_stand_by_choice_shows_in_the_3d_view_the_panel_and_the_gait_plot(live
     page.locator("strong", has_text=f"{STANDING} · ").first.wait_for(timeout=30_000)
     page.get_by_text("stood ").first.wait_for(timeout=30_000)  # the panel's counts
     stand_past = 9  # the gait plot's series: t, 4 legs, 4 legs planned, stand, stand planned
-    plot = app.viewer.live_viewer.panel.plots.gait_plot
+    plot = app.viewer.panel.plots.gait_plot
     wait_for(lambda: np.max(plot.data[stand_past]) > STAND_BAND[0] + 0.5 * STAND_BAND[1], what="the stand band")
     assert np.max(plot.data[stand_past + 1]) > STAND_BAND[0] + 0.5 * STAND_BAND[1]  # planned stands too
     time.sleep(2.0)
@@ -79,7 +79,7 @@ def test_a_retargeted_swing_flashes_at_its_new_landing(live, page):
     checkbox.dispatch_event("click")  # no scrolling: see the e2e test
     wait_for(lambda: app.session.view.status.retarget, timeout=30, what="retargeting on from the checkbox")
     assert app.session._loco.config.retarget is not None
-    mode, _ = app.viewer.live_viewer.panel.camera.controls[viser_client(app).client_id]
+    mode, _ = app.viewer.panel.camera.controls[viser_client(app).client_id]
     mode.value = "follow"
     app.session.call(SetPaused(False))
     for _attempt in range(3):  # the command jumps: the measured velocity is far off it, as after a push
@@ -95,7 +95,7 @@ def test_a_retargeted_swing_flashes_at_its_new_landing(live, page):
         app.session.wait_view(lambda v: v.status.done is None and v.snapshot.t_s < 0.3, timeout=60)
     else:
         pytest.fail("no swing retargeted in three runs")
-    marks = app.viewer.live_viewer.scene.marks
+    marks = app.viewer.scene.marks
     wait_for(lambda: marks.flashes, timeout=30, what="the flash drawn")
     flash = marks.flashes[-1]
     ring = np.asarray(marks.rings.batched_positions)[len(marks.flashes) - 1]

@@ -140,9 +140,9 @@ def client(app):
 
 @pytest.fixture
 def folder(app):
-    for path in app.recordings.recorder.directory.iterdir():
+    for path in app.recordings.directory.iterdir():
         path.unlink()
-    return app.recordings.recorder.directory
+    return app.recordings.directory
 
 
 def record(client, app, title: str = "", label: str = "api", seconds: float = 1.0) -> dict:

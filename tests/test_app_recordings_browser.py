@@ -82,7 +82,7 @@ def test_the_list_shows_what_each_recording_is(live, page):
 
 def test_rename_sets_the_title_and_the_file_name(live, page):
     app, _ = live
-    folder = app.recordings.recorder.directory
+    folder = app.recordings.directory
     item(page, "cli-run.viser").get_by_role("button", name="Rename").dispatch_event("click")
     page.locator(".rec-edit input[name=title]").fill("My first run")
     page.locator(".rec-edit input[name=name]").fill("first-run")
@@ -102,7 +102,7 @@ def test_rename_sets_the_title_and_the_file_name(live, page):
 
 def test_delete_asks_first(live, page):
     app, _ = live
-    folder = app.recordings.recorder.directory
+    folder = app.recordings.directory
     asked = []
 
     def answer(accept: bool):

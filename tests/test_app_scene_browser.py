@@ -55,7 +55,7 @@ def test_a_click_on_a_disk_names_it(live, page):
     wait_for(lambda: app.session.view.snapshot.steps >= 3, timeout=60, what="a few steps")
     app.session.call(SetPaused(True))
     client = viser_client(app)
-    scene = app.viewer.live_viewer.scene
+    scene = app.viewer.scene
     wait_for(lambda: scene._drawn[0] is app.session.view.candidates, what="the disks drawn")
     time.sleep(2.0)  # the browser reports the camera it draws with
     cand, positions = scene._drawn
@@ -70,7 +70,7 @@ def test_a_click_on_a_disk_names_it(live, page):
     assert targets, "no disk on screen"
     _, index, (x, y) = max(targets)  # the disk farthest from every foot
     page.mouse.click(x, y)
-    legend = app.viewer.live_viewer.panel.legend
+    legend = app.viewer.panel.legend
     expected = describe_candidate(cand, index, scene.leg_names).text()
     wait_for(lambda: expected in legend.picked.content, timeout=30, what=f"the legend to name disk {index}")
     assert scene._pick_labels[client.client_id].text == expected
@@ -85,7 +85,7 @@ def test_an_orbit_keeps_following_and_recenter_restores_the_view(live, page):
     app.session.call(SetPlanner("heuristic"))  # a steady walk (the test's ContactNet has random weights)
     app.session.call(SetPaused(True))
     client = viser_client(app)
-    camera = app.viewer.live_viewer.panel.camera
+    camera = app.viewer.panel.camera
     mode, recenter = camera.controls[client.client_id]
     recenter_offset = lambda: client.camera.position - client.camera.look_at  # noqa: E731
     page.get_by_role("button", name="Re-center").dispatch_event("click")  # no scrolling: see the e2e test
@@ -126,7 +126,7 @@ def test_compare_mode_draws_the_other_robot(live, page):
     app.terrains.load("stepping_stones")
     app.session.call(SetCompare(("contactnet", "fixed")))
     app.session.call(SetPaused(False))
-    ghosts = app.viewer.live_viewer.scene.ghosts
+    ghosts = app.viewer.scene.ghosts
     wait_for(lambda: ghosts.ghosts and ghosts.ghosts[0].visible, timeout=30, what="the ghost robot")
     # the ghost's clock (the main robot stops where it ends, a fall; the other walks on); random-weight models
     # may fall early, and the loop then restarts both: a second of walking is what every run gets

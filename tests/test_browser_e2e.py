@@ -56,7 +56,7 @@ def test_page_shows_the_session_and_the_3d_view(live, page):
     assert page.locator("nav a[href='/docs']").count() == 1
     viewer.get_by_text("Gait schedule").wait_for()
     viewer.get_by_text("PAUSED").wait_for()
-    client_id = wait_for(lambda: list(app.viewer.live_viewer.server.get_clients()), what="viser client")[0]
+    client_id = wait_for(lambda: list(app.viewer.server.get_clients()), what="viser client")[0]
     app.session.call(SetPaused(False))
     wait_for(lambda: app.state().t_s > 1.5, what="1.5 s of walking")
     app.session.call(SetPaused(True))
@@ -68,7 +68,7 @@ def test_page_shows_the_session_and_the_3d_view(live, page):
     viewer.get_by_text(f"rank chosen {state.rank_chosen}").wait_for()
     time.sleep(1.5)  # let the renderer catch up with the last scene update
     page.screenshot(path=str(ARTIFACTS / "browser_stepping_stones.png"))
-    assert app.viewer.live_viewer.panel.camera.following(client_id)
+    assert app.viewer.panel.camera.following(client_id)
 
 
 def test_push_button_and_velocity_keys_drive_the_robot(live, page):
@@ -99,7 +99,7 @@ def test_recordings_from_the_page_and_the_command_line_play_back(live, page):
     from contactnet.cli import main
 
     app, url = live
-    folder = app.recordings.recorder.directory
+    folder = app.recordings.directory
     assert main(["simulate", "--terrain", "stepping_stones", "--gait", "walk", "--planner", "heuristic",
                  "--duration", "1.0", "--record", str(folder / "cli-run.viser")]) == 0
     app.session.call(SetPaused(False))

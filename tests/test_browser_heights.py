@@ -79,7 +79,7 @@ def look_closely(page, app, at) -> None:  # noqa: ANN001
     from app.scene.camera import place_camera
 
     client = viser_client(app)
-    app.viewer.live_viewer.panel.camera.set_mode(client, "free")
+    app.viewer.panel.camera.set_mode(client, "free")
     at = np.asarray(at, dtype=float)
     position = at + np.array([-0.3, -0.4, 0.3])
     reports: list[np.ndarray] = []
@@ -97,7 +97,7 @@ def top_z(app, index: int) -> float:
 
 def test_select_a_raised_stone_and_set_its_height(live, page):
     app = live
-    panel = app.viewer.live_viewer.panel.editor
+    panel = app.viewer.panel.editor
     wait_for(lambda: app.session.view is not None and app.terrains.label == "raised_stones", what="the session")
     regions = app.terrains.current["regions"]
     assert regions[STONE]["shape"] == "star" and regions[STONE]["z"] == pytest.approx(0.043)
@@ -133,7 +133,7 @@ def test_select_a_raised_stone_and_set_its_height(live, page):
     page.locator("label", has_text="Typed height (cm)").first.scroll_into_view_if_needed()
     look_closely(page, app, star + [0.1, 0.0, 0.0])
     page.screenshot(path=str(ARTIFACTS / "viser_stone_height.png"))
-    app.viewer.live_viewer.panel.camera.set_mode(viser_client(app), "follow")
+    app.viewer.panel.camera.set_mode(viser_client(app), "follow")
 
     typed.fill("60")  # beyond the schema's bound (50 cm): refused, said, and the field shows the height again
     typed.press("Enter")
@@ -147,7 +147,7 @@ def test_select_a_raised_stone_and_set_its_height(live, page):
 
 def test_raise_a_grid_cell_with_the_click_tool(live, page):
     app = live
-    panel = app.viewer.live_viewer.panel.editor
+    panel = app.viewer.panel.editor
     app.terrains.load("random_80_0")  # the paper's random field: one grid of 5 cm cells
     grid_index, grid = next((i, r) for i, r in enumerate(app.terrains.current["regions"]) if r["shape"] == "grid")
     n = len(app.terrains.current["regions"])
@@ -180,4 +180,4 @@ def test_raise_a_grid_cell_with_the_click_tool(live, page):
     assert len(app.terrains.current["regions"]) == n + 1
     time.sleep(2.0)  # the renderer draws the raised cell
     page.screenshot(path=str(ARTIFACTS / "viser_raised_cell.png"))
-    app.viewer.live_viewer.panel.camera.set_mode(viser_client(app), "follow")
+    app.viewer.panel.camera.set_mode(viser_client(app), "follow")

@@ -245,8 +245,8 @@ def test_viser_accepts_websockets_only_from_the_page(live):
 def test_viser_share_link_is_disabled(app):
     from viser import _messages
 
-    assert app.viewer.live_viewer.server.request_share_url() is None  # no relay contacted
-    buffer = app.viewer.live_viewer.server._websock_server.get_message_buffer()
+    assert app.viewer.server.request_share_url() is None  # no relay contacted
+    buffer = app.viewer.server._websock_server.get_message_buffer()
     themes = [m for m in buffer.message_from_id.values() if isinstance(m, _messages.ThemeConfigurationMessage)]
     assert themes and not themes[-1].show_share_button
 
@@ -381,7 +381,7 @@ def test_every_error_is_declared_with_its_model_and_shows_no_path(client, app):
     (app.terrains.store.directory / "broken_file.json").write_text('{"name": "broken_file", "start": [0, 0]')
     schema = client.get("/openapi.json").json()
     components = schema["components"]["schemas"]
-    secret_dirs = {str(app.terrains.store.directory), str(app.recordings.recorder.directory), str(REPO), str(Path.home())}
+    secret_dirs = {str(app.terrains.store.directory), str(app.recordings.directory), str(REPO), str(Path.home())}
     for method, path, body in HOSTILE:
         headers = {"content-type": "application/json"} if body is not None else {}
         response = client.request(method, path, content=body, headers=headers)

@@ -56,7 +56,7 @@ def add_recording_routes(
     )
     def list_recordings() -> list[RecordingEntry]:
         """The recordings of the recordings folder with what they show, newest first."""
-        return [entry_of(r) for r in app.recordings.recorder.list()]
+        return [entry_of(r) for r in app.recordings.list()]
 
     @api.get(
         "/api/recordings/status",
@@ -96,7 +96,7 @@ def add_recording_routes(
         return entry_of(info)
 
     def recording_path(name: str) -> Path:
-        path = app.recordings.recorder.path(name)
+        path = app.recordings.path(name)
         if not path.is_file():
             raise HTTPException(404, f"no recording named {name!r}")
         return path

@@ -79,7 +79,7 @@ from contactnet.terrain import Terrain, resolve
 
 log = logging.getLogger("contactnet.app.server")
 
-STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+STATIC_DIR = Path(__file__).resolve().parents[2] / "static"
 VISER_CLIENT = Path(__import__("viser").__file__).parent / "client" / "build" / "index.html"
 TERRAIN_NAME = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
 COMMAND_TIMEOUT_S = 60.0
@@ -165,7 +165,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
     # the API docs work on a machine without internet.
     api = FastAPIOffline(
         title="contactnet",
-        description=f"Drive, push and inspect the live {app.live.settings.robot} session; manage terrains and "
+        description=f"Drive, push and inspect the live {app.settings.robot} session; manage terrains and "
         "recordings. The 3D view is at / (viser, port given by GET /api/info). Requests must name the tool "
         "in their Host header; state-changing ones must come from its page (or no page) and carry JSON.",
         version="0.1.0",
@@ -217,7 +217,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
             viser_port=app.viser_port,
             viewer_url="/viewer/",
             version="0.1.0",
-            robot=app.live.settings.robot,
+            robot=app.settings.robot,
         )
 
     @api.get("/api/state", response_model=State, tags=["session"], responses=responses(*everywhere, 503))
@@ -433,7 +433,7 @@ def serve(settings: ServeSettings) -> int:
             opening = f"contactnet: open {base}"
         print(
             f"{opening}\n  3D view: viser on port {app.viser_port}; API docs: {base}docs; your terrains: "
-            f"{app.terrains.store.directory}; recordings: {app.recordings.recorder.directory}",
+            f"{app.terrains.store.directory}; recordings: {app.recordings.directory}",
             file=sys.stderr,
             flush=True,
         )

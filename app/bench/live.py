@@ -117,15 +117,15 @@ def run_case(
                 page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=600_000)
                 pages.append(page)
             connect_s = time.monotonic() - t0
-            if len(app.viewer.live_viewer.server.get_clients()) != n_browsers:
+            if len(app.viewer.server.get_clients()) != n_browsers:
                 raise RuntimeError(
-                    f"expected {n_browsers} viser clients, got {len(app.viewer.live_viewer.server.get_clients())}"
+                    f"expected {n_browsers} viser clients, got {len(app.viewer.server.get_clients())}"
                 )
         if compare:
             app.session.call(SetCompare(("contactnet", "fixed")))
         app.session.call(Reset())
         time.sleep(2.0)
-        stats, viewer_stats = app.session.stats, app.viewer.live_viewer.stats
+        stats, viewer_stats = app.session.stats, app.viewer.stats
         frames0 = [viewer_frame(p).evaluate(FRAME_COUNT_JS) for p in pages]
         fps_t0 = time.monotonic()
         sim0, wall0, resets0 = stats.running_sim_s, stats.running_wall_s, stats.lag_resets
