@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 # Reinstall whenever pyproject.toml changes.
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: setup browser serve test test-fast bench clean
+.PHONY: setup browser serve test test-fast bench docs clean
 
 # The browser tests drive Debian's chromium (no browser download): install it when it is missing.
 CHROMIUM ?= /usr/bin/chromium
@@ -43,5 +43,9 @@ bench: setup
 	$(BIN)/contactnet bench terrain
 	$(BIN)/contactnet bench sim
 
+# The documentation site (mkdocs.yml, docs/), built offline into site/: open site/index.html.
+docs: setup
+	$(BIN)/mkdocs build --strict -d site
+
 clean:
-	rm -rf $(VENV) .pytest_cache build *.egg-info
+	rm -rf $(VENV) .pytest_cache build *.egg-info site
