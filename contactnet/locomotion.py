@@ -42,7 +42,7 @@ from contactnet.motion.trajopt import (
 from contactnet.planning.observer import DisturbanceObserver, ObserverConfig
 from contactnet.planning.planner import PlannedStep, Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
-from contactnet.records import StepRecord, summary_stats
+from contactnet.records import StepCounts, StepRecord, summary_stats
 from contactnet.robots.description import Robot
 from contactnet.sim.pybullet_world import Push, SimConfig, SimState, Simulator
 from contactnet.terrain import Terrain
@@ -572,8 +572,7 @@ class Locomotion:
             "sim_time_s": sim_time,
             "wall_time_s": float(self.wall_time_s),
             "steps": self.steps_taken,
-            "stand_steps": sum(r.stand for r in self.records),
-            "useless_steps": sum(r.useless for r in self.records),
+            **StepCounts.of_run(self.records, self.swing_retargets).as_dict(),
             "gait_sequence": [list(r.legs) for r in self.records if r.legs],
             "planner_ms": summary_stats(self.planner_times_s),
             "trajopt_ms": summary_stats(self.trajopt_times_s),
@@ -583,8 +582,6 @@ class Locomotion:
             "mean_velocity_xy": (displacement / sim_time).tolist() if sim_time > 0 else [0.0, 0.0],
             "max_abs_yaw_rad": self.max_abs_yaw_rad,
             "trajopt_failures": self.trajopt_failures,
-            "swing_retargets": self.swing_retargets,
-            "capture_steps": sum(r.captured for r in self.records),
             "max_height_change_m": max((r.height_change_m for r in self.records
                                         if not math.isnan(r.height_change_m)), default=0.0),
             "max_external_force_n": 0.0 if self.observer is None else float(self.observer.max_estimate_n),

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -42,6 +42,26 @@ class StepRecord:
         return bool(self.legs) and self.moved_m < USELESS_STEP_M
 
 
+@dataclass(frozen=True)
+class StepCounts:
+    """A run's step counters, declared once: `Locomotion.summary`, the web tool's live view and end-of-run card and
+    its API all report these (a new counter is a field here, and its count in `of_run`)."""
+
+    stand_steps: int = 0  #: step horizons the planner chose to stand (no leg swung)
+    useless_steps: int = 0  #: steps whose feet landed less than `USELESS_STEP_M` from where they lifted off
+    swing_retargets: int = 0  #: swings whose landing moved during the swing
+    capture_steps: int = 0  #: steps whose candidates moved towards the capture point after a push
+
+    @classmethod
+    def of_run(cls, records: list[StepRecord], swing_retargets: int) -> StepCounts:
+        """The counts of a run's records (and its swing retargets, which the loop counts as they happen)."""
+        return cls(stand_steps=sum(r.stand for r in records), useless_steps=sum(r.useless for r in records),
+                   swing_retargets=int(swing_retargets), capture_steps=sum(r.captured for r in records))
+
+    def as_dict(self) -> dict[str, int]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
 def summary_stats(values_s: list[float]) -> dict[str, float]:
     """mean / median / p99 / max in milliseconds (zeros when empty)."""
     if not values_s:
@@ -55,4 +75,4 @@ def summary_stats(values_s: list[float]) -> dict[str, float]:
     }
 
 
-__all__ = ["USELESS_STEP_M", "StepRecord", "summary_stats"]
+__all__ = ["USELESS_STEP_M", "StepCounts", "StepRecord", "summary_stats"]

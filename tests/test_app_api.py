@@ -450,3 +450,20 @@ def test_a_planner_that_stands_shows_in_the_state(client):
     assert state["stand_steps"] >= 2  # the run's count stays
     client.post("/api/command", json={"vx": 0.0, "vy": 0.0})
     client.post("/api/settings", json={"planner": "heuristic"})
+
+
+def test_one_table_maps_library_errors_to_statuses():
+    """`app.api.errors.ERROR_STATUS`: a subclass is matched before its base (a stored terrain that is not valid
+    is a 409, not the 422 of other edit errors; a command conflict a 409, not the 503 of a stopped session)."""
+    from app.api.errors import ERROR_STATUS, status_of
+    from app.live.commands import CommandConflict
+    from app.live.editor import EditError, ShippedTerrainError
+    from app.live.terrain_files import StoredTerrainError
+    from app.recordings.recorder import RecordingBusy
+
+    cases = {FileNotFoundError("x"): 404, CommandConflict("x"): 409, StoredTerrainError("x"): 409,
+             ShippedTerrainError("x"): 409, RecordingBusy("x"): 409, FileExistsError("x"): 409, EditError("x"): 422,
+             ValueError("x"): 422, TimeoutError(): 504, RuntimeError("x"): 503, KeyError("x"): None}
+    assert {type(e).__name__: status_of(e) for e in cases} == {type(e).__name__: s for e, s in cases.items()}
+    for i, (kind, _) in enumerate(ERROR_STATUS):  # no entry is shadowed by an earlier, more general one
+        assert not any(issubclass(kind, earlier) for earlier, _ in ERROR_STATUS[:i]), kind

@@ -385,3 +385,15 @@ def test_the_session_owns_the_terrain_and_its_history(tmp_path):
         live.stop()
     for view in published:
         assert view.terrain.to_dict() == Terrain.from_dict(view.terrain_dict).to_dict()
+
+
+def test_every_command_has_its_handler():
+    """Each command of `app.live.commands.Command` is handled by a method of its own (no fallback to the error)."""
+    import typing
+
+    from app.live import commands
+
+    handled = LiveSession.__dict__["_handle"].dispatcher.registry
+    kinds = typing.get_args(commands.Command)
+    assert len(kinds) == 20 and all(kind in handled for kind in kinds)
+    assert set(handled) - set(kinds) == {object}

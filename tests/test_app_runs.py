@@ -94,8 +94,9 @@ def test_a_run_ends_is_summed_up_and_the_loop_starts_the_next(tmp_path):
         assert last.index == 1 and last.success and last.reason == "goal reached" and last.reached_x_m >= 0.06
         assert last.steps == view.snapshot.steps > 0 and last.t_s == pytest.approx(view.snapshot.t_s)
         assert last.rank_mean is None and last.planner == "heuristic"  # the heuristic planner does not rank
-        assert (last.stand_steps, last.swing_retargets) == (0, 0) and 0 <= last.useless_steps <= last.steps
-        assert f"stood 0 · useless {last.useless_steps} · swing retargets 0" in run_markdown(view)  # the card
+        counts = last.counts
+        assert (counts.stand_steps, counts.swing_retargets) == (0, 0) and 0 <= counts.useless_steps <= last.steps
+        assert f"stood 0 · useless {counts.useless_steps} · swing retargets 0" in run_markdown(view)  # the card
         assert view.run.progress == 1.0 and 0.0 < view.run.restart_in_s <= 0.5
         assert "GOAL REACHED; next run in" in status_line(view)
         view = live.wait_view(lambda v: v.status.done is None and v.snapshot.t_s > 0.0, timeout=5)

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from app.live.step_events import StepCounts
+from app.live.step_events import LiveCounts
 from app.live.view import CandidateView, Notice
 from app.scene.camera import CameraControl, top_down_pose
 from app.scene.live_scene import (
@@ -86,7 +86,7 @@ def test_steps_shape_and_plot_history():
     def view(t_s, steps, rank, vx, plans=0):
         step = SimpleNamespace(rank=rank)
         snap = SimpleNamespace(t_s=t_s, steps=steps, planned_steps=[step], vel_cmd_xy=(0.1, 0.0), com_vel=(vx, 0.0, 0.0))
-        return SimpleNamespace(snapshot=snap, counts=StepCounts(plans=plans))
+        return SimpleNamespace(snapshot=snap, counts=LiveCounts(plans=plans))
 
     for k in range(40):
         history.observe(view(0.05 * k, k // 4, k // 4 % 3, 0.1 + 0.02 * (-1) ** k))

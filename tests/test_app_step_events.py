@@ -15,7 +15,7 @@ from app.live.commands import ApplyPush, Reset, SetPaused, SetPlanner, SetRetarg
 from app.live.planners import default_planner_factory
 from app.live.session import LiveSession
 from app.live.settings import ServeSettings
-from app.live.step_events import FLASH_S, RetargetFlash, StepCounts, StepEvents, loco_config, use_retarget
+from app.live.step_events import FLASH_S, LiveCounts, RetargetFlash, StepEvents, loco_config, use_retarget
 from app.live.view import STANDING, ViewTracker, is_stand, stand_chart, status_line
 from app.recordings.recorder import quiet_viser_server, stop_quietly, view_of
 from app.scene.live_scene import LiveScene
@@ -41,8 +41,9 @@ def test_an_oracle_that_stands_is_shown_standing(robot):
             view = view_of(loco, tracker)
         summary = loco.summary()
     assert summary["stand_steps"] >= 3 and summary["steps"] == 0  # standing: no step taken
-    assert view.counts == StepCounts(len(loco.records), summary["stand_steps"], summary["useless_steps"], 0,
-                                     summary["capture_steps"])
+    assert view.counts == LiveCounts(plans=len(loco.records), stand_steps=summary["stand_steps"],
+                                     useless_steps=summary["useless_steps"], swing_retargets=0,
+                                     capture_steps=summary["capture_steps"])
     assert is_stand(view.snapshot) and status_line(view).startswith(f"{STANDING} · ")
     assert f"stood {summary['stand_steps']}" in status_line(view)
     assert "**standing**" in details_markdown(view) and "retargeting off" in details_markdown(view)

@@ -15,10 +15,11 @@ from __future__ import annotations
 import math
 import re
 import reprlib
-from collections.abc import Callable, Coroutine
+from collections.abc import Callable, Coroutine, Iterator
+from contextlib import contextmanager
 from typing import Any
 
-from fastapi import FastAPI, Request, Response
+from fastapi import FastAPI, HTTPException, Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.routing import APIRoute
@@ -26,7 +27,11 @@ from pydantic import BaseModel, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
+from app.live.commands import CommandConflict
+from app.live.editor import EditError, ShippedTerrainError
 from app.live.settings import COMMAND_BODY_LIMIT_BYTES
+from app.live.terrain_files import StoredTerrainError
+from app.recordings.recorder import RecordingConflict
 from app.security.guards import is_json
 from contactnet.strict_json import JsonInputError, JsonLimits, loads_strict
 
@@ -70,6 +75,43 @@ DESCRIPTIONS = {
     503: "The live session is not running",
     504: "The live session did not answer in time",
 }
+
+
+#: What each library error means to an HTTP client, most specific first: the one mapping every route uses
+#: (`as_http_errors`). Anything else is a bug of ours and stays a 500.
+ERROR_STATUS: tuple[tuple[type[Exception], int], ...] = (
+    (FileNotFoundError, 404),  # no such terrain or recording
+    (CommandConflict, 409),  # not possible in the session's state (a push while paused, ...)
+    (StoredTerrainError, 409),  # a stored terrain file that is not valid
+    (ShippedTerrainError, 409),  # a shipped terrain's name, not confirmed
+    (RecordingConflict, 409),  # already recording, not recording, the recording in progress
+    (FileExistsError, 409),  # a name that is taken
+    (EditError, 422),  # an edit or a terrain that is refused
+    (ValueError, 422),  # a value the library refuses
+    (TimeoutError, 504),  # the session thread did not answer in time
+    (RuntimeError, 503),  # the live session is not running
+)
+_TIMEOUT_DETAIL = "the live session did not answer in time"
+
+
+def status_of(exc: BaseException) -> int | None:
+    """The HTTP status `ERROR_STATUS` gives this error, None when it is none of them."""
+    return next((status for kind, status in ERROR_STATUS if isinstance(exc, kind)), None)
+
+
+@contextmanager
+def as_http_errors() -> Iterator[None]:
+    """Inside the block, a library error becomes the HTTPException of its status (`ERROR_STATUS`), its one
+    line as the detail."""
+    try:
+        yield
+    except HTTPException:
+        raise
+    except Exception as exc:
+        status = status_of(exc)
+        if status is None:
+            raise
+        raise HTTPException(status, _TIMEOUT_DETAIL if status == 504 else str(exc)) from None
 
 
 def responses(*codes: int, json_route: bool = True) -> dict[int | str, dict[str, Any]]:

@@ -20,6 +20,7 @@ from pydantic import (
 from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
 from app.live.view import LiveView, RunSummary, is_stand, status_line
 from contactnet import registry
+from contactnet.records import StepCounts
 
 
 class _Strict(BaseModel):
@@ -202,7 +203,26 @@ class RunResult(BaseModel):
     )
 
 
-class RunReport(BaseModel):
+class StepCounters(BaseModel):
+    """A run's step counters (`contactnet.records.StepCounts`, declared once): the end-of-run report and the state
+    carry them."""
+
+    stand_steps: int = Field(description="step horizons the planner chose to stand (all four feet down), a count "
+                             "(each lasts the gait's step duration)")
+    useless_steps: int = Field(description="steps whose feet landed less than 2 cm from where they lifted off, a count "
+                               "(known one step horizon after the step)")
+    swing_retargets: int = Field(description="swings whose landing moved during the swing, a count (only while "
+                                 "retarget is on)")
+    capture_steps: int = Field(description="steps whose candidates moved towards the capture point after a push "
+                               "(the CoM velocity off the command by more than 0.15 m/s), a count")
+
+
+def counters(counts: StepCounts) -> dict[str, int]:
+    """The `StepCounters` fields of a run's counts."""
+    return {name: getattr(counts, name) for name in StepCounters.model_fields}
+
+
+class RunReport(StepCounters):
     """A finished run (goal, fall, or stopped) of the main robot."""
 
     index: int = Field(description="1 for the session's first run, then 2, 3, ...")
@@ -217,12 +237,6 @@ class RunReport(BaseModel):
     gait: str = Field(description="the gait")
     planner: str = Field(description="the planner actually used")
     compare: list[RunResult] | None = Field(description="the other robots' results in compare mode, else null")
-    stand_steps: int = Field(description="step horizons the planner chose to stand (all four feet down), a count")
-    useless_steps: int = Field(description="steps whose feet landed less than 2 cm from where they lifted off, "
-                               "a count")
-    swing_retargets: int = Field(description="swings whose landing moved during the swing, a count")
-    capture_steps: int = Field(description="steps whose candidates moved towards the capture point after a push "
-                               "(the CoM velocity off the command by more than 0.15 m/s), a count")
 
 
 class NoticeModel(BaseModel):
@@ -246,7 +260,7 @@ class Scenario(BaseModel):
     compare: list[str] | None = Field(description="compare mode's planners, main first; null when off")
 
 
-class State(BaseModel):
+class State(StepCounters):
     """The live session now (world frame: x forward along the terrain, z up; SI units)."""
 
     session_id: str = Field(description="new on every server start: a client seeing it change reconnects")
@@ -289,14 +303,6 @@ class State(BaseModel):
     steps: int = Field(description="steps taken in this run (step horizons in which legs swung; stands not counted)")
     standing: bool = Field(description="the planner chose to stand for the current step horizon (all four feet "
                            "down): a choice, not a pause")
-    stand_steps: int = Field(description="step horizons of this run the planner chose to stand, a count (each lasts "
-                             "the gait's step duration)")
-    useless_steps: int = Field(description="steps of this run whose feet landed less than 2 cm from where they lifted "
-                               "off, a count (known one step horizon after the step)")
-    swing_retargets: int = Field(description="swings of this run whose landing moved during the swing, a count "
-                                 "(only while retarget is on)")
-    capture_steps: int = Field(description="steps of this run whose candidates moved towards the capture point after "
-                               "a push (the CoM velocity off the command by more than 0.15 m/s), a count")
     retarget: bool = Field(description="swing retargeting is on (POST /api/settings {\"retarget\": true}); off by "
                            "default")
     observer: bool = Field(description="the disturbance observer is on (POST /api/settings {\"observer\": true}); off "
@@ -355,8 +361,7 @@ def _run_report(run: RunSummary | None) -> RunReport | None:
         index=run.index, t_s=run.t_s, steps=run.steps, rank_mean=run.rank_mean, rank_max=run.rank_max,
         success=run.success, reason=run.reason, x=run.reached_x_m, terrain=run.terrain, gait=run.gait,
         planner=run.planner, compare=None if run.compare is None else [_result(r) for r in run.compare],
-        stand_steps=run.stand_steps, useless_steps=run.useless_steps, swing_retargets=run.swing_retargets,
-        capture_steps=run.capture_steps,
+        **counters(run.counts),
     )
 
 
@@ -415,10 +420,7 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         foot_contact=tuple(bool(v) for v in snap.foot_contact),
         steps=snap.steps,
         standing=is_stand(snap),
-        stand_steps=view.counts.stand_steps,
-        useless_steps=view.counts.useless_steps,
-        swing_retargets=view.counts.swing_retargets,
-        capture_steps=view.counts.capture_steps,
+        **counters(view.counts),
         retarget=s.retarget,
         observer=s.observer,
         rank_chosen=snap.planned_steps[0].rank if snap.planned_steps else None,

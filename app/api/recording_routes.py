@@ -10,7 +10,7 @@ from fastapi import Path as PathParam
 from fastapi.responses import FileResponse, HTMLResponse
 from starlette.convertors import Convertor, register_url_convertor
 
-from app.api.errors import responses
+from app.api.errors import as_http_errors, responses
 from app.api.recording_models import (
     RecordingChange,
     RecordingEntry,
@@ -18,7 +18,7 @@ from app.api.recording_models import (
     RecordingStatus,
     entry_of,
 )
-from app.recordings.recorder import RECORDING_NAME, RecordingBusy, viser_html
+from app.recordings.recorder import RECORDING_NAME, viser_html
 
 RecordingName = Annotated[str, PathParam(pattern=RECORDING_NAME.pattern, description="a recording's file name")]
 
@@ -76,10 +76,8 @@ def add_recording_routes(
     def start_recording(body: RecordingStart | None = None) -> RecordingStatus:
         """Record the scene (12 Hz) until stopped (at most 10 simulated minutes)."""
         body = body or RecordingStart()
-        try:
+        with as_http_errors():
             app.recorder.start(body.label.replace(" ", "-"), title=body.title)
-        except RuntimeError as exc:
-            raise HTTPException(409, str(exc)) from None
         return RecordingStatus(**app.recorder.status())
 
     @api.post(
@@ -89,10 +87,8 @@ def add_recording_routes(
         responses=responses(*changing, 409),
     )
     def stop_recording() -> RecordingEntry:
-        try:
+        with as_http_errors():
             info = app.recorder.stop()
-        except RuntimeError as exc:
-            raise HTTPException(409, str(exc)) from None
         return entry_of(info)
 
     def recording_path(name: str) -> Path:
@@ -130,14 +126,8 @@ def add_recording_routes(
         new_name = body.name
         if new_name is not None and not new_name.endswith(".viser"):
             new_name += ".viser"
-        try:
+        with as_http_errors():
             return entry_of(app.recorder.change(name, new_name, body.title))
-        except FileNotFoundError as exc:
-            raise HTTPException(404, str(exc)) from None
-        except (FileExistsError, RecordingBusy) as exc:
-            raise HTTPException(409, str(exc)) from None
-        except ValueError as exc:
-            raise HTTPException(422, str(exc)) from None
 
     @api.delete(
         "/api/recordings/{name:recording_file}",
@@ -148,12 +138,8 @@ def add_recording_routes(
     )
     def delete_recording(name: RecordingName) -> Response:
         """Delete the recording and its metadata. 409 for the recording in progress."""
-        try:
+        with as_http_errors():
             app.recorder.delete(name)
-        except FileNotFoundError as exc:
-            raise HTTPException(404, str(exc)) from None
-        except RecordingBusy as exc:
-            raise HTTPException(409, str(exc)) from None
         return Response(status_code=204)
 
     @api.get(

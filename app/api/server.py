@@ -28,7 +28,7 @@ from fastapi.responses import FileResponse
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
-from app.api.errors import StrictJsonRoute, install_error_handlers, responses
+from app.api.errors import StrictJsonRoute, as_http_errors, install_error_handlers, responses
 from app.api.models import (
     Info,
     PauseCommand,
@@ -46,7 +46,6 @@ from app.api.models import (
 from app.api.recording_routes import add_recording_routes
 from app.live.commands import (
     ApplyPush,
-    CommandConflict,
     Reset,
     SetCompare,
     SetGait,
@@ -60,7 +59,7 @@ from app.live.commands import (
     SetVelocity,
 )
 from app.live.editing import TerrainService
-from app.live.editor import MAX_UPLOAD_BYTES, EditError, ShippedTerrainError
+from app.live.editor import MAX_UPLOAD_BYTES
 from app.live.planners import default_planner_factory
 from app.live.session import LiveSession
 from app.live.settings import (
@@ -70,7 +69,7 @@ from app.live.settings import (
     VELOCITY_LIMIT_M_S,
     ServeSettings,
 )
-from app.live.terrain_files import StoredTerrainError, TerrainLibrary
+from app.live.terrain_files import TerrainLibrary
 from app.recordings.recorder import LiveRecorder, RecordingStore
 from app.security.guards import AccessPolicy, RequestGuard
 from app.viewer.live_viewer import Viewer
@@ -183,16 +182,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
     session_command = (*changing, 422, 503, 504)
 
     def run(command, timeout: float = COMMAND_TIMEOUT_S) -> State:
-        try:
+        with as_http_errors():
             app.session.call(command, timeout=timeout)
-        except CommandConflict as exc:
-            raise HTTPException(409, str(exc)) from None
-        except (ValueError, EditError) as exc:
-            raise HTTPException(422, str(exc)) from None
-        except TimeoutError:
-            raise HTTPException(504, "the live session did not answer in time") from None
-        except RuntimeError as exc:
-            raise HTTPException(503, str(exc)) from None
         return app.state()
 
     # ---- pages ------------------------------------------------------------------------------------
@@ -292,18 +283,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
     def session_terrain(body: TerrainSelect) -> State:
         """Put the robot on another terrain (a file, a shipped generator, or the random field); 409 when that
         file is not a valid terrain."""
-        try:
+        with as_http_errors():
             app.terrains.load(body.name, removed=body.removed, seed=body.seed, timeout=COMMAND_TIMEOUT_S)
-        except FileNotFoundError as exc:
-            raise HTTPException(404, str(exc)) from None
-        except StoredTerrainError as exc:
-            raise HTTPException(409, str(exc)) from None
-        except (EditError, ValueError) as exc:
-            raise HTTPException(422, str(exc)) from None
-        except TimeoutError:
-            raise HTTPException(504, "the live session did not answer in time") from None
-        except RuntimeError as exc:
-            raise HTTPException(503, str(exc)) from None
         return app.state()
 
     # ---- terrains ---------------------------------------------------------------------------------
@@ -321,12 +302,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
     def get_terrain(name: TerrainName) -> dict[str, Any]:
         """The terrain file (the "Terrain file" format of docs/architecture.md): the user's own file of that
         name, else the shipped one. 409 when that file is not a valid terrain (fix or replace it)."""
-        try:
+        with as_http_errors():
             return app.terrains.store.load(name).to_dict()
-        except FileNotFoundError as exc:
-            raise HTTPException(404, str(exc)) from None
-        except StoredTerrainError as exc:
-            raise HTTPException(409, str(exc)) from None
 
     @api.put(
         "/api/terrains/{name}",
@@ -361,12 +338,8 @@ def create_api(app: ContactnetApp) -> FastAPI:
         ``overwrite``) the user's own copy is saved, and shadows the shipped file."""
         body = await request.body()  # at most MAX_UPLOAD_BYTES: RequestGuard refuses more while streaming
         job = app.validation_pool.submit(app.terrains.save_upload, body, name, overwrite)
-        try:
+        with as_http_errors():
             path = await asyncio.wrap_future(job)
-        except ShippedTerrainError as exc:
-            raise HTTPException(409, str(exc)) from None
-        except EditError as exc:
-            raise HTTPException(422, str(exc)) from None
         return Saved(name=name, path=str(path))
 
     # ---- recordings ---------------------------------------------------------------------------------

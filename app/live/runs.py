@@ -16,6 +16,7 @@ import numpy as np
 from app.live.compare import CompareResult, rank_stats
 from app.live.view import RunInfo, RunSummary
 from contactnet.locomotion import Locomotion
+from contactnet.records import StepCounts
 
 #: In compare mode, a run ends this many simulated seconds after its first robot finished (the others may
 #: stand still forever).
@@ -142,8 +143,5 @@ def run_summary(loco: Locomotion, index: int, done: str | None, terrain: str, ga
         gait=gait,
         planner=planner,
         compare=compare,
-        stand_steps=sum(r.stand for r in records),
-        useless_steps=sum(r.useless for r in records),
-        swing_retargets=loco.swing_retargets,
-        capture_steps=sum(r.captured for r in records),
+        counts=StepCounts.of_run(records, loco.swing_retargets),
     )

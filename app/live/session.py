@@ -28,6 +28,7 @@ instead of running in a burst to catch up.
 
 from __future__ import annotations
 
+import functools
 import logging
 import queue
 import threading
@@ -369,114 +370,156 @@ class LiveSession:
 
     def _apply(self, command: Command) -> Any:
         """Apply one command (session thread); returns the command's result (see `call`)."""
-        loco = self._loco
         was_running = self._running
-        result = None
-        if isinstance(command, SetVelocity):
-            self._set_velocity((float(command.vx), float(command.vy)))
-        elif isinstance(command, NudgeVelocity):
-            self._set_velocity(
-                tuple(
-                    float(np.clip(round(v + d, 3), -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S))
-                    for v, d in zip(self._vel, (command.dvx, command.dvy), strict=True)
-                )
-            )
-        elif isinstance(command, ApplyPush):
-            if not self._running:  # the clock stands still: the push would act later, or never
-                why = self._runs.held_because(self._error, self._done)
-                raise CommandConflict(f"cannot push now: the robot is {why}")
-            push = Push(
-                t0_s=loco.t_s,
-                duration_s=float(command.duration_s),
-                force_world=(float(command.fx), float(command.fy), 0.0),
-            )
-            loco.push(push)
-            if self._compare is not None:
-                self._compare.push(push)
-            self._pushes.append(push)
-        elif isinstance(command, Reset):
-            self._restart()
-            self._paused = False
-            self._runs.start_now()
-            self._error = None
-        elif isinstance(command, SetPaused):
-            self._paused = bool(command.paused)
-            if not self._paused:
-                self._runs.start_now()  # an explicit start needs no viewer
-        elif isinstance(command, TogglePause):
-            if self._runs.over or self._error is not None:
-                self._apply(Reset())
-            else:
-                self._apply(SetPaused(not self._paused))
-        elif isinstance(command, ViewerConnected):
-            self._runs.viewer_connected()
-        elif isinstance(command, SetLoop):
-            self._runs.set_loop(bool(command.on))
-        elif isinstance(command, SetCompare):
-            self._set_compare(tuple(command.planners))
-        elif isinstance(command, SetSpeed):
-            self._speed = float(command.speed)
-        elif isinstance(command, SetGait):
-            if command.gait != self._gait_name:
-                self._rebuild(gait=command.gait)
-                self._notify(f"Gait set to {command.gait}: the robot restarted from the start.")
-        elif isinstance(command, SetPlanner):
-            if command.planner != self._planner_name:
-                compare = self._compare_planners
-                if compare:  # the main robot's planner is compare mode's first
-                    self._compare_planners = (command.planner, *compare[1:])
-                try:
-                    self._rebuild(planner=command.planner)
-                except Exception:
-                    self._compare_planners = compare
-                    raise
-                self._notify(f"Planner set to {self._planner_active}: the robot restarted from the start.")
-        elif isinstance(command, SetRetarget):
-            if bool(command.on) != self._retarget:
-                self._retarget = bool(command.on)
-                for loco in self._locos():
-                    use_retarget(loco, self._retarget)
-                self._notify(f"Swing retargeting {'on: a pushed swing may land elsewhere' if command.on else 'off'}"
-                             " (ContactNet and fixed planners; no restart).")
-        elif isinstance(command, SetObserver):
-            if bool(command.on) != self._observer:
-                self._observer = bool(command.on)
-                for loco in self._locos():
-                    use_observer(loco, self._observer)
-                self._notify(f"Disturbance observer {'on: a push is estimated, resisted and leaned into' if command.on else 'off'}"
-                             " (no restart).")
-        elif isinstance(command, SetNoise):
-            if bool(command.on) != self._noise:
-                self._rebuild(noise=bool(command.on))
-                self._notify(f"Joint-velocity noise {'on' if command.on else 'off'}: the robot restarted.")
-        elif isinstance(command, SetTerrain):
-            history = EditHistory(command.terrain.to_dict())  # a new terrain forgets the undo steps
-            self._rebuild(terrain=(command.terrain, command.label))
-            self._terrain_history, self._terrain_base_label = history, command.label
-            self._notify(f"Terrain {command.label} loaded: the robot starts from its start.")
-        elif isinstance(command, EditTerrain):
-            history = self._terrain_history
-            new = command.edit(history.current, *command.args)
-            if new == history.current:
-                return False
-            self._change_terrain(new, "edited")
-            history.apply(new)
-            result = True
-        elif isinstance(command, UndoTerrainEdit):
-            previous = self._terrain_history.previous  # EditError when there is nothing to undo
-            self._change_terrain(previous, "edit undone")
-            self._terrain_history.undo()
-        elif isinstance(command, RedoTerrainEdit):
-            following = self._terrain_history.following  # EditError when there is nothing to redo
-            self._change_terrain(following, "edit redone")
-            self._terrain_history.redo()
-        elif isinstance(command, RenameTerrain):
-            self._terrain_label = self._terrain_base_label = command.label
-        else:  # pragma: no cover - check_command lets only known commands through
-            raise ValueError(f"unknown command {command!r}")
+        result = self._handle(command)
         if self._running and not was_running:
             self._anchor()
         return result
+
+    # ---- one handler per command: `_handle` dispatches on the command's type ------------------------------
+    @functools.singledispatchmethod
+    def _handle(self, command: Command) -> Any:  # pragma: no cover - check_command lets only known commands through
+        raise ValueError(f"unknown command {command!r}")
+
+    @_handle.register
+    def _on_velocity(self, command: SetVelocity) -> None:
+        self._set_velocity((float(command.vx), float(command.vy)))
+
+    @_handle.register
+    def _on_nudge(self, command: NudgeVelocity) -> None:
+        self._set_velocity(
+            tuple(
+                float(np.clip(round(v + d, 3), -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S))
+                for v, d in zip(self._vel, (command.dvx, command.dvy), strict=True)
+            )
+        )
+
+    @_handle.register
+    def _on_push(self, command: ApplyPush) -> None:
+        if not self._running:  # the clock stands still: the push would act later, or never
+            why = self._runs.held_because(self._error, self._done)
+            raise CommandConflict(f"cannot push now: the robot is {why}")
+        push = Push(
+            t0_s=self._loco.t_s,
+            duration_s=float(command.duration_s),
+            force_world=(float(command.fx), float(command.fy), 0.0),
+        )
+        self._loco.push(push)
+        if self._compare is not None:
+            self._compare.push(push)
+        self._pushes.append(push)
+
+    @_handle.register
+    def _on_reset(self, command: Reset) -> None:
+        self._restart()
+        self._paused = False
+        self._runs.start_now()
+        self._error = None
+
+    @_handle.register
+    def _on_paused(self, command: SetPaused) -> None:
+        self._paused = bool(command.paused)
+        if not self._paused:
+            self._runs.start_now()  # an explicit start needs no viewer
+
+    @_handle.register
+    def _on_toggle_pause(self, command: TogglePause) -> None:
+        if self._runs.over or self._error is not None:
+            self._handle(Reset())
+        else:
+            self._handle(SetPaused(not self._paused))
+
+    @_handle.register
+    def _on_viewer(self, command: ViewerConnected) -> None:
+        self._runs.viewer_connected()
+
+    @_handle.register
+    def _on_loop(self, command: SetLoop) -> None:
+        self._runs.set_loop(bool(command.on))
+
+    @_handle.register
+    def _on_compare(self, command: SetCompare) -> None:
+        self._set_compare(tuple(command.planners))
+
+    @_handle.register
+    def _on_speed(self, command: SetSpeed) -> None:
+        self._speed = float(command.speed)
+
+    @_handle.register
+    def _on_gait(self, command: SetGait) -> None:
+        if command.gait != self._gait_name:
+            self._rebuild(gait=command.gait)
+            self._notify(f"Gait set to {command.gait}: the robot restarted from the start.")
+
+    @_handle.register
+    def _on_planner(self, command: SetPlanner) -> None:
+        if command.planner != self._planner_name:
+            compare = self._compare_planners
+            if compare:  # the main robot's planner is compare mode's first
+                self._compare_planners = (command.planner, *compare[1:])
+            try:
+                self._rebuild(planner=command.planner)
+            except Exception:
+                self._compare_planners = compare
+                raise
+            self._notify(f"Planner set to {self._planner_active}: the robot restarted from the start.")
+
+    @_handle.register
+    def _on_retarget(self, command: SetRetarget) -> None:
+        if bool(command.on) != self._retarget:
+            self._retarget = bool(command.on)
+            for loco in self._locos():
+                use_retarget(loco, self._retarget)
+            self._notify(f"Swing retargeting {'on: a pushed swing may land elsewhere' if command.on else 'off'}"
+                         " (ContactNet and fixed planners; no restart).")
+
+    @_handle.register
+    def _on_observer(self, command: SetObserver) -> None:
+        if bool(command.on) != self._observer:
+            self._observer = bool(command.on)
+            for loco in self._locos():
+                use_observer(loco, self._observer)
+            self._notify(f"Disturbance observer {'on: a push is estimated, resisted and leaned into' if command.on else 'off'}"
+                         " (no restart).")
+
+    @_handle.register
+    def _on_noise(self, command: SetNoise) -> None:
+        if bool(command.on) != self._noise:
+            self._rebuild(noise=bool(command.on))
+            self._notify(f"Joint-velocity noise {'on' if command.on else 'off'}: the robot restarted.")
+
+    @_handle.register
+    def _on_terrain(self, command: SetTerrain) -> None:
+        history = EditHistory(command.terrain.to_dict())  # a new terrain forgets the undo steps
+        self._rebuild(terrain=(command.terrain, command.label))
+        self._terrain_history, self._terrain_base_label = history, command.label
+        self._notify(f"Terrain {command.label} loaded: the robot starts from its start.")
+
+    @_handle.register
+    def _on_edit(self, command: EditTerrain) -> bool:
+        history = self._terrain_history
+        new = command.edit(history.current, *command.args)
+        if new == history.current:
+            return False
+        self._change_terrain(new, "edited")
+        history.apply(new)
+        return True
+
+    @_handle.register
+    def _on_undo(self, command: UndoTerrainEdit) -> None:
+        previous = self._terrain_history.previous  # EditError when there is nothing to undo
+        self._change_terrain(previous, "edit undone")
+        self._terrain_history.undo()
+
+    @_handle.register
+    def _on_redo(self, command: RedoTerrainEdit) -> None:
+        following = self._terrain_history.following  # EditError when there is nothing to redo
+        self._change_terrain(following, "edit redone")
+        self._terrain_history.redo()
+
+    @_handle.register
+    def _on_rename(self, command: RenameTerrain) -> None:
+        self._terrain_label = self._terrain_base_label = command.label
 
     def _set_velocity(self, vel: tuple[float, float]) -> None:
         self._vel = vel

@@ -19,6 +19,7 @@ import numpy as np
 from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.planning.observer import DEFAULT_OBSERVER
 from contactnet.planning.retarget import RetargetConfig, RetargetedSwing
+from contactnet.records import StepCounts
 
 #: A retargeted swing's new landing flashes this long (s, simulated time).
 FLASH_S = 1.0
@@ -37,14 +38,11 @@ class RetargetFlash:
 
 
 @dataclass(frozen=True)
-class StepCounts:
-    """The run's step horizons so far, as `Locomotion.summary` counts them."""
+class LiveCounts(StepCounts):
+    """The run's counters so far (`contactnet.records.StepCounts`; a useless step is known a step later), and the
+    step horizons planned."""
 
     plans: int = 0  #: step horizons planned (steps and stands)
-    stand_steps: int = 0  #: horizons the planner chose to stand (no leg swung)
-    useless_steps: int = 0  #: steps whose feet landed less than `USELESS_STEP_M` from lift-off (known a step later)
-    swing_retargets: int = 0  #: swings whose landing moved during the swing
-    capture_steps: int = 0  #: steps whose candidates moved towards the capture point after a push
 
 
 def loco_config(retarget: bool, base: LocomotionConfig = LocomotionConfig(),
@@ -82,7 +80,7 @@ class StepEvents:
         self._flashes: deque[RetargetFlash] = deque(maxlen=FLASHES_KEPT)
         self._seen: deque[tuple[float, int]] = deque(maxlen=4 * FLASHES_KEPT)
 
-    def update(self, loco: Locomotion) -> tuple[StepCounts, tuple[RetargetFlash, ...]]:
+    def update(self, loco: Locomotion) -> tuple[LiveCounts, tuple[RetargetFlash, ...]]:
         """The counts now, and the retargets of the last `FLASH_S` (oldest first)."""
         records = loco.records
         if records is not self._records or len(records) < self._closed:
@@ -104,9 +102,9 @@ class StepEvents:
                                                    np.array(swing.base.end_world, dtype=float),
                                                    np.array(swing.end_world, dtype=float)))
         now = loco.t_s
-        counts = StepCounts(len(records), self._stand + last_stand, self._useless, loco.swing_retargets,
-                            self._captured + last_captured)
+        counts = LiveCounts(plans=len(records), stand_steps=self._stand + last_stand, useless_steps=self._useless,
+                            swing_retargets=loco.swing_retargets, capture_steps=self._captured + last_captured)
         return counts, tuple(f for f in self._flashes if 0.0 <= now - f.t_s < FLASH_S)
 
 
-__all__ = ["FLASH_S", "RetargetFlash", "StepCounts", "StepEvents", "loco_config", "use_observer", "use_retarget"]
+__all__ = ["FLASH_S", "LiveCounts", "RetargetFlash", "StepEvents", "loco_config", "use_observer", "use_retarget"]

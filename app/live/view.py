@@ -15,9 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from app.live.step_events import RetargetFlash, StepCounts, StepEvents
+from app.live.step_events import LiveCounts, RetargetFlash, StepEvents
 from contactnet.locomotion import Locomotion, Snapshot
 from contactnet.motion.gait import GaitSpec
+from contactnet.records import StepCounts
 from contactnet.robots import Robot
 from contactnet.terrain import Terrain
 
@@ -111,10 +112,7 @@ class RunSummary:
     gait: str
     planner: str
     compare: tuple[CompareResult, ...] | None = None
-    stand_steps: int = 0  # step horizons the planner chose to stand
-    useless_steps: int = 0  # steps whose feet landed less than 2 cm from lift-off
-    swing_retargets: int = 0
-    capture_steps: int = 0  # steps whose candidates moved towards the capture point after a push
+    counts: StepCounts = StepCounts()
 
 
 @dataclass(frozen=True)
@@ -166,7 +164,7 @@ class LiveView:
     #: per node of stance_history: the planner had chosen to stand for that step horizon
     stand_history: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     planned_stand: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # (H,) per node of the plan
-    counts: StepCounts = StepCounts()
+    counts: LiveCounts = LiveCounts()
     retarget_flashes: tuple[RetargetFlash, ...] = ()  # the swings retargeted in the last FLASH_S, oldest first
     #: (3,) N: the disturbance observer's estimate of the push, while the loop uses it (None: off or below threshold)
     estimated_push_world: np.ndarray | None = None
@@ -193,7 +191,7 @@ class ViewTracker:
     def reset(self) -> None:
         self._plans_seen = -1
         self._events = StepEvents()
-        self._counts = StepCounts()
+        self._counts = LiveCounts()
         self._standing: deque[bool] = deque(maxlen=HISTORY_NODES)
         self._stand_array = np.zeros(0, dtype=bool)
         self._planned_stand = np.zeros(0, dtype=bool)

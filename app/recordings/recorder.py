@@ -138,7 +138,7 @@ class SceneRecorder:
     def add(self, view: LiveView) -> bool:
         """Record `view` if a frame is due (every 1 / rate_hz s of simulated time); True if recorded."""
         if self._data is not None:
-            raise RuntimeError("this recording is finished")
+            raise RecordingConflict("this recording is finished")
         t = float(view.snapshot.t_s)
         if self._serializer is None:
             position, look_at = overview_camera(view.terrain)
@@ -187,7 +187,7 @@ class SceneRecorder:
         last recorded frame gets one more frame: the recording shows how it ended."""
         if self._data is None:
             if self._serializer is None:
-                raise RuntimeError("nothing recorded")
+                raise RecordingConflict("nothing recorded")
             pending = self._pending
             if pending is not None:  # the run ended after the last frame: the recording shows how
                 t = float(pending.snapshot.t_s)
@@ -353,7 +353,7 @@ class FileRecording:
         """Write the recording (temporary file, then an atomic rename onto the path) and its metadata next to it
         (``NAME.viser.json``)."""
         if self._recorder is None:
-            raise RuntimeError("nothing recorded")
+            raise RecordingConflict("nothing recorded")
         data = self._recorder.finish()
         atomic_write_bytes(self.path, data)
         self._tmp.unlink(missing_ok=True)
@@ -443,7 +443,11 @@ def viser_html(data: bytes, dark_mode: bool = False) -> str:
     return client_html[:head_end] + script + client_html[head_end:]
 
 
-class RecordingBusy(RuntimeError):
+class RecordingConflict(RuntimeError):
+    """Not possible in the recorder's current state (already recording, not recording, nothing recorded)."""
+
+
+class RecordingBusy(RecordingConflict):
     """The recording is being made (or saved) right now: it cannot be renamed or deleted yet."""
 
 
@@ -483,7 +487,7 @@ class LiveRecorder:
         """Start recording into a new file named from the time and `label`; `title` goes in its metadata."""
         with self._lock:
             if self._recorder is not None:
-                raise RuntimeError(f"already recording {self._name}")
+                raise RecordingConflict(f"already recording {self._name}")
             self._recorder = SceneRecorder(robot=self.robot, rate_hz=self.rate_hz)
             self._name = self.store.new_name(label, taken=(self._saving,))
             self._title = title
@@ -502,7 +506,7 @@ class LiveRecorder:
         with self._lock:
             recorder, name = self._recorder, self._name
             if recorder is None or name is None:
-                raise RuntimeError("not recording")
+                raise RecordingConflict("not recording")
             self._recorder, self._name, self._saving = None, None, name
         try:
             data = recorder.finish()

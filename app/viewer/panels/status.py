@@ -11,6 +11,7 @@ import viser
 
 from app.live.view import CompareResult, LiveView, RunSummary, is_stand, status_line
 from app.viewer.panels.common import ChangeTracker
+from contactnet.records import StepCounts
 
 
 def _state_word(view: LiveView) -> str:
@@ -31,10 +32,11 @@ def headline(view: LiveView) -> str:
     return f"**{status_line(view)}**"
 
 
-def step_kinds(stand_steps: int, useless_steps: int, swing_retargets: int, capture_steps: int = 0) -> str:
+def step_kinds(counts: StepCounts) -> str:
     """What the planner did besides stepping, as one phrase (capture steps only once there are some)."""
-    capture = f" · capture steps {capture_steps}" if capture_steps else ""
-    return f"stood {stand_steps} · useless {useless_steps} · swing retargets {swing_retargets}{capture}"
+    capture = f" · capture steps {counts.capture_steps}" if counts.capture_steps else ""
+    return (f"stood {counts.stand_steps} · useless {counts.useless_steps} · swing retargets "
+            f"{counts.swing_retargets}{capture}")
 
 
 def _summary(run: RunSummary) -> str:
@@ -42,7 +44,7 @@ def _summary(run: RunSummary) -> str:
     stands, useless steps and retargets."""
     rank = "" if run.rank_mean is None else f" · rank mean {run.rank_mean:.1f}, max {run.rank_max}"
     return (f"**Run {run.index}** ({run.planner}): {run.t_s:.1f} s · {run.steps} steps{rank} · "
-            f"x = {run.reached_x_m:.2f} m  \n{step_kinds(run.stand_steps, run.useless_steps, run.swing_retargets, run.capture_steps)}")
+            f"x = {run.reached_x_m:.2f} m  \n{step_kinds(run.counts)}")
 
 
 def _compare_result(result: CompareResult) -> str:
@@ -78,8 +80,7 @@ def details_markdown(view: LiveView) -> str:
     rank = snap.planned_steps[0].rank if snap.planned_steps else None
     timing = view.timing
     mean_plan = f" (mean {timing[:, 1].mean():.2f})" if len(timing) else ""
-    counts = view.counts
-    kinds = step_kinds(counts.stand_steps, counts.useless_steps, counts.swing_retargets, counts.capture_steps)
+    kinds = step_kinds(view.counts)
     planner = (
         s.planner_active if s.planner == s.planner_active else f"{s.planner_active} (asked: {s.planner})"
     )
