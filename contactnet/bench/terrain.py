@@ -25,7 +25,7 @@ def benchmark_is_safe(repeats: int = 2000, margins: Sequence[float] | None = Non
     Points are uniform in the terrain's bounds padded by 5 cm (seeded). One row per terrain, margin
     and batch size with median and p90 microseconds of each and ``speedup`` = shapely / is_safe
     (median). ``margins`` default to 0 and the foot radius of the robot ``robot_name``. Then, unless
-    ``validation_repeats`` is 0, the rows of :func:`benchmark_validation`.
+    ``validation_repeats`` is 0, the rows of `benchmark_validation`.
     """
     if margins is None:
         from contactnet.robots import load_robot

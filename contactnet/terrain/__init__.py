@@ -3,13 +3,13 @@
 A terrain is the union of 2D regions whose flat tops (each at its own height ``z``) are steppable;
 everything else is a hole. The package:
 
-- ``schema``: the JSON file format (limits and the complexity budget, :class:`TerrainError`, strict
+- ``schema``: the JSON file format (limits and the complexity budget, `TerrainError`, strict
   validation, reading/writing);
 - ``regions``: region shapes as shapely geometry (grids traced from their cells in linear time);
 - ``union``: the steppable union of the regions, within the complexity budget;
 - ``levels``: the tops of a terrain with several heights (which part has its top at which z);
 - ``locate``: fast exact point location (rasters, shapely next to the edges);
-- ``geometry``: :class:`Terrain` (``from_dict``, ``from_json``, ``load``), ``validate_terrain_bytes``
+- ``geometry``: `Terrain` (``from_dict``, ``from_json``, ``load``), ``validate_terrain_bytes``
   and the point queries (``is_safe``, ``height_at``, ``ground_z``);
 - ``scenes``: the paper's scenes as generators, the shipped files, name resolution
   (``python -m contactnet.terrain`` rewrites the shipped files);

@@ -1,8 +1,8 @@
-"""Terrain editing as pure functions on terrain dicts (the JSON form of :class:`contactnet.terrain.Terrain`).
+"""Terrain editing as pure functions on terrain dicts (the JSON form of `contactnet.terrain.Terrain`).
 
 Every edit takes a terrain dict and returns a new, validated one (the input is never modified);
-a change that would make the terrain invalid raises :class:`EditError` with the terrain's own
-one-line message. :class:`EditHistory` adds undo. Nothing here knows about files, viser or the
+a change that would make the terrain invalid raises `EditError` with the terrain's own
+one-line message. `EditHistory` adds undo. Nothing here knows about files, viser or the
 browser: the web app (``app/live/editor.py`` for files, ``app/live/editing.py`` for the 3D view) turns clicks,
 drags and uploads into these calls.
 
@@ -20,7 +20,7 @@ Squares snap to the 5 cm world lattice (or to the cells of the grid region under
 repeated punches tile without slivers.
 
 Edits of the tops' heights (a stone's ``z``, a grid cell raised or lowered) are in
-:mod:`contactnet.terrain.height_edits`.
+`contactnet.terrain.height_edits`.
 """
 
 from __future__ import annotations

@@ -1,21 +1,21 @@
-"""Terrain geometry: the validated :class:`Terrain`, its steppable union and fast exact point queries on it.
+"""Terrain geometry: the validated `Terrain`, its steppable union and fast exact point queries on it.
 
 A terrain is the union of 2D *regions* (rectangles, circles, stars, polygons and grids of square
 cells; their shapes are in ``contactnet.terrain.regions``, their union, built within the complexity
 budget, in ``contactnet.terrain.union``) whose tops are steppable; everything else is a hole with
 nothing to stand on. Each region's top is flat, at its ``z`` (default the terrain's ``surface_z``);
 where regions overlap the highest top wins. ``surface_z`` is also the nominal ground level, the
-height to measure from where there is no top (:meth:`Terrain.ground_z`).
+height to measure from where there is no top (`Terrain.ground_z`).
 
-The tops at one height form a *level* (:attr:`Terrain.levels`, built in ``contactnet.terrain.levels``);
+The tops at one height form a *level* (`Terrain.levels`, built in ``contactnet.terrain.levels``);
 a terrain whose regions are all at one height has one level, the steppable union itself, and takes
 the same code paths as before heights existed.
 
-The hot path is :meth:`Terrain.is_safe`, vectorized over many candidate footholds; :meth:`Terrain.height_at`
+The hot path is `Terrain.is_safe`, vectorized over many candidate footholds; `Terrain.height_at`
 uses the same machinery. Both answer from a raster built once (per margin) and ask shapely only for
 points next to an outline, so they are exact with respect to shapely (``contactnet.terrain.locate``).
 The mesh and the top view live in ``contactnet.terrain.mesh`` and ``contactnet.terrain.render``;
-:class:`Terrain` delegates to them.
+`Terrain` delegates to them.
 """
 
 from __future__ import annotations
@@ -70,11 +70,11 @@ _SAFE_CACHE_MAX = 16
 class Terrain:
     """An immutable, validated terrain: steppable regions with flat tops (each at its ``z``, default ``surface_z``).
 
-    Construct with :meth:`from_dict`, :meth:`load` or a generator (``contactnet.terrain.scenes``);
-    the constructor itself also validates everything (raising :class:`TerrainError`), using the
+    Construct with `from_dict`, `load` or a generator (``contactnet.terrain.scenes``);
+    the constructor itself also validates everything (raising `TerrainError`), using the
     file's field names (``start`` for ``start_xy``) in messages. Two terrains are equal when their
     ``to_dict()`` are. ``surface_z`` is the file's field: the nominal ground level and the default
-    top of a region; ask :meth:`height_at` for the top under a point and :meth:`ground_z` for the
+    top of a region; ask `height_at` for the top under a point and `ground_z` for the
     height to measure from. ``levels`` are the tops, highest first: (z, the part of the steppable set
     whose top is at z), one level (the steppable set) when every region is at the same height.
     """
@@ -189,7 +189,7 @@ class Terrain:
         return self._locator(margin).covers(points)
 
     def safe_locator(self, margin: float = 0.0) -> PointLocator:
-        """The point locator behind :meth:`is_safe` with ``margin`` (cached): its ``covers_xy`` answers for one
+        """The point locator behind `is_safe` with ``margin`` (cached): its ``covers_xy`` answers for one
         point given as two floats, without numpy arrays (the planner's walk down a ranking)."""
         return self._locator(margin)
 
@@ -198,10 +198,10 @@ class Terrain:
 
         ``points_xy`` is an (N, 2) array-like of world-frame x, y in metres, giving a float array (N,),
         or a single (2,) point, giving a float array of shape (). A point has a top when a region
-        covers it (its boundary included, like :meth:`is_safe` with margin 0); the top is the highest
+        covers it (its boundary included, like `is_safe` with margin 0); the top is the highest
         ``z`` of the regions covering it (on a riser, the upper one). Over holes, off the terrain and
         for non-finite points the result is ``outside`` (NaN by default). With one level this is the
-        same cached raster as :meth:`is_safe`; with several, a raster of the tops built on the first
+        same cached raster as `is_safe`; with several, a raster of the tops built on the first
         call (``contactnet.terrain.locate.HeightLocator``).
         """
         points, single = _as_points(points_xy)
@@ -212,9 +212,9 @@ class Terrain:
         return heights.reshape(()) if single else heights
 
     def height_bound(self, points_xy: Any, outside: float = np.nan) -> np.ndarray:
-        """An upper bound of :meth:`height_at` for obstacle checks, from a raster lookup alone (a few
+        """An upper bound of `height_at` for obstacle checks, from a raster lookup alone (a few
         microseconds for hundreds of points): exact away from the tops' outlines; within a raster cell of one
-        (at most a few mm) the highest top near the point. Same shapes as :meth:`height_at`."""
+        (at most a few mm) the highest top near the point. Same shapes as `height_at`."""
         if not self._heights:
             return self.height_at(points_xy, outside)
         points, single = _as_points(points_xy)
@@ -222,7 +222,7 @@ class Terrain:
         return heights.reshape(()) if single else heights
 
     def height_locator(self) -> HeightLocator | None:
-        """The raster behind :meth:`height_at` and :meth:`height_bound` with several levels (built on first use,
+        """The raster behind `height_at` and `height_bound` with several levels (built on first use,
         cached), None with one level; its ``upper_heights_of`` takes points coordinate first."""
         return self._height_locator() if self._heights else None
 
@@ -233,7 +233,7 @@ class Terrain:
         level ``surface_z``: a foot or a base above a hole is as high as above the ground next to
         it, it is not "below the ground" nor infinitely high. Use it for fall detection (base height
         above the ground), the ends of swing trajectories and CoM height references; use
-        :meth:`height_at` to know whether there is a top at all. Same shapes as :meth:`height_at`.
+        `height_at` to know whether there is a top at all. Same shapes as `height_at`.
         """
         return self.height_at(points_xy, outside=self.surface_z)
 
@@ -321,7 +321,7 @@ class Terrain:
 def validate_terrain_bytes(content: bytes | str, source: str = "upload", max_bytes: int = MAX_FILE_BYTES) -> Terrain:
     """The validated Terrain of a JSON document's bytes, or a one-line TerrainError naming ``source``.
 
-    The same as :meth:`Terrain.from_json`: read with the terrain JSON limits (size, depth, values,
+    The same as `Terrain.from_json`: read with the terrain JSON limits (size, depth, values,
     number length, duplicate keys), validated within the complexity budget. Thread-safe.
     """
     return Terrain.from_json(content, source=source, max_bytes=max_bytes)

@@ -1,16 +1,16 @@
 """Height edits: pure functions that change the tops of a terrain dict (its regions' ``z``).
 
-Like the edits of :mod:`contactnet.terrain.edits`, each takes a terrain dict and returns a new,
-validated one (the input is never modified), or raises :class:`~contactnet.terrain.edits.EditError`
+Like the edits of `contactnet.terrain.edits`, each takes a terrain dict and returns a new,
+validated one (the input is never modified), or raises `contactnet.terrain.edits.EditError`
 with a one-line message naming the field (``regions[3].z``).
 
-- :func:`set_region_height` puts one region's top (a selected stone, a platform, a whole grid) at a
+- `set_region_height` puts one region's top (a selected stone, a platform, a whole grid) at a
   height;
-- :func:`raise_cell` raises or lowers the one grid cell under a point: a cell of a ``grid`` region is
-  cut out of the grid (its ``removed`` list grows, as :func:`~contactnet.terrain.edits.punch_hole` does)
+- `raise_cell` raises or lowers the one grid cell under a point: a cell of a ``grid`` region is
+  cut out of the grid (its ``removed`` list grows, as `contactnet.terrain.edits.punch_hole` does)
   and comes back as a cell-sized ``rect`` with its own ``z``; a region that already is one cell-sized
   rect (the squares of ``random_heights``, a filled hole) just gets a new ``z``. Bigger regions (a
-  platform, a stone) are refused: their whole top moves with :func:`set_region_height`.
+  platform, a stone) are refused: their whole top moves with `set_region_height`.
 
 Heights are world z in metres; the schema's bound applies (``|z - surface_z| <= MAX_HEIGHT_OFFSET_M``),
 and new heights are rounded to the micrometre so repeated steps of 1 cm stay exact in the file.
@@ -86,9 +86,9 @@ def _is_cell_rect(region: Mapping[str, Any], size: float = HOLE_SIZE_M) -> bool:
 
 
 def cell_square(data: Mapping[str, Any], xy: Sequence[float]) -> tuple[int, tuple[float, float, float, float]]:
-    """(index of the region, (minx, miny, maxx, maxy)) of the grid cell :func:`raise_cell` at ``xy`` acts on.
+    """(index of the region, (minx, miny, maxx, maxy)) of the grid cell `raise_cell` at ``xy`` acts on.
 
-    The region seen from above at ``xy`` (:func:`~contactnet.terrain.edits.region_at`) must be a ``grid``
+    The region seen from above at ``xy`` (`contactnet.terrain.edits.region_at`) must be a ``grid``
     (the square is its cell under ``xy``) or a cell-sized ``rect`` (the square is its bounding box);
     anything else raises EditError saying what to do instead.
     """
@@ -118,7 +118,7 @@ def raise_cell(data: Mapping[str, Any], xy: Sequence[float], delta_m: float) -> 
     """Raise (``delta_m`` > 0) or lower the top of the grid cell under ``xy`` by ``delta_m`` metres.
 
     On a ``grid`` region the cell leaves the grid and is added back, last, as a cell-sized ``rect`` with
-    the new ``z``; on a cell-sized ``rect`` only its ``z`` changes (see :func:`cell_square`).
+    the new ``z``; on a cell-sized ``rect`` only its ``z`` changes (see `cell_square`).
     """
     delta = finite_float(delta_m)
     if delta is None:

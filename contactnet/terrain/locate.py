@@ -1,7 +1,7 @@
 """Fast exact point location on a terrain: a raster classified once, shapely asked only next to edges.
 
-:class:`PointLocator` answers "does this (multi)polygon cover the point?" (``Terrain.is_safe``, and
-``Terrain.height_at`` on a terrain whose tops are all at one height); :class:`HeightLocator` answers
+`PointLocator` answers "does this (multi)polygon cover the point?" (``Terrain.is_safe``, and
+``Terrain.height_at`` on a terrain whose tops are all at one height); `HeightLocator` answers
 "what is the highest top of the regions covering the point?" (``Terrain.height_at`` with several
 heights). Both lay a square raster over the geometry: a cell whose box, padded by ``pad_m``, may
 touch an outline is a BOUNDARY cell, where the point itself is asked of shapely; every other cell
@@ -87,7 +87,7 @@ class PointLocator:
     ``row0``); a point's cell is ``floor(xy / cell_m - (col0, row0))``. A cell is BOUNDARY when its
     box padded by ``pad_m`` may touch the region's boundary; every other cell is entirely inside or
     entirely outside, decided by its centre, and so is each 4-connected component of them (the build asks
-    shapely about one centre per component, as :class:`HeightLocator`). The padding keeps the answer exact when a point's
+    shapely about one centre per component, as `HeightLocator`). The padding keeps the answer exact when a point's
     computed cell is off by one through floating-point rounding. The raster is stored as an
     ``n x n`` square (unused rows/cols OUTSIDE) so one scalar clamp to the outermost cells, which
     are always OUTSIDE, handles points off the raster and non-finite points.
@@ -186,7 +186,7 @@ def _scalar_covers(locator: PointLocator) -> Callable[[float, float], bool]:
 class HeightLocator:
     """Exact highest top under points: ``max(tops_z[i] for the regions i covering the point)``, NaN for none.
 
-    The raster of :class:`PointLocator`, with the outlines of every region marked: the cells that are
+    The raster of `PointLocator`, with the outlines of every region marked: the cells that are
     not BOUNDARY form 4-connected components, and no outline passes through a component (the segment
     between two neighbouring centres stays inside the two cells' boxes), so every point of a component
     is covered by the same regions. One point per component is asked of shapely when the raster is
@@ -325,7 +325,7 @@ class CoverLocator:
     """Which of some polygons covers a point, the one with the highest top where several do: its index, -1 for
     none (``contactnet.terrain.top_parts.TopParts.part_at``), exactly, from a raster.
 
-    The raster of :class:`HeightLocator` (whose argument this borrows: the non-BOUNDARY cells form components
+    The raster of `HeightLocator` (whose argument this borrows: the non-BOUNDARY cells form components
     no outline crosses, each answered once by ``exact`` when the raster is built), stored as a rectangle, with
     each BOUNDARY cell's candidates: the polygons its padded box touches. A point in a BOUNDARY cell is asked of
     those polygons alone (``shapely.intersects_xy``), or of ``exact`` (the STRtree) when two of them have the

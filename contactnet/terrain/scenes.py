@@ -1,11 +1,11 @@
 """The paper's scenes as terrain generators, the shipped terrain files and name resolution.
 
-Generators: :func:`flat`, :func:`random_field` (experiment 3), :func:`stepping_stones` (experiment 1),
-:func:`narrow_stones` (experiment 2) and :func:`push_field` (experiment 5); beyond the paper, with
-tops at several heights: :func:`stairs`, :func:`raised_stones` and :func:`random_heights`. Each
+Generators: `flat`, `random_field` (experiment 3), `stepping_stones` (experiment 1),
+`narrow_stones` (experiment 2) and `push_field` (experiment 5); beyond the paper, with
+tops at several heights: `stairs`, `raised_stones` and `random_heights`. Each
 scene's geometry (platforms, stones, fields, heights) is written here in metres; none depends on a
 robot. :data:`SHIPPED`
-names the files in ``terrains/``; ``python -m contactnet.terrain`` (:func:`main`) rewrites them.
+names the files in ``terrains/``; ``python -m contactnet.terrain`` (`main`) rewrites them.
 """
 
 from __future__ import annotations
@@ -95,7 +95,7 @@ RANDOM_HEIGHTS_DEFAULT_M = 0.03
 
 
 def random_heights(removed: int, seed: int, height_m: float = RANDOM_HEIGHTS_DEFAULT_M) -> Terrain:
-    """The paper's random field with heights: the squares of :func:`random_field` (the same ``removed`` ones
+    """The paper's random field with heights: the squares of `random_field` (the same ``removed`` ones
     missing for the same ``seed``), each remaining square's top at a random height within +-``height_m``.
 
     The heights are ``uniform(-height_m, height_m)`` from the same generator, drawn after the removed
@@ -142,7 +142,7 @@ def stepping_stones() -> Terrain:
 
 
 def _stones() -> list[dict[str, Any]]:
-    """The 8 stones of :func:`stepping_stones` (and :func:`raised_stones`)."""
+    """The 8 stones of `stepping_stones` (and `raised_stones`)."""
     return [
         _circle((0.37, 0.12), 0.085),
         _rect((0.39, -0.13), (0.17, 0.16), yaw=0.12),
@@ -159,7 +159,7 @@ RAISED_STONES_SPREAD_M = 0.06
 
 
 def raised_stones(seed: int = 0, spread_m: float = RAISED_STONES_SPREAD_M) -> Terrain:
-    """The stepping stones (:func:`stepping_stones`) with their tops spread over +-``spread_m`` (default 6 cm).
+    """The stepping stones (`stepping_stones`) with their tops spread over +-``spread_m`` (default 6 cm).
 
     The 8 tops are evenly spaced from ``-spread_m`` to ``+spread_m`` (rounded to the millimetre), so the
     spread is always the full range, and shuffled by ``default_rng(seed)``; the platforms stay at 0.
@@ -323,7 +323,7 @@ def terrains_dir() -> Path:
 
 
 def available() -> list[str]:
-    """Sorted stems of the terrain files in :func:`terrains_dir`."""
+    """Sorted stems of the terrain files in `terrains_dir`."""
     directory = terrains_dir()
     return sorted(p.stem for p in directory.glob("*.json")) if directory.is_dir() else []
 

@@ -1,9 +1,9 @@
-"""The terrain file format: limits, :class:`TerrainError` and strict validation of the JSON.
+"""The terrain file format: limits, `TerrainError` and strict validation of the JSON.
 
 A terrain file (``terrains/*.json``) is one JSON object with ``name``, ``start``, ``goal_x``,
 ``regions`` and the optional ``description`` and ``surface_z`` (the nominal ground level). Every region
 may carry ``z``, the height of its flat top (default ``surface_z``, at most ``MAX_HEIGHT_OFFSET_M`` from
-it); where regions overlap, the highest top wins. Every problem raises :class:`TerrainError` with a
+it); where regions overlap, the highest top wins. Every problem raises `TerrainError` with a
 one-line message that names the file and the field, e.g. ``terrains/bad.json: regions[3].size: expected
 ...``. This module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells) and
 back, and reads and writes the files (``contactnet.strict_json``: size, depth, number length and
@@ -289,7 +289,7 @@ def freeze(value: Any) -> Any:
 
 
 def freeze_region(region: Mapping[str, Any]) -> Mapping[str, Any]:
-    """:func:`freeze` of a normalized region (from :func:`parse_fields`), fast: its lists of numbers and of
+    """`freeze` of a normalized region (from `parse_fields`), fast: its lists of numbers and of
     number pairs (vertices, removed cells) become tuples in C-level passes."""
     frozen: dict[str, Any] = {}
     for key, value in region.items():
@@ -300,7 +300,7 @@ def freeze_region(region: Mapping[str, Any]) -> Mapping[str, Any]:
 
 
 def thaw(value: Any) -> Any:
-    """Inverse of :func:`freeze`: plain dicts and lists for JSON."""
+    """Inverse of `freeze`: plain dicts and lists for JSON."""
     if isinstance(value, Mapping):
         return {k: thaw(v) for k, v in value.items()}
     if isinstance(value, tuple):
@@ -538,7 +538,7 @@ def _region_bounds(region: Mapping[str, Any]) -> tuple[float, float, float, floa
 def read_terrain_json(path: str | os.PathLike[str]) -> Any:
     """The JSON value of a terrain file (not yet validated); TerrainError naming ``path`` when unreadable.
 
-    Rejects files over MAX_FILE_BYTES and what :func:`loads_terrain_json` rejects.
+    Rejects files over MAX_FILE_BYTES and what `loads_terrain_json` rejects.
     """
     source = str(path)
     try:

@@ -90,7 +90,7 @@ def region_pieces(regions: Sequence[Mapping[str, Any]], source: str) -> np.ndarr
 def steppable_union(regions: Sequence[Mapping[str, Any]], source: str,
                     pieces: np.ndarray | None = None) -> BaseGeometry:
     """The union of the normalized regions (valid, collinear vertices dropped), or TerrainError naming the
-    limit of the complexity budget it would exceed. ``pieces``: the regions' :func:`region_pieces`, when
+    limit of the complexity budget it would exceed. ``pieces``: the regions' `region_pieces`, when
     the caller has them already."""
     if pieces is None:
         pieces = region_pieces(regions, source)
