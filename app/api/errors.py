@@ -17,6 +17,7 @@ import re
 import reprlib
 from collections.abc import Callable, Coroutine, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
 from fastapi import FastAPI, HTTPException, Request, Response
@@ -112,6 +113,22 @@ def as_http_errors() -> Iterator[None]:
         if status is None:
             raise
         raise HTTPException(status, _TIMEOUT_DETAIL if status == 504 else str(exc)) from None
+
+
+@dataclass(frozen=True)
+class ErrorCodes:
+    """The error codes routes declare: those every route can answer (Host, and the token when one is needed), those
+    of every state-changing route, and those of a route that sends the live session a command."""
+
+    everywhere: tuple[int, ...]
+    changing: tuple[int, ...]
+    session_command: tuple[int, ...]
+
+    @classmethod
+    def of(cls, policy: Any) -> ErrorCodes:  # an AccessPolicy
+        everywhere = (421, 401) if policy.needs_token else (421,)
+        changing = (*everywhere, 400, 403, 413, 415)
+        return cls(everywhere, changing, (*changing, 422, 503, 504))
 
 
 def responses(*codes: int, json_route: bool = True) -> dict[int | str, dict[str, Any]]:

@@ -10,7 +10,7 @@ from fastapi import Path as PathParam
 from fastapi.responses import FileResponse, HTMLResponse
 from starlette.convertors import Convertor, register_url_convertor
 
-from app.api.errors import as_http_errors, responses
+from app.api.errors import ErrorCodes, as_http_errors, responses
 from app.api.recording_models import (
     RecordingChange,
     RecordingEntry,
@@ -42,11 +42,11 @@ register_url_convertor("recording_file", RecordingFileConvertor())
 def add_recording_routes(
     api: FastAPI,
     app,  # noqa: ANN001 - a ContactnetApp (app.api.server imports this module)
-    everywhere: tuple[int, ...],
-    changing: tuple[int, ...],
+    codes: ErrorCodes,
 ) -> None:
     """Add the /api/recordings routes of `app` (a ContactnetApp: its `recordings` store and live `recorder`)
-    to `api`. `everywhere`: the error codes every route can answer; `changing`: those of a state-changing one."""
+    to `api`."""
+    everywhere, changing = codes.everywhere, codes.changing
 
     @api.get(
         "/api/recordings",

@@ -4,12 +4,10 @@ viser server (the 3D view and its control panel), around one live session.
 viser cannot be mounted inside FastAPI (it is its own websocket server), so it runs on its own
 port; the front page embeds viser's client (served here at /viewer/) with `?websocket=` pointing
 at that port. `contactnet serve` calls `serve(settings)` (`app.live.settings.ServeSettings`); tests build
-a `ContactnetApp` directly. The request and response models are in `app/api/models.py`.
+a `ContactnetApp` directly. `create_api` sets the API up and adds its route groups: `app/api/session_routes.py`,
+`app/api/terrain_routes.py`, `app/api/recording_routes.py`; the request and response models are in `app/api/models.py`.
 """
 
-# No `from __future__ import annotations` here: the settings endpoint's body model is built at run time
-# (from the registry) and FastAPI must see the class itself, not its name.
-import asyncio
 import functools
 import gc
 import logging
@@ -19,54 +17,28 @@ import sys
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
 import uvicorn
-from fastapi import FastAPI, HTTPException, Query, Request
-from fastapi import Path as PathParam
+from fastapi import FastAPI, HTTPException
 from fastapi.responses import FileResponse
 from fastapi.staticfiles import StaticFiles
 from fastapi_offline import FastAPIOffline
 
-from app.api.errors import StrictJsonRoute, as_http_errors, install_error_handlers, responses
+from app.api.errors import ErrorCodes, StrictJsonRoute, install_error_handlers
 from app.api.models import (
-    Info,
-    PauseCommand,
-    PushCommand,
-    Saved,
     State,
-    TerrainEntry,
-    TerrainList,
-    TerrainSelect,
-    VelocityCommand,
-    compare_command_model,
-    settings_command_model,
     state_of,
 )
 from app.api.recording_routes import add_recording_routes
-from app.live.commands import (
-    ApplyPush,
-    Reset,
-    SetCompare,
-    SetGait,
-    SetLoop,
-    SetNoise,
-    SetObserver,
-    SetPaused,
-    SetPlanner,
-    SetRetarget,
-    SetSpeed,
-    SetVelocity,
-)
+from app.api.session_routes import add_session_routes
+from app.api.terrain_routes import add_terrain_routes
 from app.live.editing import TerrainService
 from app.live.editor import MAX_UPLOAD_BYTES
 from app.live.planners import default_planner_factory
 from app.live.session import LiveSession
 from app.live.settings import (
     COMMAND_BODY_LIMIT_BYTES,
-    PUSH_DURATION_LIMIT_S,
-    PUSH_FORCE_LIMIT_N,
-    VELOCITY_LIMIT_M_S,
     ServeSettings,
 )
 from app.live.terrain_files import TerrainLibrary
@@ -80,9 +52,6 @@ log = logging.getLogger("contactnet.app.server")
 
 STATIC_DIR = Path(__file__).resolve().parents[2] / "static"
 VISER_CLIENT = Path(__import__("viser").__file__).parent / "client" / "build" / "index.html"
-TERRAIN_NAME = r"^[A-Za-z0-9][A-Za-z0-9_-]{0,63}$"
-COMMAND_TIMEOUT_S = 60.0
-TerrainName = Annotated[str, PathParam(pattern=TERRAIN_NAME, description="a terrain file's stem")]
 
 
 # ---- the application ----------------------------------------------------------------------------
@@ -173,18 +142,7 @@ def create_api(app: ContactnetApp) -> FastAPI:
     api.state.access_policy = app.policy
     install_error_handlers(api)
     api.add_middleware(RequestGuard, policy=app.policy, body_limit=body_limit)
-    SettingsCommand = settings_command_model()  # noqa: N806 - a model class
-    CompareCommand = compare_command_model()  # noqa: N806 - a model class
-
-    # The error codes every route can answer (Host, token) and those of every state-changing one.
-    everywhere = (421, 401) if app.policy.needs_token else (421,)
-    changing = (*everywhere, 400, 403, 413, 415)
-    session_command = (*changing, 422, 503, 504)
-
-    def run(command, timeout: float = COMMAND_TIMEOUT_S) -> State:
-        with as_http_errors():
-            app.session.call(command, timeout=timeout)
-        return app.state()
+    codes = ErrorCodes.of(app.policy)
 
     # ---- pages ------------------------------------------------------------------------------------
     @api.get("/", include_in_schema=False)
@@ -200,150 +158,10 @@ def create_api(app: ContactnetApp) -> FastAPI:
     if STATIC_DIR.is_dir():
         api.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
 
-    # ---- session ------------------------------------------------------------------------------------
-    @api.get("/api/info", response_model=Info, tags=["session"], responses=responses(*everywhere))
-    def info() -> Info:
-        return Info(
-            session_id=app.session.session_id,
-            viser_port=app.viser_port,
-            viewer_url="/viewer/",
-            version="0.1.0",
-            robot=app.settings.robot,
-        )
-
-    @api.get("/api/state", response_model=State, tags=["session"], responses=responses(*everywhere, 503))
-    def get_state() -> State:
-        return app.state()
-
-    @api.post(
-        "/api/command",
-        response_model=State,
-        tags=["session"],
-        description=f"Set the commanded velocity (|vx|, |vy| <= {VELOCITY_LIMIT_M_S:g} m/s).",
-        responses=responses(*session_command),
-    )
-    def command(body: VelocityCommand) -> State:
-        return run(SetVelocity(body.vx, body.vy))
-
-    @api.post(
-        "/api/push",
-        response_model=State,
-        tags=["session"],
-        description=f"Push the base now (0 < |f| <= {PUSH_FORCE_LIMIT_N:g} N, "
-        f"0 < duration <= {PUSH_DURATION_LIMIT_S:g} s). Only while the robot walks: 409 when it is paused, "
-        "has fallen or reached the goal.",
-        responses=responses(*session_command, 409),
-    )
-    def push(body: PushCommand) -> State:
-        return run(ApplyPush(body.fx, body.fy, body.duration))
-
-    @api.post("/api/reset", response_model=State, tags=["session"], responses=responses(*session_command))
-    def reset() -> State:
-        """Back to the start of the terrain, running."""
-        return run(Reset())
-
-    @api.post("/api/pause", response_model=State, tags=["session"], responses=responses(*session_command))
-    def pause(body: PauseCommand) -> State:
-        """Stop or run the clock; running also ends the wait for the first browser."""
-        return run(SetPaused(body.paused))
-
-    @api.post("/api/compare", response_model=State, tags=["session"], responses=responses(*session_command))
-    def compare(body: CompareCommand) -> State:
-        """Compare mode: ``{"planners": ["contactnet", "fixed"]}`` runs two robots on the same terrain with the
-        same command (the main robot with the first planner, the other drawn as a ghost), both from the start;
-        ``{"planners": []}`` turns it off. `State.compare` reports the other robot."""
-        return run(SetCompare(tuple(body.planners)))
-
-    @api.post("/api/settings", response_model=State, tags=["session"], responses=responses(*session_command))
-    def settings(body: SettingsCommand) -> State:
-        """Change gait, planner, noise (each restarts the robot), simulation speed, loop, swing retargeting and the
-        disturbance observer."""
-        if body.speed is not None:
-            run(SetSpeed(body.speed))
-        if body.loop is not None:
-            run(SetLoop(body.loop))
-        if body.gait is not None:
-            run(SetGait(body.gait))
-        if body.planner is not None:
-            run(SetPlanner(body.planner))
-        if body.noise is not None:
-            run(SetNoise(body.noise))
-        if body.retarget is not None:
-            run(SetRetarget(body.retarget))
-        if body.observer is not None:
-            run(SetObserver(body.observer))
-        return app.state()
-
-    @api.post(
-        "/api/session/terrain",
-        response_model=State,
-        tags=["session"],
-        responses=responses(*session_command, 404, 409),
-    )
-    def session_terrain(body: TerrainSelect) -> State:
-        """Put the robot on another terrain (a file, a shipped generator, or the random field); 409 when that
-        file is not a valid terrain."""
-        with as_http_errors():
-            app.terrains.load(body.name, removed=body.removed, seed=body.seed, timeout=COMMAND_TIMEOUT_S)
-        return app.state()
-
-    # ---- terrains ---------------------------------------------------------------------------------
-    @api.get("/api/terrains", response_model=TerrainList, tags=["terrains"], responses=responses(*everywhere))
-    def list_terrains() -> TerrainList:
-        store = app.terrains.store
-        return TerrainList(
-            terrains=[
-                TerrainEntry(name=n, shipped=store.is_shipped(n), url=f"/api/terrains/{n}") for n in store.names()
-            ],
-            current=app.terrains.label,
-        )
-
-    @api.get("/api/terrains/{name}", tags=["terrains"], responses=responses(*everywhere, 404, 409, 422))
-    def get_terrain(name: TerrainName) -> dict[str, Any]:
-        """The terrain file (the "Terrain file" format of docs/architecture.md): the user's own file of that
-        name, else the shipped one. 409 when that file is not a valid terrain (fix or replace it)."""
-        with as_http_errors():
-            return app.terrains.store.load(name).to_dict()
-
-    @api.put(
-        "/api/terrains/{name}",
-        response_model=Saved,
-        tags=["terrains"],
-        responses=responses(*changing, 409, 422),
-        openapi_extra={
-            "requestBody": {
-                "required": True,
-                "content": {
-                    "application/json": {
-                        "schema": {
-                            "type": "object",
-                            "description": "a terrain (docs/architecture.md 'Terrain file'); at most "
-                            f"{MAX_UPLOAD_BYTES} bytes",
-                            "required": ["name", "start", "goal_x", "regions"],
-                        }
-                    }
-                },
-            }
-        },
-    )
-    async def put_terrain(
-        name: TerrainName,
-        request: Request,
-        overwrite: Annotated[
-            bool, Query(description="confirm saving your own copy under the name of a shipped terrain")
-        ] = False,
-    ) -> Saved:
-        """Save a terrain as the user's file `name` (validated once, off the event loop; nothing is written if
-        it is invalid). The shipped terrains are never changed: under a shipped name (confirmed with
-        ``overwrite``) the user's own copy is saved, and shadows the shipped file."""
-        body = await request.body()  # at most MAX_UPLOAD_BYTES: RequestGuard refuses more while streaming
-        job = app.validation_pool.submit(app.terrains.save_upload, body, name, overwrite)
-        with as_http_errors():
-            path = await asyncio.wrap_future(job)
-        return Saved(name=name, path=str(path))
-
+    add_session_routes(api, app, codes)
+    add_terrain_routes(api, app, codes)
     # ---- recordings ---------------------------------------------------------------------------------
-    add_recording_routes(api, app, everywhere, changing)
+    add_recording_routes(api, app, codes)
 
     return api
 

@@ -1,0 +1,141 @@
+"""The /api session routes: state, velocity, push, reset, pause, compare, settings and the session's terrain.
+Each command goes to the live session's queue and answers the state after it (`run`)."""
+
+# No `from __future__ import annotations`: FastAPI must see the body models themselves (some are built at run
+# time, from the registry), not their names.
+
+from fastapi import FastAPI
+
+from app.api.errors import ErrorCodes, as_http_errors, responses
+from app.api.models import (
+    Info,
+    PauseCommand,
+    PushCommand,
+    State,
+    TerrainSelect,
+    VelocityCommand,
+    compare_command_model,
+    settings_command_model,
+)
+from app.live.commands import (
+    ApplyPush,
+    Reset,
+    SetCompare,
+    SetGait,
+    SetLoop,
+    SetNoise,
+    SetObserver,
+    SetPaused,
+    SetPlanner,
+    SetRetarget,
+    SetSpeed,
+    SetVelocity,
+)
+from app.live.settings import (
+    PUSH_DURATION_LIMIT_S,
+    PUSH_FORCE_LIMIT_N,
+    VELOCITY_LIMIT_M_S,
+)
+
+#: How long a route waits for the session thread to apply a command.
+COMMAND_TIMEOUT_S = 60.0
+
+
+def add_session_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: ANN001 - a ContactnetApp
+    """Add the session routes of `app` (a ContactnetApp) to `api`."""
+    everywhere, session_command = codes.everywhere, codes.session_command
+    SettingsCommand = settings_command_model()  # noqa: N806 - a model class
+    CompareCommand = compare_command_model()  # noqa: N806 - a model class
+
+    def run(command, timeout: float = COMMAND_TIMEOUT_S) -> State:
+        with as_http_errors():
+            app.session.call(command, timeout=timeout)
+        return app.state()
+
+    # ---- session ------------------------------------------------------------------------------------
+    @api.get("/api/info", response_model=Info, tags=["session"], responses=responses(*everywhere))
+    def info() -> Info:
+        return Info(
+            session_id=app.session.session_id,
+            viser_port=app.viser_port,
+            viewer_url="/viewer/",
+            version="0.1.0",
+            robot=app.settings.robot,
+        )
+
+    @api.get("/api/state", response_model=State, tags=["session"], responses=responses(*everywhere, 503))
+    def get_state() -> State:
+        return app.state()
+
+    @api.post(
+        "/api/command",
+        response_model=State,
+        tags=["session"],
+        description=f"Set the commanded velocity (|vx|, |vy| <= {VELOCITY_LIMIT_M_S:g} m/s).",
+        responses=responses(*session_command),
+    )
+    def command(body: VelocityCommand) -> State:
+        return run(SetVelocity(body.vx, body.vy))
+
+    @api.post(
+        "/api/push",
+        response_model=State,
+        tags=["session"],
+        description=f"Push the base now (0 < |f| <= {PUSH_FORCE_LIMIT_N:g} N, "
+        f"0 < duration <= {PUSH_DURATION_LIMIT_S:g} s). Only while the robot walks: 409 when it is paused, "
+        "has fallen or reached the goal.",
+        responses=responses(*session_command, 409),
+    )
+    def push(body: PushCommand) -> State:
+        return run(ApplyPush(body.fx, body.fy, body.duration))
+
+    @api.post("/api/reset", response_model=State, tags=["session"], responses=responses(*session_command))
+    def reset() -> State:
+        """Back to the start of the terrain, running."""
+        return run(Reset())
+
+    @api.post("/api/pause", response_model=State, tags=["session"], responses=responses(*session_command))
+    def pause(body: PauseCommand) -> State:
+        """Stop or run the clock; running also ends the wait for the first browser."""
+        return run(SetPaused(body.paused))
+
+    @api.post("/api/compare", response_model=State, tags=["session"], responses=responses(*session_command))
+    def compare(body: CompareCommand) -> State:
+        """Compare mode: ``{"planners": ["contactnet", "fixed"]}`` runs two robots on the same terrain with the
+        same command (the main robot with the first planner, the other drawn as a ghost), both from the start;
+        ``{"planners": []}`` turns it off. `State.compare` reports the other robot."""
+        return run(SetCompare(tuple(body.planners)))
+
+    @api.post("/api/settings", response_model=State, tags=["session"], responses=responses(*session_command))
+    def settings(body: SettingsCommand) -> State:
+        """Change gait, planner, noise (each restarts the robot), simulation speed, loop, swing retargeting and the
+        disturbance observer."""
+        if body.speed is not None:
+            run(SetSpeed(body.speed))
+        if body.loop is not None:
+            run(SetLoop(body.loop))
+        if body.gait is not None:
+            run(SetGait(body.gait))
+        if body.planner is not None:
+            run(SetPlanner(body.planner))
+        if body.noise is not None:
+            run(SetNoise(body.noise))
+        if body.retarget is not None:
+            run(SetRetarget(body.retarget))
+        if body.observer is not None:
+            run(SetObserver(body.observer))
+        return app.state()
+
+    @api.post(
+        "/api/session/terrain",
+        response_model=State,
+        tags=["session"],
+        responses=responses(*session_command, 404, 409),
+    )
+    def session_terrain(body: TerrainSelect) -> State:
+        """Put the robot on another terrain (a file, a shipped generator, or the random field); 409 when that
+        file is not a valid terrain."""
+        with as_http_errors():
+            app.terrains.load(body.name, removed=body.removed, seed=body.seed, timeout=COMMAND_TIMEOUT_S)
+        return app.state()
+
