@@ -6,6 +6,7 @@ test, tests/test_browser_e2e.py, checks a few of these through chromium itself.)
 
 from __future__ import annotations
 
+import contextlib
 import math
 import shutil
 import threading
@@ -153,9 +154,20 @@ def test_pause_run_reset_and_speed(app, browser):
     wait_for(lambda: state(app).t_s < 0.3, what="Reset")
     browser.set(panel.speed, 0.5)
     wait_for(lambda: state(app).speed == 0.5, what="speed 0.5")
-    t0, wall0 = state(app).t_s, time.monotonic()
-    time.sleep(1.0)
-    assert (state(app).t_s - t0) / (time.monotonic() - wall0) == pytest.approx(0.5, abs=0.15)
+    # Half speed: never faster than asked, and as asked over a second in which the session kept up (on a busy
+    # machine it drops the simulation debt it cannot catch up, `app/live.py`: a wall-time rate then says nothing).
+    samples = []
+
+    def kept_up() -> bool:
+        lags, t0, wall0 = app.session.stats.lag_resets, state(app).t_s, time.monotonic()
+        time.sleep(1.0)
+        samples.append(((state(app).t_s - t0) / (time.monotonic() - wall0), app.session.stats.lag_resets == lags))
+        return samples[-1][1]
+
+    with contextlib.suppress(AssertionError):  # a machine too busy for even half speed: the upper bound only
+        wait_for(kept_up, timeout=20.0, what="a second in which the session kept up")
+    assert all(rate <= 0.5 + 0.15 for rate, _ in samples), samples
+    assert all(rate == pytest.approx(0.5, abs=0.15) for rate, ok in samples if ok), samples
     browser.set(panel.speed, 1.0)
     wait_for(lambda: state(app).speed == 1.0, what="speed 1")
 
@@ -459,7 +471,8 @@ def test_compare_button_toggles_compare_mode(app, browser):
     assert [c.planner for c in app.session.view.compare] == ["fixed"]
     ghosts = app.viewer.scene.ghosts
     wait_for(lambda: ghosts.ghosts and ghosts.ghosts[0].visible, what="the ghost robot drawn")
-    wait_for(lambda: ghosts.labels[1].text.startswith("fixed"), what="the ghost's label")
+    wait_for(lambda: len(ghosts.labels) > 1 and ghosts.labels[1].text.startswith("fixed"),
+             what="the ghost's label")  # the scene thread adds the label after showing the ghost
     wait_for(lambda: panel.compare_button.label == "Stop comparing", what="the button to say Stop")
     browser.click(panel.compare_button)
     wait_for(lambda: app.session.view.compare is None, what="compare mode off")

@@ -13,7 +13,7 @@ import pytest
 from helpers import ARTIFACTS, browser_marks, chromium, live_app, open_viser, viser_client, wait_for
 
 from app.live.commands import SetCompare, SetPaused, SetPlanner, SetVelocity
-from app.scene.live_scene import describe_candidate
+from app.scene.live_scene import describe_candidate, follow_anchor
 
 pytestmark = browser_marks()
 
@@ -45,6 +45,21 @@ def screen_xy(camera, point_world: np.ndarray) -> tuple[float, float] | None:
     return camera.image_width / 2 + focal * p[0] / p[2], camera.image_height / 2 + focal * p[1] / p[2]
 
 
+def camera_drawn_still(app, client, reports) -> bool:  # noqa: ANN001
+    """The paused robot's following camera will not move again, and the browser reported the pose sent last."""
+    camera = app.viewer.panel.camera
+    browser = camera._browsers.get(client.client_id)
+    if browser is None or browser.anchor is None or camera._anchor is None or not browser.sent or not reports:
+        return False
+    # the smoothed anchor eases along a line to the robot's: no move while both are this close to the last one
+    target = follow_anchor(app.session.view)
+    if max(np.linalg.norm(target - browser.anchor), np.linalg.norm(camera._anchor - browser.anchor)) >= camera.min_move_m:
+        return False
+    _, look_at, offset = browser.sent[-1]
+    position, reported_look_at = reports[-1]
+    return bool(np.allclose(reported_look_at, look_at, atol=1e-3) and np.allclose(position - reported_look_at, offset, atol=1e-3))
+
+
 def test_the_software_webgl_toast_closes_by_itself(live, page):
     page.get_by_text("Software WebGL rendering").first.wait_for(state="hidden", timeout=30_000)
 
@@ -53,11 +68,21 @@ def test_a_click_on_a_disk_names_it(live, page):
     app = live
     wait_for(lambda: app.session.view.run.waiting_for_viewer is False, what="the session to start")
     wait_for(lambda: app.session.view.snapshot.steps >= 3, timeout=60, what="a few steps")
-    app.session.call(SetPaused(True))
     client = viser_client(app)
+    reports = []  # the poses the browser says it draws with (its reports come after it drew them)
+
+    @client.camera.on_update
+    async def _(camera) -> None:  # noqa: ANN001 - async: run on viser's event loop, in arrival order
+        reports.append((np.array(camera.position), np.array(camera.look_at)))
+
+    app.session.call(SetPaused(True))
     scene = app.viewer.scene
     wait_for(lambda: scene._drawn[0] is app.session.view.candidates, what="the disks drawn")
-    time.sleep(2.0)  # the browser reports the camera it draws with
+    # The clicked point is worked out from the camera, so wait until the browser draws the camera's last pose:
+    # after the pause the following camera still eases onto the robot for a while (a slow browser is moved at
+    # most every 1.5 s), and a software renderer on a busy machine draws (and reports) a pose seconds after it
+    # was sent; a fixed sleep clicked with a pose the browser did not draw yet, a disk's width off.
+    wait_for(lambda: camera_drawn_still(app, client, reports), timeout=60, what="the browser to draw the last pose")
     cand, positions = scene._drawn
     feet = app.session.view.foot_pos_world
     targets = []

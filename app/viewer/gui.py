@@ -65,7 +65,7 @@ class ControlPanel:
         self.drive = DrivePanel(server, session, order=10)
         self.push = PushPanel(gui, session, order=20)
         self.plots = PlotsPanel(gui, order=30, leg_names=scene.leg_names)
-        self.gait_planner = GaitPlannerPanel(gui, session, order=40)
+        self.gait_planner = GaitPlannerPanel(gui, session, server.get_event_loop(), order=40)
         self.terrain = TerrainPanel(gui, terrains, order=45)
         self.editor = EditorPanel(server, terrains, order=50)
         self.recording = RecordingPanel(gui, recorder, order=60)

@@ -11,7 +11,7 @@ from app.live.commands import NudgeVelocity, Reset, SetLoop, SetSpeed, SetVeloci
 from app.live.session import LiveSession
 from app.live.settings import SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
 from app.live.view import LiveView
-from app.viewer.panels.common import ChangeTracker, submit
+from app.viewer.panels.common import ChangeTracker, SessionControls, submit
 
 #: Velocity change of one key press (I/K, J/L), in m/s.
 VELOCITY_STEP_M_S = 0.05
@@ -24,6 +24,7 @@ class DrivePanel:
         self.server = server
         self.session = session
         self._seen = ChangeTracker()
+        self.controls = SessionControls(session, server.get_event_loop())
         gui = server.gui
         with gui.add_folder("Drive", order=order):
             self.vx = gui.add_slider("vx [m/s]", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S, 0.01, 0.0)
@@ -53,29 +54,19 @@ class DrivePanel:
         self.shortcuts = self._add_shortcuts()
 
     def _wire(self) -> None:
-        def velocity(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetVelocity(self.vx.value, self.vy.value), event.client)
-
-        self.vx.on_update(velocity)
-        self.vy.on_update(velocity)
+        controls = self.controls
+        for key in ("vx", "vy", "speed", "loop"):
+            controls.add(key, getattr(self, key))
+        controls.on_change(("vx", "vy"), lambda: SetVelocity(self.vx.value, self.vy.value))
+        controls.on_change(("speed",), lambda: SetSpeed(float(self.speed.value)))
+        controls.on_change(("loop",), lambda: SetLoop(bool(self.loop.value)))
         self.stop_button.on_click(lambda e: self.set_velocity(0.0, 0.0, e.client))
         self.run_button.on_click(lambda e: self.toggle_pause(e.client))
         self.reset_button.on_click(lambda e: submit(self.session, Reset(), e.client))
 
-        @self.loop.on_update
-        def _(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetLoop(bool(self.loop.value)), event.client)
-
         @self.shadows.on_update
         def _(event) -> None:
             self.server.scene.configure_default_lights(True, cast_shadow=bool(self.shadows.value))
-
-        @self.speed.on_update
-        def _(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetSpeed(float(self.speed.value)), event.client)
 
     def _add_shortcuts(self) -> dict[str, viser.CommandHandle]:
         step = VELOCITY_STEP_M_S
@@ -108,14 +99,8 @@ class DrivePanel:
     def refresh(self, view: LiveView) -> None:
         s, snap = view.status, view.snapshot
         vx, vy = snap.vel_cmd_xy
-        if self._seen.changed("vx", vx):
-            self.vx.value = round(vx, 2)
-        if self._seen.changed("vy", vy):
-            self.vy.value = round(vy, 2)
-        if self._seen.changed("speed", s.speed):
-            self.speed.value = s.speed
-        if self._seen.changed("loop", view.run.loop):
-            self.loop.value = view.run.loop
+        for key, value in (("vx", round(vx, 2)), ("vy", round(vy, 2)), ("speed", s.speed), ("loop", view.run.loop)):
+            self.controls.show(key, value, view.seq)
         paused = s.paused or s.done is not None
         if self._seen.changed("paused", (paused, s.done)):
             self.run_button.label = ("Run again" if s.done else "Run") if paused else "Pause"

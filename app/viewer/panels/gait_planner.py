@@ -3,12 +3,14 @@ swing retargeting and the disturbance observer (on or off without a restart), an
 
 from __future__ import annotations
 
+import asyncio
+
 import viser
 
 from app.live.commands import SetCompare, SetGait, SetNoise, SetObserver, SetPlanner, SetRetarget
 from app.live.session import LiveSession
 from app.live.view import LiveView
-from app.viewer.panels.common import ChangeTracker, submit
+from app.viewer.panels.common import ChangeTracker, SessionControls, submit
 from contactnet import registry
 
 RETARGET_HINT = (
@@ -31,9 +33,11 @@ class GaitPlannerPanel:
     """Gait and planner dropdowns (the registry's names) and the noise switch, each restarting the robot; the
     retarget switch (no restart)."""
 
-    def __init__(self, gui: viser.GuiApi, session: LiveSession, order: float = 40.0):
+    def __init__(self, gui: viser.GuiApi, session: LiveSession, loop: asyncio.AbstractEventLoop, order: float = 40.0):
+        """``loop``: the viser server's event loop (`SessionControls`)."""
         self.session = session
         self._seen = ChangeTracker()
+        self.controls = SessionControls(session, loop)
         settings = session.settings
         spec = registry.robot_spec(settings.robot)
         with gui.add_folder("Robot and planner", order=order):
@@ -56,30 +60,14 @@ class GaitPlannerPanel:
             )
         self._comparing = False
 
-        @self.gait.on_update
-        def _(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetGait(self.gait.value), event.client, "Gait change failed")
-
-        @self.planner.on_update
-        def _(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetPlanner(self.planner.value), event.client, "Planner change failed")
-
-        @self.noise.on_update
-        def _(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetNoise(bool(self.noise.value)), event.client)
-
-        @self.retarget.on_update
-        def _(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetRetarget(bool(self.retarget.value)), event.client)
-
-        @self.observer.on_update
-        def _(event) -> None:
-            if event.client is not None:
-                submit(self.session, SetObserver(bool(self.observer.value)), event.client)
+        controls = self.controls
+        for key in ("gait", "planner", "noise", "retarget", "observer"):
+            controls.add(key, getattr(self, key))
+        controls.on_change(("gait",), lambda: SetGait(self.gait.value), "Gait change failed")
+        controls.on_change(("planner",), lambda: SetPlanner(self.planner.value), "Planner change failed")
+        controls.on_change(("noise",), lambda: SetNoise(bool(self.noise.value)))
+        controls.on_change(("retarget",), lambda: SetRetarget(bool(self.retarget.value)))
+        controls.on_change(("observer",), lambda: SetObserver(bool(self.observer.value)))
 
         @self.compare_with.on_update
         def _(event) -> None:
@@ -97,11 +85,9 @@ class GaitPlannerPanel:
 
     def refresh(self, view: LiveView) -> None:
         s = view.status
-        for key, handle, value in (("gait", self.gait, s.gait), ("planner", self.planner, s.planner),
-                                   ("noise", self.noise, s.noise), ("retarget", self.retarget, s.retarget),
-                                   ("observer", self.observer, s.observer)):
-            if self._seen.changed(key, value):
-                handle.value = value
+        for key, value in (("gait", s.gait), ("planner", s.planner), ("noise", s.noise),
+                           ("retarget", s.retarget), ("observer", s.observer)):
+            self.controls.show(key, value, view.seq)
         others = self._others(s.planner)
         if tuple(self.compare_with.options) != others:
             self.compare_with.options = others  # viser keeps the value if it is still an option
