@@ -83,7 +83,11 @@ def look_closely(page, app, at) -> None:  # noqa: ANN001
     at = np.asarray(at, dtype=float)
     position = at + np.array([-0.3, -0.4, 0.3])
     reports: list[np.ndarray] = []
-    client.camera.on_update(lambda camera: reports.append(np.r_[camera.position, camera.look_at]))
+
+    @client.camera.on_update
+    async def _(camera) -> None:  # noqa: ANN001 - async: run on viser's event loop, in arrival order
+        reports.append(np.r_[camera.position, camera.look_at])
+
     place_camera(client, position, at, force=True)
     wait_for(lambda: reports and np.allclose(reports[-1], np.r_[position, at], atol=1e-4), timeout=60,
              what="the browser to report the close-up camera")
@@ -102,8 +106,8 @@ def test_select_a_raised_stone_and_set_its_height(live, page):
     regions = app.terrains.current["regions"]
     assert regions[STONE]["shape"] == "star" and regions[STONE]["z"] == pytest.approx(0.043)
     panel.tool.value = "select stone"
-    time.sleep(2.0)  # the browser reports the camera it draws with
     star = np.array([*regions[STONE]["center"], regions[STONE]["z"]])
+    look_closely(page, app, star)  # a click is worked out from the camera the browser reported it draws with
     click_world(page, app, star + [0.03, 0.0, 0.0])  # on the star's top, right of its centre
     wait_for(lambda: panel._selected == STONE and panel._gizmo is not None, timeout=30, what="the star selected")
     typed = page.get_by_label("Typed height (cm)")
