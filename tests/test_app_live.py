@@ -8,6 +8,7 @@ from functools import partial
 
 import numpy as np
 import pytest
+from helpers import wait_for
 
 from app.live.commands import (
     ApplyPush,
@@ -44,12 +45,23 @@ def session(tmp_path_factory):
 
 
 def test_runs_in_real_time(session):
+    """Simulated time keeps pace with the wall clock, never ahead of it. A second in which the session fell behind
+    and dropped time (a lag reset: another process took the core for a moment) is not counted, but within 20 s
+    there is a second it kept up with, also on a machine with one core busy."""
     session.call(Reset())
-    t0, wall0 = session.view.snapshot.t_s, time.monotonic()
-    time.sleep(1.5)
+    samples = []
+
+    def kept_up() -> bool:
+        lags, t0, wall0 = session.stats.lag_resets, session.view.snapshot.t_s, time.monotonic()
+        time.sleep(1.5)
+        samples.append(((session.view.snapshot.t_s - t0) / (time.monotonic() - wall0), session.stats.lag_resets == lags))
+        return samples[-1][1]
+
+    wait_for(kept_up, timeout=20.0, what="a second and a half in which the session kept up")
     view = session.view
     assert view.status.running and view.status.planner_note is None
-    assert (view.snapshot.t_s - t0) / (time.monotonic() - wall0) == pytest.approx(1.0, abs=0.2)
+    assert all(rate <= 1.2 for rate, _ in samples), samples
+    assert all(rate == pytest.approx(1.0, abs=0.2) for rate, ok in samples if ok), samples
 
 
 def test_velocity_command_moves_the_robot(session):
