@@ -16,7 +16,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "contactnet", *args], capture_output=True, text=True, cwd=REPO, timeout=120
+        [sys.executable, "-m", "contactnet", *args], capture_output=True, text=True, cwd=REPO, timeout=600
     )
 
 
