@@ -80,7 +80,7 @@ def test_push_button_and_velocity_keys_drive_the_robot(live, page):
     app.session.call(SetPaused(False))
     # The page's status line says so (the 3D view's toast of it lasts 6 s, which a software renderer on a busy
     # machine may draw after it closed: tests/test_app_scene.py checks the toast is sent to every browser).
-    wait_for(lambda: page.locator("#status-detail").inner_text().startswith("flat · "), timeout=30,
+    wait_for(lambda: page.locator("#status-detail").inner_text().startswith("flat · "), timeout=90, poll_s=0.5,
              what="the status on flat")
 
     # A DOM click event straight to the button: a pointer click first scrolls the button into view,
@@ -106,22 +106,24 @@ def test_recordings_from_the_page_and_the_command_line_play_back(live, page):
     assert main(["simulate", "--terrain", "stepping_stones", "--gait", "walk", "--planner", "heuristic",
                  "--duration", "1.0", "--record", str(folder / "cli-run.viser")]) == 0
     app.session.call(SetPaused(False))
-    page.locator("#recordings-toggle").click()
-    page.locator("#record-button").click()  # the front page's record button
-    wait_for(lambda: app.recorder.status()["frames"] >= 20, timeout=30, what="20 recorded frames")
-    page.locator("#record-button").click()
+    # DOM click events (as for the push button above): a pointer click waits for the page to take input, which a
+    # software renderer on a busy machine can hold off for tens of seconds.
+    page.locator("#recordings-toggle").dispatch_event("click")
+    page.locator("#record-button").dispatch_event("click")  # the front page's record button
+    wait_for(lambda: app.recorder.status()["frames"] >= 20, timeout=60, what="20 recorded frames")
+    page.locator("#record-button").dispatch_event("click")
     wait_for(lambda: not app.recorder.recording and app.recorder.last_saved, what="the recording saved")
     app.session.call(SetPaused(True))  # an idle scene lets the software renderer keep up with the clicks
-    page.get_by_text(app.recorder.last_saved).wait_for()
+    page.get_by_text(app.recorder.last_saved).wait_for(timeout=90_000)
     entry = page.locator("#recording-list li", has_text="cli-run.viser")
-    entry.wait_for()
-    entry.locator("a", has_text="Play").click()
-    page.locator("#playback-bar").wait_for()
+    entry.wait_for(timeout=90_000)
+    entry.locator("a", has_text="Play").dispatch_event("click")
+    page.locator("#playback-bar").wait_for(timeout=90_000)
     assert page.locator("#playback-name").inner_text() == "cli-run.viser"
     page.frame_locator("#viewer").get_by_label("Show scene tree").first.wait_for(timeout=60_000)
     time.sleep(2.0)
     page.screenshot(path=str(ARTIFACTS / "browser_playback.png"))
-    page.locator("#back-to-live").click()
+    page.locator("#back-to-live").dispatch_event("click")
     page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=60_000)
 
 
