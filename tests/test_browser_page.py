@@ -102,6 +102,9 @@ def page(browser):
     context.grant_permissions(["clipboard-read", "clipboard-write"])
     context.add_init_script(RECORD_TOASTS)
     page = context.new_page()
+    # The page shares its renderer's main thread with the embedded 3D view; with software WebGL and one core
+    # busy it can take tens of seconds to poll or to run a check: the waits are guards against a hang, not speed tests.
+    page.set_default_timeout(90_000)
     errors: list[str] = []
     page.on("pageerror", lambda error: errors.append(str(error)))
     yield page
@@ -136,7 +139,8 @@ def toast(page, text: str, level: str | None = None) -> str:
         """([text, level]) => (window.__toasts || []).find(
              (t) => t.text.includes(text) && (!level || t.level.includes("toast-" + level)))""",
         arg=[text, level],
-        timeout=30_000,
+        timeout=90_000,
+        polling=250,
     )
     return found.json_value()["text"]
 
