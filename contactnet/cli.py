@@ -79,17 +79,21 @@ def _number_list(name: str, low: float, high: float, kind: type = float):
     return parse
 
 
-def _positive_int(name: str, high: int):
+def _bounded_int(name: str, low: int, high: int):
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be a whole number, got {text!r}") from None
-        if not 0 < value <= high:
-            raise argparse.ArgumentTypeError(f"{name} must be in 1..{high}, got {value}")
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{name} must be in {low}..{high}, got {value}")
         return value
 
     return parse
+
+
+def _positive_int(name: str, high: int):
+    return _bounded_int(name, 1, high)
 
 
 # ---- subcommands -------------------------------------------------------------------------------
@@ -170,7 +174,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     gait = registry.gait_by_name(args.gait)
     robot = registry.load_robot(args.robot)
     planner = make_planner(args.planner, gait, robot, model=args.model)
-    sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed)
+    sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args))
     with contextlib.ExitStack() as stack:
         recording = None
         if args.record:  # the scene over time, as the web tool draws it (app/recordings/recorder.py)
@@ -283,7 +287,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_experiment(args: argparse.Namespace) -> int:
-    from contactnet.jobs.experiment import DEFAULT_HEIGHT_M, format_summary, run_experiment, trials_of
+    from contactnet.jobs.experiment import DEFAULT_HEIGHT_M, run_experiment, trials_of
+    from contactnet.jobs.summary import format_summary
 
     _check_engine(args)
     if args.name == "paper":
@@ -295,10 +300,18 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     model_dir = args.model_dir
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
-    trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
-                       model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot,
-                       height_m=DEFAULT_HEIGHT_M if args.height is None else args.height, forces_n=args.force,
-                       observer=args.observer)
+    mismatch = _mismatch_of(args)
+    try:
+        trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
+                           model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot,
+                           height_m=DEFAULT_HEIGHT_M if args.height is None else args.height,
+                           forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
+                           impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
+                           mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch)
+    except ValueError as exc:
+        if type(exc) is ValueError:
+            raise UserError(str(exc)) from None
+        raise
     if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
         robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
@@ -320,6 +333,44 @@ def cmd_report(args: argparse.Namespace) -> int:
     from contactnet.jobs.paper.run import report_command
 
     return report_command(Path(args.dir))
+
+
+def _mismatch_of(args: argparse.Namespace):  # noqa: ANN202 - a ModelMismatch
+    """The model mismatch the options ask for (neutral without them)."""
+    from contactnet.sim.mismatch import ModelMismatch, parse_payload
+
+    try:
+        payload_kg, offset = parse_payload(args.payload) if args.payload else (0.0, (0.0, 0.0))
+        return ModelMismatch(mass_scale=args.mass_scale, payload_kg=payload_kg, payload_offset_xy_m=offset,
+                             friction=args.friction, torque_scale=args.torque_scale,
+                             orientation_noise_rad=args.orientation_noise, lin_vel_noise_m_s=args.velocity_noise,
+                             ang_vel_noise_rad_s=args.gyro_noise, delay_ms=args.delay_ms)
+    except ValueError as exc:
+        raise UserError(str(exc).replace("model mismatch: ", "")) from None
+
+
+def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
+    from contactnet.sim.mismatch import LIMITS
+
+    group = parser.add_argument_group(
+        "model mismatch", "the simulated robot differs from the model; the planner and the controller do not know it")
+    group.add_argument("--mass-scale", type=_bounded_float("--mass-scale", *LIMITS["mass_scale"]), default=1.0,
+                       metavar="S", help="every link's mass and inertia times S")
+    group.add_argument("--payload", metavar="KG[,DX,DY]",
+                       help="a mass fixed to the base, DX, DY metres from the base origin (base frame)")
+    group.add_argument("--friction", type=_bounded_float("--friction", *LIMITS["friction"]), default=None,
+                       metavar="MU", help="the foot-ground friction coefficient (default 0.81: 0.9 x 0.9)")
+    group.add_argument("--torque-scale", type=_bounded_float("--torque-scale", *LIMITS["torque_scale"]),
+                       default=1.0, metavar="S", help="the motors' torque limits times S")
+    group.add_argument("--orientation-noise", type=_bounded_float("--orientation-noise",
+                                                                  *LIMITS["orientation_noise_rad"]),
+                       default=0.0, metavar="RAD", help="std of the measured base orientation's error, per axis")
+    group.add_argument("--velocity-noise", type=_bounded_float("--velocity-noise", *LIMITS["lin_vel_noise_m_s"]),
+                       default=0.0, metavar="M_S", help="std of the measured base linear velocity's error")
+    group.add_argument("--gyro-noise", type=_bounded_float("--gyro-noise", *LIMITS["ang_vel_noise_rad_s"]),
+                       default=0.0, metavar="RAD_S", help="std of the measured base angular velocity's error")
+    group.add_argument("--delay-ms", type=_bounded_float("--delay-ms", *LIMITS["delay_ms"]), default=0.0,
+                       metavar="MS", help="the torques act this long after they were computed")
 
 
 # ---- parser ------------------------------------------------------------------------------------
@@ -390,6 +441,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="variance of joint-velocity noise, (rad/s)^2")
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
+    _mismatch_arguments(sim)
     sim.add_argument("--record", metavar="FILE.viser")
     sim.add_argument("--json", action="store_true")
     sim.set_defaults(func=cmd_simulate)
@@ -428,7 +480,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
     experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random", "stairs",
-                                             "raised_stones", "random_heights", "push", "paper"],
+                                             "raised_stones", "random_heights", "push", "robustness", "paper"],
                             help="paper: the paper's whole Sec. IV (every experiment, its numbers of trials) and "
                                  "a report in DIR")
     experiment.add_argument("--scale", type=_bounded_float("--scale", 1e-6, 1.0), default=None,
@@ -451,9 +503,13 @@ def build_parser() -> argparse.ArgumentParser:
                             help="squares removed on random and random_heights, comma-separated (default 80)")
     experiment.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                             help=HEIGHT_HELP)
-    experiment.add_argument("--force", type=_number_list("--force", 0.1, 200.0), default=(5.0,), metavar="N,...",
-                            help="push: push forces in newtons, comma-separated (default 5); each along +-x and +-y "
-                                 "for 1 s at --trials times")
+    experiment.add_argument("--force", type=_number_list("--force", 0.1, 100.0), default=None, metavar="N,...",
+                            help="push: sustained pushes of N newtons for 1 s, comma-separated (default 5 unless "
+                                 "--impulse); --trials pushes each, at random moments and directions")
+    experiment.add_argument("--impulse", type=_number_list("--impulse", 0.01, 10.0), default=None, metavar="NS,...",
+                            help="push: impulses of NS newton-seconds over 0.1 s, comma-separated")
+    experiment.add_argument("--push-seed", type=_bounded_int("--push-seed", 0, 2**31 - 1), default=0,
+                            help="push: the seed of the push moments and directions (not the terrain's)")
     experiment.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                             help="joint-velocity noise variance")
     experiment.add_argument("--widths-cm", type=_number_list("--widths-cm", 1.0, 20.0), default=None,
@@ -462,6 +518,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
+    _mismatch_arguments(experiment)
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     _engine_arguments(experiment)
     experiment.set_defaults(func=cmd_experiment)

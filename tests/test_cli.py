@@ -111,6 +111,33 @@ def test_bad_push_is_a_user_error(capsys):
     assert "--push" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("option, value, needle", [
+    ("--mass-scale", "0", "--mass-scale"), ("--friction", "nan", "--friction"), ("--delay-ms", "500", "--delay-ms"),
+    ("--payload", "1,2", "--payload"), ("--payload", "0.5,0.1,9", "payload_offset_xy_m"),
+    ("--payload", "heavy", "--payload"), ("--torque-scale", "-1", "--torque-scale"),
+])
+def test_bad_model_mismatch_is_one_line_naming_the_option(option, value, needle, capsys):
+    args = ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--duration", "0.2",
+            option, value]
+    try:
+        code = main(args)
+    except SystemExit as exc:  # argparse's own check
+        code = exc.code
+    assert code == EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert needle in err.strip().splitlines()[-1] and "Traceback" not in err  # the last line says what is wrong
+
+
+def test_simulate_with_a_model_mismatch_walks_and_prints_json():
+    result = run_cli("simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--duration", "2",
+                     "--mass-scale", "1.1", "--payload", "0.3,0.02,0", "--friction", "0.7", "--torque-scale", "0.9",
+                     "--orientation-noise", "0.005", "--velocity-noise", "0.02", "--gyro-noise", "0.02",
+                     "--delay-ms", "2", "--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert not report["fell"] and report["steps"] >= 2
+
+
 def test_train_and_datagen_bad_paths_are_user_errors(tmp_path, capsys):
     missing = tmp_path / "no_dataset"
     assert main(["train", "--gait", "walk", "--data", str(missing), "--out", str(tmp_path / "m.pt")]) == EXIT_USER_ERROR
@@ -145,6 +172,9 @@ def test_simulate_with_a_missing_or_broken_model_names_the_file(planner, tmp_pat
         (["experiment", "random", "--out", "x", "--planners", "contactnet,magic"], "--planners"),
         (["experiment", "narrow_map", "--out", "x", "--widths-cm", "4,wide"], "--widths-cm"),
         (["experiment", "narrow_map", "--out", "x", "--gaps-cm", "12,99"], "[0, 40]"),
+        (["experiment", "push", "--out", "x", "--impulse", "0"], "--impulse"),
+        (["experiment", "push", "--out", "x", "--force", "150"], "--force"),
+        (["experiment", "push", "--out", "x", "--push-seed", "-3"], "--push-seed"),
     ],
 )
 def test_experiment_argument_errors(args, message, capsys):

@@ -130,7 +130,7 @@ def test_the_walk_withstands_a_sideways_push_it_fell_under_before():
 def test_a_summary_tells_observer_rows_apart():
     from test_paper import _record
 
-    from contactnet.jobs.experiment import format_summary, summarize
+    from contactnet.jobs.summary import format_summary, summarize
 
     def trial(observer):
         return {"gait": "walk", "planner": "contactnet", "removed": None, "noise": 0.0, "seed": 0,

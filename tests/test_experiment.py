@@ -4,18 +4,17 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from contactnet.jobs.experiment import (
     ExperimentError,
     Trial,
-    format_summary,
-    plot_success,
     run_experiment,
     run_trial,
-    summarize,
     trials_of,
 )
+from contactnet.jobs.summary import format_summary, plot_success, summarize
 
 
 def test_trials_of_defaults_and_errors():
@@ -139,18 +138,83 @@ def test_a_real_trial_is_logged_summarized_and_not_rerun(tmp_path):
     assert json.loads(lines[-1])["key"] == trials[0].key
 
 
-def test_push_trials_cover_forces_directions_and_times():
-    from contactnet.jobs.experiment import PUSH_DIRECTIONS, push_times_s
+def test_push_trials_are_sampled_moments_and_directions_paired_across_cells():
+    from contactnet.jobs.pushes import IMPULSE_DURATION_S, push_window_s
 
     trials = trials_of("push")
-    assert len(trials) == 2 * 4 * 10  # walk and trot, +-x and +-y, 10 push times, 5 N
+    assert len(trials) == 2 * 10  # walk and trot, 10 pushes of 5 N each
     assert {t.terrain for t in trials} == {"push_field"} and {t.planner for t in trials} == {"contactnet"}
-    assert {t.push_force_xy for t in trials} == {(5.0, 0.0), (-5.0, 0.0), (0.0, 5.0), (0.0, -5.0)}
-    assert sorted({t.push_t0_s for t in trials}) == push_times_s(10) and push_times_s(3) == [4.0, 5.5, 7.0]
     assert len({t.key for t in trials}) == len(trials)
-    assert trials[0].key == "push_field/push5,0@4/seed0/walk/contactnet/noise0"
-    several = trials_of("push", trials=4, gaits=("trot",), forces_n=(5.0, 10.0))
-    assert len(several) == 2 * len(PUSH_DIRECTIONS) * 4 and {abs(sum(t.push_force_xy)) for t in several} == {5, 10}
+    low, high = push_window_s(0.05)
+    assert (low, high) == (2.0, 55.0)  # the 3 m walk takes 60 s; the trial ends 5 s after the push starts
+    walk = [t for t in trials if t.gait == "walk"]
+    assert all(low <= t.push_t0_s <= high for t in walk)
+    assert {round(abs(complex(*t.push_force_xy)), 3) for t in trials} == {5.0}
+    angles = np.degrees(np.angle([complex(*t.push_force_xy) for t in walk]))
+    assert len({int((a % 360) // 90) for a in angles}) >= 3  # directions spread over the circle, not the axes
+    # The same moments and directions for every gait and magnitude (paired cells), a prefix for fewer trials.
+    trot = [t for t in trials if t.gait == "trot"]
+    assert [(t.push_t0_s, t.push_force_xy) for t in walk] == [(t.push_t0_s, t.push_force_xy) for t in trot]
+    several = trials_of("push", trials=4, gaits=("walk",), forces_n=(5.0, 10.0), impulses_ns=(1.25,))
+    assert len(several) == 3 * 4
+    sustained = [t for t in several if t.push_duration_s == 1.0]
+    impulses = [t for t in several if t.push_duration_s == IMPULSE_DURATION_S]
+    assert {round(abs(complex(*t.push_force_xy)), 3) for t in sustained} == {5.0, 10.0}
+    assert {round(abs(complex(*t.push_force_xy)), 3) for t in impulses} == {12.5}  # 1.25 N s over 0.1 s
+    assert [t.push_t0_s for t in impulses] == [t.push_t0_s for t in walk[:4]]
+    assert "x0.1s" in impulses[0].key and "x" not in sustained[0].key.split("/")[1].split("@")[1]
+    other_seed = trials_of("push", trials=4, gaits=("walk",), push_seed=1)
+    assert [t.push_t0_s for t in other_seed] != [t.push_t0_s for t in walk[:4]]
+
+
+def test_push_summary_gives_intervals_velocity_change_and_fall_reasons(tmp_path):
+    from test_paper import _record
+
+    from contactnet.jobs.pushes import by_sector, plot_polar
+
+    def record(k, angle_deg, duration, force, success):
+        fx, fy = force * np.cos(np.radians(angle_deg)), force * np.sin(np.radians(angle_deg))
+        trial = {"gait": "walk", "planner": "contactnet", "terrain": "push_field", "removed": None, "noise": 0.0,
+                 "seed": k, "push_force_xy": [fx, fy], "push_t0_s": 5.0 + k, "push_duration_s": duration}
+        out = _record(f"push_field/p{k}@{duration}/{force}", trial, success)
+        out["robot_mass_kg"] = 2.5
+        if not success:
+            out["fell"], out["fall_reason"] = True, "base tilted (roll -0.90, pitch 0.18 rad)"
+        return out
+
+    records = [record(k, 45.0 * k, 1.0, 5.0, k != 2) for k in range(8)]
+    records += [record(k, 10.0 + 45.0 * k, 0.1, 12.5, True) for k in range(8)]
+    rows = {r["push_duration_s"]: r for r in summarize("push", records)["rows"]}
+    sustained, impulse = rows[1.0], rows[0.1]
+    assert (sustained["successes"], sustained["trials"], sustained["push_kind"]) == (7, 8, "force")
+    assert 0.5 < sustained["success_low"] < 0.875 < sustained["success_high"] <= 1.0
+    assert sustained["fall_reasons"] == {"base tilted over": 1}
+    assert (impulse["push_kind"], impulse["push_ns"], impulse["push_dv_m_s"]) == ("impulse", 1.25, 0.5)
+    assert sustained["push_dv_m_s"] == 2.0
+    assert by_sector(records[:8]) == [(1, 1), (1, 1), (0, 1), (1, 1), (1, 1), (1, 1), (1, 1), (1, 1)]
+    plot_polar(records, tmp_path / "polar.png")
+    assert (tmp_path / "polar.png").stat().st_size > 10_000
+    table = format_summary(summarize("push", records))
+    assert "push_dv_m_s" in table and "success_low" in table
+
+
+def test_robustness_trials_are_each_mismatch_on_the_field_and_the_stones():
+    from contactnet.jobs.experiment import ROBUSTNESS_CASES
+    from contactnet.sim.mismatch import ModelMismatch
+
+    trials = trials_of("robustness", trials=3, gaits=("walk",))
+    assert {t.mismatch for t in trials} == set(ROBUSTNESS_CASES)
+    for case in ROBUSTNESS_CASES:
+        mine = [t for t in trials if t.mismatch == case]
+        field = [t for t in mine if t.terrain == "random"]
+        stones = [t for t in mine if t.terrain == "stepping_stones"]
+        assert [t.seed for t in field] == [0, 1, 2] and {t.removed for t in field} == {80}
+        assert len(stones) == (3 if case.sensor_noise else 1)
+    assert len({t.key for t in trials}) == len(trials)
+    heavy = ModelMismatch(mass_scale=1.2)
+    one = trials_of("robustness", trials=2, gaits=("trot",), mismatch=heavy)
+    assert {t.mismatch for t in one} == {heavy} and one[0].key.endswith("/mass1.2")
+    assert {t.mismatch for t in trials_of("random", trials=2, mismatch=heavy)} == {heavy}
 
 
 def test_a_push_trial_succeeds_when_the_robot_stands_the_push(tmp_path):

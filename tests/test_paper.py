@@ -43,15 +43,15 @@ def test_wilson_interval_edges_and_scipy():
 
 
 # ---- the plan ------------------------------------------------------------------------------------
-FULL = {"fig5": 2400, "table2": 600, "push": 80, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
+FULL = {"fig5": 2400, "table2": 600, "push": 400, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
         "raised_stones": 20, "random_heights": 80}
-TENTH = {"fig5": 240, "table2": 60, "push": 8, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
+TENTH = {"fig5": 240, "table2": 60, "push": 40, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
          "raised_stones": 4, "random_heights": 8}
 
 
 def test_the_plan_has_the_papers_counts_and_scales_as_a_prefix():
     full, tenth, tiny = plan_trials(scale=1.0), plan_trials(scale=0.1), plan_trials(scale=1e-6)
-    assert {k: len(v) for k, v in full.items()} == FULL and sum(FULL.values()) == 3188
+    assert {k: len(v) for k, v in full.items()} == FULL and sum(FULL.values()) == 3508
     assert {k: len(v) for k, v in tenth.items()} == TENTH
     fig5 = full["fig5"]
     assert {(t.gait, t.planner, t.noise) for t in fig5} == {(g, "contactnet", v) for g in ("walk", "trot")
@@ -60,12 +60,16 @@ def test_the_plan_has_the_papers_counts_and_scales_as_a_prefix():
     table2 = full["table2"]
     assert {(t.removed, t.gait) for t in table2} == {(110, "walk")}
     assert {t.seed for t in table2 if t.planner == "fixed"} == {t.seed for t in table2 if t.planner == "contactnet"}
-    assert {t.push_force_xy for t in full["push"]} == {(5.0, 0.0), (-5.0, 0.0), (0.0, 5.0), (0.0, -5.0)}
+    assert {round(abs(complex(*t.push_force_xy)), 3) for t in full["push"]} == {5.0}  # 200 sampled pushes a gait
+    assert len({t.push_force_xy for t in full["push"]}) == 200
     assert {t.seed for t in tenth["fig5"]} == set(range(10))  # seed i of a batch = i
     for folder in FULL:  # a scaled run is a prefix of the full one: a full run reuses its trials
         assert {t.key for t in tenth[folder]} <= {t.key for t in full[folder]}
-        cells = {(t.gait, t.planner, t.removed, t.noise, t.push_force_xy) for t in full[folder]}
-        assert {(t.gait, t.planner, t.removed, t.noise, t.push_force_xy) for t in tiny[folder]} == cells
+        def cell(t):
+            return t.gait, t.planner, t.removed, t.noise, t.push_force_xy and round(abs(complex(*t.push_force_xy)), 3)
+
+        cells = {cell(t) for t in full[folder]}
+        assert {cell(t) for t in tiny[folder]} == cells
         assert len(tiny[folder]) == len(cells)  # at least (and here exactly) one trial per cell
 
 
@@ -158,8 +162,9 @@ def test_the_report_of_stored_trials_has_the_numbers_beside_the_papers(tmp_path)
     assert "| fixed cyclic | 300 | 256 | 256 / 300 (85.3 %, 80.9-88.9) | 256 / 300 (85.3 %, 80.9-88.9) |" in md
     assert "| >= 93.6 % | (yes) |" in md  # the target, judged on a scaled run
     assert "only the acyclic 25, only the fixed 0" in md
-    assert "| walk | +y | 3 / 4 (75.0 %, 30.1-95.4) | 1 | 5.5 s |" in md  # the push that fell, at 5.5 s
-    assert "| Push +-5 N: falls | 1 of 4 |" in md
+    assert "| walk | 5 N x 1 s | 5 | - | 3 / 4 (75.0 %, 30.1-95.4) | base tilted over: 1 |" in md  # one push fell
+    assert "| Push 5 N for 1 s, random moments and directions: falls | 1 of 4 |" in md
+    assert (tmp_path / "report_plots" / "push_polar.png").exists()
     assert "| walk: ours mean |" in md and "| 50 | 0.500 | 0.500 | 1.272 |" in md  # Table I
     assert re.search(r"\| fell: base tilted over \| 1 \| 63 \| 1 \|", md)  # outcomes by section
     assert "`contactnet experiment paper --out X --scale 0.5`" in md and "v1-3-gabc" in md and "Test CPU" in md
@@ -170,7 +175,7 @@ def test_the_report_of_stored_trials_has_the_numbers_beside_the_papers(tmp_path)
     assert "Scaled run" in md and "Incomplete" not in md
     html = html_path.read_text()
     _assert_self_contained(html)
-    assert html.count("data:image/png;base64,") == 4  # Fig. 5, Table I, Table II, times
+    assert html.count("data:image/png;base64,") == 5  # Fig. 5, Table I, Table II, pushes by direction, times
     assert "<table>" in html and "281 / 300" in html
     for name in ("fig5", "table1", "table2", "times"):
         assert (tmp_path / "report_plots" / f"{name}.png").stat().st_size > 5000

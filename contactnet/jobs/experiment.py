@@ -18,12 +18,19 @@ Beyond the paper (terrain with heights; walk and trot):
 - ``random_heights``: the random field with each square's top at a random height within +-``height_m``
   (default 3 cm), ``removed`` squares missing, one terrain per seed, 20 seeds by default.
 
-Beyond the paper's figures, its push experiment (Sec. IV), measured:
+Beyond the paper's figures, its push experiment (Sec. IV), measured, and a robot that is not quite the model:
 
 - ``push``: walk and trot at vx = 0.05 m/s on ``push_field`` (10 x 10 cm holes); each trial pushes the base once,
-  for ``PUSH_DURATION_S`` along +x, -x, +y or -y with a force of ``forces_n`` newtons (default 5 N), at one of
-  ``trials`` times (``push_times_s``: from 4 s every 1.5 s; 10 by default, so 40 trials per gait and force). A
-  trial runs ``PUSH_SETTLE_S`` past the push's end; success = no fall by then.
+  at a start time and in a direction drawn at random (``contactnet.jobs.pushes``: the protocol), with a sustained
+  force of ``forces_n`` newtons for 1 s or an impulse of ``impulses_ns`` newton-seconds over 0.1 s; ``trials``
+  pushes per gait and magnitude (10 by default). A trial runs ``PUSH_SETTLE_S`` past the push's end; success = no
+  fall by then.
+- ``robustness``: walk and trot on the random field (``removed`` squares missing, ``trials`` seeds) and across the
+  stepping stones, each with every model mismatch of ``ROBUSTNESS_CASES`` (``contactnet.sim.mismatch``: a
+  heavier robot, a payload off the centre, less friction, weaker motors, noisy base sensors, a late control
+  loop) unknown to the planner and the controller, and the nominal robot beside them.
+
+Every experiment takes one model mismatch for all its trials (``mismatch``; neutral by default).
 
 Every trial is one `Locomotion` run (the same loop as `contactnet simulate`) until the goal, a fall or a
 time limit (the time to cross at the commanded speed, times 1.5, plus 10 s). Trials run in worker
@@ -50,21 +57,28 @@ from __future__ import annotations
 
 import functools
 import json
-import math
 import sys
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
-import numpy as np
-
 from contactnet.atomic import atomic_write_text
+from contactnet.jobs.pushes import (
+    FORCE_DURATION_S,
+    SETTLE_S,
+    PushSizes,
+    force_xy,
+    push_window_s,
+    sample_moments,
+)
 from contactnet.jobs.runner import Job, code_identity, differences, digest, run_jobs
+from contactnet.jobs.summary import plot_success, summarize
 from contactnet.robots import DEFAULT_ROBOT
+from contactnet.sim.mismatch import ModelMismatch
 
 HEADER_FORMAT = "contactnet-experiment-v1"
 EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights",
-               "push")
+               "push", "robustness")
 DEFAULT_PLANNERS = {
     "stepping_stones": ("contactnet", "fixed", "heuristic"),
     "narrow_stones": ("contactnet", "fixed", "heuristic"),
@@ -74,22 +88,27 @@ DEFAULT_PLANNERS = {
     "raised_stones": ("contactnet", "fixed"),
     "random_heights": ("contactnet", "fixed"),
     "push": ("contactnet",),
+    "robustness": ("contactnet",),
 }
 DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "narrow_map": ("walk",),
                  "random": ("walk", "trot"), "stairs": ("walk", "trot"), "raised_stones": ("walk", "trot"),
-                 "random_heights": ("walk", "trot"), "push": ("walk", "trot")}
-DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5, "push": 10}  # 1 elsewhere
+                 "random_heights": ("walk", "trot"), "push": ("walk", "trot"),
+                 "robustness": ("walk", "trot")}
+DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5, "push": 10, "robustness": 20}  # 1 elsewhere
 FIELDS = ("random", "random_heights")  # one generated terrain per (removed, seed)
 DEFAULT_HEIGHT_M = 0.03  # random_heights: each top within +-3 cm
-PUSH_DURATION_S = 1.0
-PUSH_SETTLE_S = 4.0  # a push trial runs this long after the push ends
-PUSH_DIRECTIONS = ((1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0))  # +x, -x, +y, -y (world)
-
-
-def push_times_s(n: int) -> list[float]:
-    """The push experiment's ``n`` push start times (s): from 4 s (the robot walks over holes from about 6 s)
-    every 1.5 s."""
-    return [4.0 + 1.5 * k for k in range(n)]
+PUSH_DURATION_S = FORCE_DURATION_S
+PUSH_SETTLE_S = SETTLE_S  # a push trial runs this long after the push ends
+#: The robustness experiment's model mismatches, each alone (the nominal robot first).
+ROBUSTNESS_CASES = (
+    ModelMismatch(),
+    ModelMismatch(mass_scale=1.2),
+    ModelMismatch(payload_kg=0.5, payload_offset_xy_m=(0.05, 0.0)),
+    ModelMismatch(friction=0.5),
+    ModelMismatch(torque_scale=0.8),
+    ModelMismatch(orientation_noise_rad=0.01, lin_vel_noise_m_s=0.05, ang_vel_noise_rad_s=0.05),
+    ModelMismatch(delay_ms=3.0),
+)
 # The narrow_map grid: bar width 3-7 cm (the candidate spacing is 5 cm), last gap 12-24 cm.
 NARROW_MAP_WIDTHS_CM = (3.0, 4.0, 5.0, 6.0, 7.0)
 NARROW_MAP_GAPS_CM = (12.0, 15.0, 18.0, 21.0, 24.0)
@@ -117,21 +136,26 @@ class Trial:
     robot: str = DEFAULT_ROBOT  # contactnet.registry name
     height_m: float | None = None  # random_heights: each square's top within +-height_m
     push_t0_s: float | None = None  # push: when the push starts ...
-    push_force_xy: tuple[float, float] | None = None  # ... and its force (N, world), for PUSH_DURATION_S
+    push_force_xy: tuple[float, float] | None = None  # ... its force (N, world) ...
+    push_duration_s: float = PUSH_DURATION_S  # ... for this long
     observer: bool = False  # the disturbance observer on (contactnet.planning.observer; off by default)
+    mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
 
     @property
     def key(self) -> str:
         """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
-        random_heights and the observer only when on (older logs resume)."""
+        random_heights, a push's duration only when not 1 s, the observer only when on and the mismatch only when
+        there is one."""
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
         push = ""
         if self.push_force_xy is not None:
             push = f"/push{self.push_force_xy[0]:g},{self.push_force_xy[1]:g}@{self.push_t0_s:g}"
+            push += "" if self.push_duration_s == PUSH_DURATION_S else f"x{self.push_duration_s:g}s"
+        mismatch = "" if self.mismatch.neutral else f"/{self.mismatch.label()}"
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
-                f"{robot}{'/observer' if self.observer else ''}")
+                f"{robot}{'/observer' if self.observer else ''}{mismatch}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -139,11 +163,14 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               vx: float = 0.05, model_dir: str | None = None,
               widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
-              forces_n: tuple[float, ...] = (5.0,), observer: bool = False) -> list[Trial]:
+              forces_n: tuple[float, ...] = (5.0,), observer: bool = False, impulses_ns: tuple[float, ...] = (),
+              push_seed: int = 0, mismatch: ModelMismatch | None = None) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
-    ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 push times x 4
-    directions per force of ``forces_n``)."""
+    ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 sampled pushes
+    (``push_seed``) per force of ``forces_n`` and impulse of ``impulses_ns``; on ``robustness``, 20 seeds of the
+    random field and the stepping stones per case of ``ROBUSTNESS_CASES``). Every trial's robot differs from the
+    model by ``mismatch`` (neutral by default; on ``robustness``: the cases', unless given)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
@@ -157,9 +184,18 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                 out += [Trial(name, name, k, seed, gait, planner, vx, noise, model_dir, robot=robot, height_m=height)
                         for k in removed for seed in range(n)]
             elif name == "push":
+                moments = sample_moments(n, push_seed, push_window_s(vx))
                 out += [Trial(name, "push_field", None, k, gait, planner, vx, noise, model_dir, robot=robot,
-                              push_t0_s=t0, push_force_xy=(force * dx + 0.0, force * dy + 0.0))
-                        for force in forces_n for dx, dy in PUSH_DIRECTIONS for k, t0 in enumerate(push_times_s(n))]
+                              push_t0_s=t0, push_force_xy=force_xy(force, angle), push_duration_s=duration)
+                        for force, duration in PushSizes(tuple(forces_n), tuple(impulses_ns), push_seed).pushes()
+                        for k, (t0, angle) in enumerate(moments)]
+            elif name == "robustness":
+                for case in (ROBUSTNESS_CASES if mismatch is None else (mismatch,)):
+                    out += [Trial(name, "random", k, seed, gait, planner, vx, noise, model_dir, robot=robot,
+                                  mismatch=case) for k in removed for seed in range(n)]
+                    stones = n if case.sensor_noise or noise else 1  # the stones are one scene: one run unless noisy
+                    out += [Trial(name, "stepping_stones", None, seed, gait, planner, vx, noise, model_dir, robot=robot,
+                                  mismatch=case) for seed in range(stones)]
             elif name == "narrow_map":
                 from contactnet.terrain import narrow_stones
 
@@ -172,6 +208,8 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
             else:
                 out += [Trial(name, name, None, seed, gait, planner, vx, noise, model_dir, robot=robot)
                         for seed in range(n)]
+    if mismatch is not None and name != "robustness":
+        out = [replace(t, mismatch=mismatch) for t in out]
     return [replace(t, observer=True) for t in out] if observer else out
 
 
@@ -190,14 +228,14 @@ def run_trial(trial: Trial) -> dict:
     planner = make_planner(trial.planner, gait, robot, model=model)
     distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
     limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
-    sim_config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed)
+    sim_config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed, mismatch=trial.mismatch)
     loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if trial.observer else None)
     with Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
         if trial.push_force_xy is not None:  # success: no fall until the push has settled
             from contactnet.sim.pybullet_world import Push
 
-            loco.push(Push(trial.push_t0_s, PUSH_DURATION_S, (*trial.push_force_xy, 0.0)))
-            limit_s = trial.push_t0_s + PUSH_DURATION_S + PUSH_SETTLE_S
+            loco.push(Push(trial.push_t0_s, trial.push_duration_s, (*trial.push_force_xy, 0.0)))
+            limit_s = trial.push_t0_s + trial.push_duration_s + PUSH_SETTLE_S
         summary = loco.run(limit_s)
         samples = {"planner_ms_samples": _ms_samples(loco.planner_times_s),
                    "trajopt_ms_samples": _ms_samples(loco.trajopt_times_s)}
@@ -205,6 +243,7 @@ def run_trial(trial: Trial) -> dict:
         summary["success"] = not summary["fell"]
     summary.pop("gait_sequence", None)  # long; the table does not need it
     return {"key": trial.key, "trial": asdict(trial), "time_limit_s": limit_s, **summary, **samples,
+            "robot_mass_kg": robot.mass_kg, "mismatch_label": trial.mismatch.label(),
             "trial_wall_s": time.perf_counter() - t0}
 
 
@@ -254,6 +293,8 @@ def trial_inputs(trial: Trial) -> dict:
     del settings["model_dir"]  # where the model lies does not matter, its content does
     if not settings["observer"]:
         del settings["observer"]  # as before the observer existed (older logs resume)
+    if trial.mismatch.neutral:
+        del settings["mismatch"]
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
                               trial.height_m)
     return {"trial": settings, "terrain": terrain, "gait": digest(repr(gait_by_name(trial.gait))),
@@ -380,6 +421,10 @@ def close_batch(batch: Batch, wall_s: float) -> dict:
     summary = summarize(batch.name, records, wall_s)
     atomic_write_text(batch.out / "summary.json", json.dumps(summary, indent=1))
     plot_success(summary, batch.out / "success.png")
+    if any(r["trial"].get("push_force_xy") is not None for r in records):
+        from contactnet.jobs.pushes import plot_polar
+
+        plot_polar(records, batch.out / "push_polar.png")
     return summary
 
 
@@ -405,103 +450,3 @@ def run_experiment(name: str, out_dir: str | Path, trials: list[Trial], workers:
     run_jobs([Job(t.key, t) for t in trials], run_trial, append, done=dict(done), workers=workers,
              progress=progress, unit="trial", engine=engine, worker_init=_one_torch_thread, address=address)
     return close_batch(batch, time.perf_counter() - t0)
-
-
-def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
-    """Success rate and the planner's facts per (gait, planner, removed, noise, bar width, last gap) group."""
-    groups: dict[tuple, list[dict]] = {}
-    for r in records:
-        t = r["trial"]
-        force = t.get("push_force_xy")
-        group = (t["gait"], t["planner"], t["removed"], t["noise"], t.get("bar_width_m"), t.get("last_gap_m"),
-                 t.get("height_m"), None if force is None else round(math.hypot(*force), 6), t.get("observer", False))
-        groups.setdefault(group, []).append(r)
-    rows = []
-    for (gait, planner, removed, noise, width_m, gap_m, height_m, push_n, observer), rs in sorted(
-            groups.items(), key=lambda kv: tuple(map(str, kv[0]))):
-        ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
-        rows.append({
-            "gait": gait, "planner": planner, "removed": removed, "noise": noise,
-            "bar_width_m": width_m, "last_gap_m": gap_m, "height_m": height_m, "push_n": push_n, "trials": len(rs),
-            "successes": sum(r["success"] for r in rs),
-            "success_rate": sum(r["success"] for r in rs) / len(rs),
-            "falls": sum(r["fell"] for r in rs),
-            "mean_reached_x": float(np.mean([r["reached_x"] for r in rs])),
-            "planner_ms_median": float(np.median([r["planner_ms"]["median"] for r in rs])),
-            "planner_ms_mean": float(np.mean([r["planner_ms"]["mean"] for r in rs])),
-            "rank_chosen_mean": float(np.mean(ranks)) if ranks else 0.0,
-            "rank_chosen_max": max((r["rank_chosen"]["max"] for r in rs), default=0),
-            "unsafe_landings": sum(r["unsafe_landings"] for r in rs),
-            "max_height_change_m": max((r.get("max_height_change_m", 0.0) for r in rs), default=0.0),
-            "failed_seeds": [r["trial"]["seed"] for r in rs if not r["success"]],
-            **({"failed_pushes": [r["key"].split("/")[1] for r in rs if not r["success"]]} if push_n is not None else {}),
-            **({"observer": True} if observer else {}),
-        })
-    return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
-
-
-def plot_success(summary: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    rows = summary["rows"]
-    if any(r.get("bar_width_m") is not None for r in rows):
-        _plot_success_maps(rows, summary["experiment"], path, plt)
-        return
-    labels = [f"{r['gait']}\n{r['planner']}" + (f"\n{r['removed']} removed" if r["removed"] is not None else "")
-              + (f"\npush {r['push_n']:g} N" if r.get("push_n") is not None else "")
-              + ("\nobserver" if r.get("observer") else "") for r in rows]
-    fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
-    bars = ax.bar(range(len(rows)), [100 * r["success_rate"] for r in rows], color="#3b7dd8")
-    for bar, r in zip(bars, rows, strict=True):
-        ax.text(bar.get_x() + bar.get_width() / 2, bar.get_height() + 1, f"{r['successes']}/{r['trials']}",
-                ha="center", fontsize=8)
-    ax.set_xticks(range(len(rows)), labels, fontsize=8)
-    ax.set_ylim(0, 110)
-    ax.set_ylabel("success %")
-    ax.set_title(f"experiment {summary['experiment']}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def _plot_success_maps(rows: list[dict], experiment: str, path: Path, plt) -> None:  # noqa: ANN001
-    """One bar width x last gap success map per (gait, planner), cells labelled successes/trials."""
-    panels = sorted({(r["gait"], r["planner"]) for r in rows})
-    widths_m = sorted({r["bar_width_m"] for r in rows})
-    gaps_m = sorted({r["last_gap_m"] for r in rows})
-    fig, axes = plt.subplots(1, len(panels), figsize=(0.9 * len(gaps_m) * len(panels) + 1.5, 0.7 * len(widths_m) + 1.4),
-                             squeeze=False)
-    for ax, (gait, planner) in zip(axes[0], panels, strict=True):
-        rate = np.full((len(widths_m), len(gaps_m)), np.nan)
-        for r in rows:
-            if (r["gait"], r["planner"]) == (gait, planner):
-                i, j = widths_m.index(r["bar_width_m"]), gaps_m.index(r["last_gap_m"])
-                rate[i, j] = r["success_rate"]
-                ax.text(j, i, f"{r['successes']}/{r['trials']}", ha="center", va="center", fontsize=8)
-        ax.imshow(rate, vmin=0.0, vmax=1.0, cmap="RdYlGn", origin="lower", aspect="auto")
-        ax.set_xticks(range(len(gaps_m)), [f"{100 * g:g}" for g in gaps_m])
-        ax.set_yticks(range(len(widths_m)), [f"{100 * w:g}" for w in widths_m])
-        ax.set_xlabel("gap before the last bar (cm)")
-        ax.set_ylabel("bar width (cm)")
-        ax.set_title(f"{gait}, {planner}")
-    fig.suptitle(f"experiment {experiment}: crossings / trials", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def format_summary(summary: dict) -> str:
-    from contactnet.bench import format_table
-
-    rows = summary["rows"]
-    scene = ("bar_width_m", "last_gap_m") if any(r.get("bar_width_m") is not None for r in rows) else ("removed",)
-    scene += ("height_m",) if any(r.get("height_m") is not None for r in rows) else ()
-    scene += ("push_n",) if any(r.get("push_n") is not None for r in rows) else ()
-    keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "falls",
-            "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
-    keep += ("max_height_change_m",) if any(r.get("max_height_change_m") for r in rows) else ()
-    keep += ("observer",) if any(r.get("observer") for r in rows) else ()
-    return format_table([{k: r.get(k) for k in keep} for r in rows])

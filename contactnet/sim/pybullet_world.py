@@ -10,6 +10,7 @@ The terrain is one static body, a concave triangle mesh of the steppable regions
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import functools
 import os
@@ -20,6 +21,7 @@ import numpy as np
 
 from contactnet.frames import quat_to_matrix, quat_to_rpy, yaw_to_quat
 from contactnet.robots.description import LEG_NAMES, Robot
+from contactnet.sim.mismatch import ModelMismatch
 from contactnet.terrain import Terrain
 
 
@@ -37,6 +39,7 @@ class SimConfig:
     fall_tilt_rad: float = 0.9  # |roll| or |pitch| above this: fallen
     solver_iterations: int = 50
     sphere_feet: bool = True  # False: the URDF's mesh feet (slower; for comparisons)
+    mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
 
     def __post_init__(self) -> None:
         if not 1e-4 <= self.dt_s <= 0.01:
@@ -171,7 +174,7 @@ class Simulator:
         self.terrain = terrain
         self.config = config
         description = robot.description
-        self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float)
+        self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float) * config.mismatch.torque_scale
         self._neg_torque_limit_nm = -self.torque_limit_nm
         self.fall_base_height_m = (description.fall_base_height_m if config.fall_base_height_m is None
                                    else float(config.fall_base_height_m))
@@ -194,6 +197,11 @@ class Simulator:
             flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
         )
         self._index_robot()
+        self.payload_id: int | None = None
+        self._payload_frame_base = np.zeros(3)
+        self._apply_mismatch()
+        self._delay_steps = round(config.mismatch.delay_ms / (1e3 * config.dt_s))
+        self._pending_tau: collections.deque = collections.deque()
         self.reset()
 
     # ---- set-up ----------------------------------------------------------------------------
@@ -235,8 +243,9 @@ class Simulator:
             linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * links, linkParentIndices=[0] * links,
             linkJointTypes=[self._pb.JOINT_FIXED] * links, linkJointAxis=[[0.0, 0.0, 1.0]] * links,
         )
+        friction = self.config.foot_friction if self.config.mismatch.friction is None else 1.0
         for link in range(-1, links):
-            c.changeDynamics(body, link, lateralFriction=self.config.foot_friction, restitution=0.0)
+            c.changeDynamics(body, link, lateralFriction=friction, restitution=0.0)
         return body
 
     def replace_terrain(self, terrain: Terrain) -> None:
@@ -280,8 +289,41 @@ class Simulator:
         )
         for link in [-1, *links.values()]:
             c.changeDynamics(self.robot_id, link, linearDamping=0.0, angularDamping=0.0)
+        friction = self.config.foot_friction if self.config.mismatch.friction is None else self.config.mismatch.friction
         for link in self.foot_links:
-            c.changeDynamics(self.robot_id, link, lateralFriction=self.config.foot_friction, restitution=0.0)
+            c.changeDynamics(self.robot_id, link, lateralFriction=friction, restitution=0.0)
+
+    def _apply_mismatch(self) -> None:
+        """Make the simulated robot differ from the model as ``config.mismatch`` says (mass, payload; the friction,
+        torque limits, noise and delay are applied where they act)."""
+        c, mismatch = self.client, self.config.mismatch
+        if mismatch.mass_scale != 1.0:
+            for link in [-1, *range(c.getNumJoints(self.robot_id))]:
+                info = c.getDynamicsInfo(self.robot_id, link)
+                c.changeDynamics(self.robot_id, link, mass=info[0] * mismatch.mass_scale,
+                                 localInertiaDiagonal=[v * mismatch.mass_scale for v in info[2]])
+        if mismatch.payload_kg > 0:
+            # A 3 cm ball that collides with nothing, held at the offset by a stiff fixed constraint. PyBullet places
+            # a constraint's frame relative to the link's centre of mass.
+            radius = 0.03
+            shape = c.createCollisionShape(self._pb.GEOM_SPHERE, radius=radius)
+            self.payload_id = c.createMultiBody(baseMass=mismatch.payload_kg, baseCollisionShapeIndex=shape)
+            c.setCollisionFilterGroupMask(self.payload_id, -1, 0, 0)
+            com_base = np.asarray(c.getDynamicsInfo(self.robot_id, -1)[3])
+            self._payload_frame_base = np.array([*mismatch.payload_offset_xy_m, 0.0])
+            constraint = c.createConstraint(self.robot_id, -1, self.payload_id, -1, self._pb.JOINT_FIXED, [0, 0, 0],
+                                            (self._payload_frame_base - com_base).tolist(), [0, 0, 0])
+            c.changeConstraint(constraint, maxForce=1e4)
+
+    def _place_payload(self) -> None:
+        if self.payload_id is None:
+            return
+        c = self.client
+        pos, quat = c.getBasePositionAndOrientation(self.robot_id)
+        rot = np.array(c.getMatrixFromQuaternion(quat)).reshape(3, 3)
+        c.resetBasePositionAndOrientation(self.payload_id, (np.asarray(pos) + rot @ self._payload_frame_base).tolist(),
+                                          quat)
+        c.resetBaseVelocity(self.payload_id, [0, 0, 0], [0, 0, 0])
 
     def reset(
         self,
@@ -307,10 +349,12 @@ class Simulator:
         c.resetBaseVelocity(self.robot_id, [0, 0, 0], [0, 0, 0])
         for jid, qj, vj in zip(self.joint_ids, q_joint, v_joint, strict=True):
             c.resetJointState(self.robot_id, jid, float(qj), float(vj))
+        self._place_payload()
         self.pushes = []
         self.t_s = 0.0
         self.steps = 0
         self._rng = np.random.default_rng(self.config.seed)
+        self._pending_tau.clear()
         return self.state()
 
     # ---- stepping --------------------------------------------------------------------------
@@ -321,6 +365,10 @@ class Simulator:
         """Apply joint torques (N m, pinocchio order; clipped to the motor limit) for one time step."""
         pb, cid = self._pb, self._cid
         tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), self._neg_torque_limit_nm), self.torque_limit_nm)
+        if self._delay_steps:  # the torques computed delay_steps ago act now (the first ones until then)
+            pending = self._pending_tau
+            pending.append(tau)
+            tau = pending[0] if len(pending) <= self._delay_steps else pending.popleft()
         pb.setJointMotorControlArray(
             self.robot_id, self.joint_ids, pb.TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=cid
         )
@@ -348,8 +396,27 @@ class Simulator:
             contact, force = self._foot_contacts()
         else:
             contact, force = np.zeros(4, dtype=bool), np.zeros((4, 3))
-        return SimState(self.t_s, np.array(pos), np.array(quat), np.array(lin), np.array(ang), np.array(q_tuple), v,
-                        v_true, contact, force, np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3))
+        lin, ang, rot = np.array(lin), np.array(ang), np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3)
+        mismatch = self.config.mismatch
+        if mismatch.sensor_noise:
+            quat, rot, lin, ang = self._noisy_base(quat, rot, lin, ang)
+        return SimState(self.t_s, np.array(pos), np.array(quat), lin, ang, np.array(q_tuple), v, v_true, contact, force,
+                        rot)
+
+    def _noisy_base(self, quat, rot: np.ndarray, lin: np.ndarray, ang: np.ndarray) -> tuple:  # noqa: ANN001
+        """The base's orientation and velocities as the noisy sensors measure them."""
+        from scipy.spatial.transform import Rotation
+
+        mismatch, rng = self.config.mismatch, self._rng
+        if mismatch.orientation_noise_rad:
+            error = Rotation.from_rotvec(rng.normal(0.0, mismatch.orientation_noise_rad, size=3))
+            measured = Rotation.from_quat(quat) * error
+            quat, rot = measured.as_quat(), measured.as_matrix()
+        if mismatch.lin_vel_noise_m_s:
+            lin = lin + rng.normal(0.0, mismatch.lin_vel_noise_m_s, size=3)
+        if mismatch.ang_vel_noise_rad_s:
+            ang = ang + rng.normal(0.0, mismatch.ang_vel_noise_rad_s, size=3)
+        return np.asarray(quat, dtype=float), np.asarray(rot, dtype=float), lin, ang
 
     def _contact_points(self) -> tuple:
         return self._pb.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id, physicsClientId=self._cid)
@@ -415,7 +482,7 @@ class Simulator:
     # ---- referee ---------------------------------------------------------------------------
     def fall_reason(self, state: SimState | None = None) -> str | None:
         """Why the robot counts as fallen now, or None: base too low, too tilted, or a shin/body contact."""
-        s = state or self.state()
+        s = self._truth(state)
         # The height above the highest ground anywhere bounds the height above the ground here from below: when it
         # clears the limit, the terrain need not be asked (the check runs every few milliseconds).
         terrain = self.terrain
@@ -433,11 +500,25 @@ class Simulator:
             return describe_body_contacts(touching)
         return None
 
+    def _truth(self, state: SimState | None) -> SimState:
+        """``state`` for the referee: read now when not given, and read without noise when the base's sensors are
+        noisy (the referee sees the truth)."""
+        if state is not None and not self.config.mismatch.sensor_noise:
+            return state
+        if not self.config.mismatch.sensor_noise:
+            return self.state()
+        pb, cid = self._pb, self._cid
+        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+        lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
+        base = state or self.state(with_contacts=False)
+        return SimState(base.t_s, np.array(pos), np.array(quat), np.array(lin), np.array(ang), base.joint_pos,
+                        base.joint_vel, base.joint_vel_true, base.foot_contact, base.foot_force_world)
+
     def fallen(self, state: SimState | None = None) -> bool:
         return self.fall_reason(state) is not None
 
     def reached_goal(self, state: SimState | None = None) -> bool:
-        s = state or self.state()
+        s = self._truth(state)
         return bool(s.base_pos_world[0] >= self.terrain.goal_x)
 
     def close(self) -> None:

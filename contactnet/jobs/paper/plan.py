@@ -2,10 +2,10 @@
 and the same batches scaled down.
 
 Each `Section` is one `contactnet.jobs.experiment` batch run into ``DIR/<folder>``. At scale 1 its cells (gait x
-planner x removed squares x noise, or gait x push direction) get ``per_cell`` trials each, the paper's counts
+planner x removed squares x noise, or gait x push magnitude) get ``per_cell`` trials each, the paper's counts
 where it gives them; ``scale`` keeps ``scaled(per_cell, scale)`` of them (at least 1). Trial i of a cell has
-seed i (push: the i-th push time), so a scaled plan is a prefix of the full one: a full run after a scaled one
-reuses its trials.
+seed i (push: the i-th sampled push, ``contactnet.jobs.pushes``), so a scaled plan is a prefix of the full one: a
+full run after a scaled one reuses its trials.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ FIG5_REMOVED = (50, 60, 70, 80, 90, 100)
 class Section:
     """One sub-experiment: ``experiment`` (a `contactnet.jobs.experiment` name) run into ``DIR/<folder>`` with these
     gaits, planners, removed squares, joint-velocity noise variances and push forces, ``per_cell`` trials per
-    cell at scale 1 (seeds; push: push times)."""
+    cell at scale 1 (seeds; push: sampled pushes)."""
 
     folder: str
     experiment: str
@@ -51,7 +51,8 @@ PAPER_SECTIONS = (
             ("contactnet",), removed=FIG5_REMOVED, noises=(0.0, 0.01)),
     Section("table2", "random", "Table II: acyclic vs fixed gait, 110 squares removed", 300, ("walk",),
             ("contactnet", "fixed"), removed=(110,)),
-    Section("push", "push", "Push recovery: +-5 N along x and y for 1 s", 10, ("walk", "trot"), ("contactnet",)),
+    Section("push", "push", "Push recovery: 5 N for 1 s at random moments and directions", 200, ("walk", "trot"),
+            ("contactnet",)),
     Section("stepping_stones", "stepping_stones", "Stepping stones (Fig. 2, 4)", 1, ("walk",),
             ("contactnet", "fixed")),
     Section("narrow_stones", "narrow_stones", "Narrow stones (Fig. 6)", 1, ("walk",), ("contactnet", "fixed")),
