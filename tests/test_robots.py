@@ -82,6 +82,26 @@ def test_pybullet_urdf_has_sphere_feet_and_absolute_meshes(robot):
     assert mesh_feet != path and mesh_feet.is_file()
 
 
+def test_a_cached_urdf_whose_meshes_are_gone_is_written_again(tmp_path):
+    """A cache shared by several installations: the URDF written for one virtual environment names its meshes by
+    absolute path; when that environment is deleted, the next one must not load it (PyBullet: "Cannot load URDF
+    file"). Another installation gets its own file, and a file with dangling mesh paths is written again."""
+    from dataclasses import replace
+
+    from contactnet.robots.description import write_pybullet_urdf
+
+    go2 = load_robot("go2", cache_dir=tmp_path)
+    path = write_pybullet_urdf(go2.spec, go2.files, tmp_path)
+    text = path.read_text()
+    root = str(go2.files.package_root.resolve())
+    assert root in text
+    path.write_text(text.replace(root, str(tmp_path / "deleted_venv")))  # as written by a deleted environment
+    assert write_pybullet_urdf(go2.spec, go2.files, tmp_path) == path
+    assert path.read_text() == text  # written again, with meshes that exist
+    elsewhere = replace(go2.files, package_root=tmp_path / "another_venv")
+    assert write_pybullet_urdf(go2.spec, elsewhere, tmp_path) != path
+
+
 def test_go2_is_described_from_its_own_files(tmp_path):
     go2 = load_robot("go2", cache_dir=tmp_path)
     description = go2.description

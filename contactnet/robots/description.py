@@ -195,15 +195,17 @@ def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | No
     Changes against the shipped URDF: mesh paths are absolute (a copy elsewhere cannot resolve
     ``package://``); with ``sphere_feet`` (the default) the robot's ``collision_recipe`` replaces
     collision shapes (typically the feet become balls of ``foot_radius_m``: mesh feet simulate about
-    half as fast). The file name carries a hash of the source and of the recipe's version, so a new
-    example-robot-data version or a new recipe makes a new file; writes are atomic.
+    half as fast). The file name carries a hash of the source, of the recipe's version and of the folder the mesh
+    paths point into, so a new example-robot-data version, a new recipe or another installation (another virtual
+    environment sharing the cache) makes a new file; a cached file whose meshes are gone (its environment was
+    deleted) is written again; writes are atomic.
     """
     source = files.urdf.read_bytes()
     recipe = f"{spec.name}-{'sphere' if sphere_feet else 'mesh'}-feet-{spec.recipe_version}".encode()
-    digest = hashlib.sha256(source + recipe).hexdigest()[:12]
+    digest = hashlib.sha256(source + recipe + str(files.package_root.resolve()).encode()).hexdigest()[:12]
     kind = "spherefeet" if sphere_feet else "meshfeet"
     out = (cache_dir or default_cache_dir()) / "urdf" / f"{spec.name}_{kind}_{digest}.urdf"
-    if out.is_file():
+    if out.is_file() and _meshes_exist(out):
         return out
     root = ET.fromstring(source)
     for mesh in root.iter("mesh"):
@@ -221,6 +223,15 @@ def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | No
             _set_collision(collision, *replacement)
     atomic_write_bytes(out, ET.tostring(root, xml_declaration=True, encoding="utf-8"))
     return out
+
+
+def _meshes_exist(urdf: Path) -> bool:
+    """Every mesh file a (generated) URDF names exists; False also for a file that does not parse."""
+    try:
+        root = ET.parse(urdf).getroot()
+    except (OSError, ET.ParseError):
+        return False
+    return all((urdf.parent / mesh.get("filename", "")).is_file() for mesh in root.iter("mesh"))
 
 
 def _set_collision(collision: ET.Element, shape: ET.Element, xyz: str) -> None:
