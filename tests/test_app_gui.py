@@ -182,6 +182,12 @@ def test_push_buttons_use_the_force_and_duration_sliders(app, browser):
         browser.click(panel.push_buttons, direction)  # 5 s pushes: each adds to those still active
         wait_for(lambda total=total: np.allclose(state(app).push_force[:2], total), what=f"push {direction}")
     assert state(app).pushes == pushes + 4
+    browser.set(panel.push_angle, 135.0)  # along a direction: the force for the duration, then an impulse
+    wait_for(lambda: panel.push_angle.value == 135.0, what="the direction slider")
+    browser.click(panel.along_buttons, "Force")
+    wait_for(lambda: np.allclose(state(app).push_force[:2], (-2.1213, 2.1213), atol=1e-3), what="a push at 135 deg")
+    browser.click(panel.along_buttons, "Impulse")
+    wait_for(lambda: state(app).pushes == pushes + 6, what="an impulse")
     browser.click(app.viewer.panel.drive.reset_button)
     wait_for(lambda: state(app).pushes == 0, what="reset")
 

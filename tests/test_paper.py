@@ -44,14 +44,14 @@ def test_wilson_interval_edges_and_scipy():
 
 # ---- the plan ------------------------------------------------------------------------------------
 FULL = {"fig5": 2400, "table2": 600, "push": 400, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
-        "raised_stones": 20, "random_heights": 80}
+        "raised_stones": 20, "random_heights": 80, "robustness": 1422}
 TENTH = {"fig5": 240, "table2": 60, "push": 40, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
-         "raised_stones": 4, "random_heights": 8}
+         "raised_stones": 4, "random_heights": 8, "robustness": 162}
 
 
 def test_the_plan_has_the_papers_counts_and_scales_as_a_prefix():
     full, tenth, tiny = plan_trials(scale=1.0), plan_trials(scale=0.1), plan_trials(scale=1e-6)
-    assert {k: len(v) for k, v in full.items()} == FULL and sum(FULL.values()) == 3508
+    assert {k: len(v) for k, v in full.items()} == FULL and sum(FULL.values()) == 4930
     assert {k: len(v) for k, v in tenth.items()} == TENTH
     fig5 = full["fig5"]
     assert {(t.gait, t.planner, t.noise) for t in fig5} == {(g, "contactnet", v) for g in ("walk", "trot")
@@ -66,7 +66,8 @@ def test_the_plan_has_the_papers_counts_and_scales_as_a_prefix():
     for folder in FULL:  # a scaled run is a prefix of the full one: a full run reuses its trials
         assert {t.key for t in tenth[folder]} <= {t.key for t in full[folder]}
         def cell(t):
-            return t.gait, t.planner, t.removed, t.noise, t.push_force_xy and round(abs(complex(*t.push_force_xy)), 3)
+            push = t.push_force_xy and round(abs(complex(*t.push_force_xy)), 3)
+            return t.gait, t.planner, t.terrain, t.removed, t.noise, push, t.mismatch
 
         cells = {cell(t) for t in full[folder]}
         assert {cell(t) for t in tiny[folder]} == cells
@@ -150,6 +151,34 @@ def _assert_self_contained(html: str) -> None:
     assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
     assert "<link" not in html and "<script" not in html
     assert all(src.startswith("data:image/png;base64,") for src in re.findall(r'src="([^"]*)"', html))
+
+
+def test_the_report_has_the_model_mismatch_cells_and_the_worst(tmp_path):
+    _stored_run(tmp_path)
+    heavy, slippery = {"mass_scale": 1.2}, {"friction": 0.5}
+
+    def trial(seed, mismatch, terrain="random"):
+        return {"gait": "walk", "planner": "contactnet", "terrain": terrain, "removed": 80, "noise": 0.0,
+                "seed": seed, "push_force_xy": None, "push_t0_s": None, **({"mismatch": mismatch} if mismatch else {})}
+
+    records = [_record(f"m/{k}/{s}", trial(s, m), not (k == 1 and s < 2)) for k, m in enumerate((None, heavy, slippery))
+               for s in range(10)]
+    records.append(_record("m/stones", trial(0, heavy, "stepping_stones"), True))
+    folder = tmp_path / "robustness"
+    folder.mkdir()
+    (folder / "experiment.json").write_text(json.dumps({"format": "contactnet-experiment-v1",
+                                                        "experiment": "robustness",
+                                                        "trials": {r["key"]: r["fingerprint"] for r in records}}))
+    (folder / "trials.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    header = json.loads((tmp_path / "paper.json").read_text())
+    header["sections"].append({"folder": "robustness", "experiment": "robustness", "title": "robustness",
+                               "trials": len(records), "trials_full": len(records)})
+    (tmp_path / "paper.json").write_text(json.dumps(header))
+    md = write_report(tmp_path)[0].read_text()
+    assert "| walk | random | none (the model) | 10 / 10 (100.0 %, 72.2-100.0) | - |" in md
+    assert "| walk | random | mass1.2 | 8 / 10 (80.0 %, 49.0-94.3) | base tilted over: 2 |" in md
+    assert "| walk | stepping_stones | mass1.2 | 1 / 1 " in md
+    assert "| Model mismatch, walk, random field n = 80: the worst | mass1.2: 8 / 10 (80.0 %, 49.0-94.3) |" in md
 
 
 def test_the_report_of_stored_trials_has_the_numbers_beside_the_papers(tmp_path):

@@ -21,6 +21,7 @@ from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPE
 from app.live.view import LiveView, RunSummary, is_stand, status_line
 from contactnet import registry
 from contactnet.records import StepCounts
+from contactnet.sim.pybullet_world import IMPULSE_DURATION_S, Push
 
 
 class _Strict(BaseModel):
@@ -77,6 +78,32 @@ class PushCommand(_Strict):
                 f"fx, fy: push force |(fx, fy)| = {magnitude:.3g} N exceeds {PUSH_FORCE_LIMIT_N:g} N"
             )
         return self
+
+
+class PushAtAngle(_Strict):
+    """A horizontal push of ``force`` N for ``duration`` s along ``angle_deg`` (world frame: 0 = +x, the walking
+    direction; 90 = +y, the robot's left at the start), starting now."""
+
+    angle_deg: float = Field(..., ge=-360.0, le=360.0, allow_inf_nan=False, description="deg, world: 0 = +x, 90 = +y")
+    force: float = Field(..., gt=0.0, le=PUSH_FORCE_LIMIT_N, allow_inf_nan=False, description="N")
+    duration: float = Field(1.0, gt=0.0, le=PUSH_DURATION_LIMIT_S, allow_inf_nan=False, description="s")
+
+    def as_push(self) -> tuple[float, float, float]:
+        push = Push.at_angle(0.0, math.radians(self.angle_deg), self.force, self.duration)
+        return push.force_world[0], push.force_world[1], push.duration_s
+
+
+class ImpulseAtAngle(_Strict):
+    """An impulse of ``impulse`` N s along ``angle_deg`` (world frame: 0 = +x, 90 = +y), given as its force over
+    0.1 s, starting now; it changes the free body's velocity by impulse / mass."""
+
+    angle_deg: float = Field(..., ge=-360.0, le=360.0, allow_inf_nan=False, description="deg, world: 0 = +x, 90 = +y")
+    impulse: float = Field(..., gt=0.0, le=PUSH_FORCE_LIMIT_N * IMPULSE_DURATION_S, allow_inf_nan=False,
+                           description=f"N s, over {IMPULSE_DURATION_S:g} s")
+
+    def as_push(self) -> tuple[float, float, float]:
+        push = Push.impulse(0.0, math.radians(self.angle_deg), self.impulse)
+        return push.force_world[0], push.force_world[1], push.duration_s
 
 
 class PauseCommand(_Strict):

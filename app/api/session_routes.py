@@ -8,8 +8,10 @@ from fastapi import FastAPI
 
 from app.api.errors import ErrorCodes, as_http_errors, responses
 from app.api.models import (
+    ImpulseAtAngle,
     Info,
     PauseCommand,
+    PushAtAngle,
     PushCommand,
     State,
     TerrainSelect,
@@ -36,6 +38,7 @@ from app.live.settings import (
     PUSH_FORCE_LIMIT_N,
     VELOCITY_LIMIT_M_S,
 )
+from contactnet.sim.pybullet_world import IMPULSE_DURATION_S
 
 #: How long a route waits for the session thread to apply a command.
 COMMAND_TIMEOUT_S = 60.0
@@ -81,13 +84,15 @@ def add_session_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: A
         "/api/push",
         response_model=State,
         tags=["session"],
-        description=f"Push the base now (0 < |f| <= {PUSH_FORCE_LIMIT_N:g} N, "
-        f"0 < duration <= {PUSH_DURATION_LIMIT_S:g} s). Only while the robot walks: 409 when it is paused, "
-        "has fallen or reached the goal.",
+        description=f"Push the base now, one of: a force (fx, fy) for a duration (0 < |f| <= {PUSH_FORCE_LIMIT_N:g} "
+        f"N, 0 < duration <= {PUSH_DURATION_LIMIT_S:g} s); a force along angle_deg (world: 0 = +x, 90 = +y) for "
+        f"a duration; an impulse (N s) along angle_deg, over {IMPULSE_DURATION_S:g} s. Only while the robot walks: "
+        "409 when it is paused, has fallen or reached the goal.",
         responses=responses(*session_command, 409),
     )
-    def push(body: PushCommand) -> State:
-        return run(ApplyPush(body.fx, body.fy, body.duration))
+    def push(body: PushCommand | PushAtAngle | ImpulseAtAngle) -> State:
+        fx, fy, duration = (body.fx, body.fy, body.duration) if isinstance(body, PushCommand) else body.as_push()
+        return run(ApplyPush(fx, fy, duration))
 
     @api.post("/api/reset", response_model=State, tags=["session"], responses=responses(*session_command))
     def reset() -> State:

@@ -3,7 +3,8 @@
 - ``runner``: `Job`, `run_jobs`, the engines and the resume keys (`code_identity`);
 - ``ray_engine``: the Ray engine (imported only when chosen);
 - ``datagen``, ``train``: the network's dataset and training;
-- ``experiment``: the paper's experiments, one resumable batch per folder;
+- ``experiment``: the paper's experiments, one resumable batch per folder; ``pushes``: the sampled-push
+  protocol; ``summary``: a batch's table and plots; ``outcome``: a trial's outcome in words;
 - ``paper/``: the paper's whole evaluation and its report.
 """
 

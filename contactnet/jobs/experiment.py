@@ -193,7 +193,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                 for case in (ROBUSTNESS_CASES if mismatch is None else (mismatch,)):
                     out += [Trial(name, "random", k, seed, gait, planner, vx, noise, model_dir, robot=robot,
                                   mismatch=case) for k in removed for seed in range(n)]
-                    stones = n if case.sensor_noise or noise else 1  # the stones are one scene: one run unless noisy
+                    stones = min(n, 5) if case.sensor_noise or noise else 1  # one scene: one run unless noisy
                     out += [Trial(name, "stepping_stones", None, seed, gait, planner, vx, noise, model_dir, robot=robot,
                                   mismatch=case) for seed in range(stones)]
             elif name == "narrow_map":

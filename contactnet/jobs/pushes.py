@@ -25,9 +25,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from contactnet.jobs.outcome import outcome
+from contactnet.sim.pybullet_world import IMPULSE_DURATION_S, Push
+
 EARLIEST_S = 2.0
 FORCE_DURATION_S = 1.0
-IMPULSE_DURATION_S = 0.1
 SETTLE_S = 4.0
 PUSH_FIELD_LENGTH_M = 3.0  # push_field: from the start (x = 0) to the goal (x = 3 m)
 SECTORS = 8  # the polar plot's directions
@@ -76,13 +78,11 @@ def sample_moments(n: int, seed: int, window_s: tuple[float, float]) -> list[tup
 
 def force_xy(force_n: float, angle_rad: float) -> tuple[float, float]:
     """The push's world-frame force (N), to 0.1 mN (clean numbers in keys and records)."""
-    return round(force_n * math.cos(angle_rad), 4) + 0.0, round(force_n * math.sin(angle_rad), 4) + 0.0
+    return Push.at_angle(0.0, angle_rad, force_n, FORCE_DURATION_S).force_world[:2]
 
 
 def fall_kind(record: dict) -> str:
-    """The kind of a failed trial's fall, in a few words (``contactnet.jobs.paper.results.outcome``'s words)."""
-    from contactnet.jobs.paper.results import outcome
-
+    """The kind of a failed trial's fall, in a few words (``contactnet.jobs.outcome``'s words)."""
     return outcome(record).removeprefix("fell: ")
 
 

@@ -15,12 +15,9 @@ def _mismatch_label(record: dict) -> str:
     label = record.get("mismatch_label")
     if label is not None:
         return label
-    mismatch = record["trial"].get("mismatch")
-    if not mismatch:
-        return ""
     from contactnet.sim.mismatch import ModelMismatch
 
-    return ModelMismatch(**{k: tuple(v) if isinstance(v, list) else v for k, v in mismatch.items()}).label()
+    return ModelMismatch.from_dict(record["trial"].get("mismatch")).label()
 
 
 def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:

@@ -75,6 +75,13 @@ class ModelMismatch:
         """Any noise on the base's measured orientation or velocities."""
         return bool(self.orientation_noise_rad or self.lin_vel_noise_m_s or self.ang_vel_noise_rad_s)
 
+    @staticmethod
+    def from_dict(values: dict | None) -> ModelMismatch:
+        """The mismatch of a record's trial (``dataclasses.asdict`` of one, lists for tuples); None: neutral."""
+        if not values:
+            return ModelMismatch()
+        return ModelMismatch(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+
     def label(self) -> str:
         """What differs from the model, short (e.g. ``mass1.2,mu0.5``); '' when neutral."""
         parts = []

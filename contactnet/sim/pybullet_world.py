@@ -13,6 +13,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import functools
+import math
 import os
 import sys
 from dataclasses import dataclass, field
@@ -48,6 +49,10 @@ class SimConfig:
             raise ValueError(f"joint_vel_noise_var must be in [0, 10] (rad/s)^2, got {self.joint_vel_noise_var}")
 
 
+#: An impulse (N s) is given as a force over this time: short against the robot's step and body dynamics.
+IMPULSE_DURATION_S = 0.1
+
+
 @dataclass(frozen=True)
 class Push:
     """An external force on the base, in the world frame, from t0_s for duration_s."""
@@ -58,6 +63,17 @@ class Push:
 
     def active(self, t_s: float) -> bool:
         return self.t0_s <= t_s < self.t0_s + self.duration_s
+
+    @staticmethod
+    def at_angle(t0_s: float, angle_rad: float, force_n: float, duration_s: float) -> Push:
+        """A horizontal push of ``force_n`` at ``angle_rad`` (world: 0 along +x, pi / 2 along +y), forces to 0.1 mN."""
+        fx, fy = round(force_n * math.cos(angle_rad), 4) + 0.0, round(force_n * math.sin(angle_rad), 4) + 0.0
+        return Push(t0_s, duration_s, (fx, fy, 0.0))
+
+    @staticmethod
+    def impulse(t0_s: float, angle_rad: float, impulse_ns: float) -> Push:
+        """An impulse of ``impulse_ns`` newton-seconds at ``angle_rad``: its force over ``IMPULSE_DURATION_S``."""
+        return Push.at_angle(t0_s, angle_rad, impulse_ns / IMPULSE_DURATION_S, IMPULSE_DURATION_S)
 
     @staticmethod
     def parse(text: str) -> Push:

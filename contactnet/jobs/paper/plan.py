@@ -62,6 +62,8 @@ PAPER_SECTIONS = (
             ("contactnet", "fixed")),
     Section("random_heights", "random_heights", "Random field with heights: tops within +-3 cm, 80 removed", 20,
             ("walk", "trot"), ("contactnet", "fixed")),
+    Section("robustness", "robustness", "Model mismatch: each alone, on the random field (80 removed) and the stones",
+            100, ("walk", "trot"), ("contactnet",)),
 )
 
 
