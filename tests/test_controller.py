@@ -10,6 +10,7 @@ import pytest
 
 from contactnet.frames import quat_to_matrix, rotation_rpy
 from contactnet.motion.controller import (
+    ControllerGains,
     ControlTarget,
     SwingTrajectory,
     WholeBodyController,
@@ -124,6 +125,28 @@ def test_holds_the_robot_up_and_recovers_from_a_push(robot):
         np.testing.assert_allclose(controller.last_com[:2], target.com_pos[:2], atol=0.01)
 
 
+def test_unloading_keeps_the_wrench_where_clipping_adds_a_push(robot):
+    """A roll correction that asks the left feet to pull: spread once and clipped, their pull becomes a push (the
+    net vertical force grows and the moment is lost); with the unloading rounds they are held at the minimum load
+    and the right feet carry the wrench: the net vertical force is the one asked for."""
+    def forces(rounds: int) -> np.ndarray:
+        gains = dataclasses.replace(ControllerGains.for_robot(robot.description), unload_rounds=rounds)
+        controller = WholeBodyController(robot, gains)
+        q, v = robot.q_standing.copy(), np.zeros(18)
+        target = standing_target(controller, q, v, robot.mass_kg)
+        target.rpy = np.array([0.6, 0.0, 0.0])  # roll the body: the feet on one side must unload hard
+        controller.torques(q, v, target)
+        return controller.last_forces, target.forces
+
+    plain, reference = forces(0)
+    unloaded, _ = forces(3)
+    fz_min = ControllerGains().fz_min_n
+    assert (plain[:, 2] <= fz_min + 1e-9).any()  # some feet clipped at the minimum ...
+    assert plain[:, 2].sum() > reference[:, 2].sum() + 1.0  # ... and their pull became a push
+    assert unloaded[:, 2].sum() == pytest.approx(reference[:, 2].sum(), abs=0.05 * reference[:, 2].sum())
+    assert unloaded[:, 2].min() >= fz_min - 1e-9
+
+
 def test_swing_over_an_obstacle_rises_above_it_and_leaves_vertically(swing):
     """Terrain with heights: the apex clears ``clear_z_m`` by ``height_m``; with vertical fractions the foot
     neither leaves nor lands with horizontal motion; ``height_at_progress`` is the trajectory's own height."""
@@ -189,10 +212,23 @@ def reference_torques(controller: WholeBodyController, q: np.ndarray, v: np.ndar
         grasp[:3, 3 * leg:3 * leg + 3] = np.eye(3)
         grasp[3:, 3 * leg:3 * leg + 3] = np.array([[0, -lever[2], lever[1]], [lever[2], 0, -lever[0]],
                                                     [-lever[1], lever[0], 0]])
-    weighted = grasp * np.repeat(stance, 3)
-    delta = weighted.T @ np.linalg.solve(weighted @ grasp.T + g.force_regularization * np.eye(6),
-                                         np.concatenate([force_fb, torque_fb]))
-    forces = clip_to_friction_pyramid(target.forces + delta.reshape(4, 3), g.mu, g.fz_min_n, g.fz_max_n)
+    wrench = np.concatenate([force_fb, torque_fb])
+    held = np.zeros(4, dtype=bool)  # the unloading rounds' feet held at fz_min, with their forces
+    held_forces = np.zeros((4, 3))
+    for round_ in range(g.unload_rounds + 1):
+        weighted = grasp * np.repeat(stance & ~held, 3)
+        delta = (weighted.T @ np.linalg.solve(weighted @ grasp.T + g.force_regularization * np.eye(6), wrench))
+        wanted = target.forces + delta.reshape(4, 3)
+        pulling = stance & ~held & (wanted[:, 2] < g.fz_min_n)
+        if round_ == g.unload_rounds or not pulling.any():
+            break
+        limit = g.mu * g.fz_min_n
+        held_forces[pulling] = np.column_stack([np.clip(wanted[pulling, :2], -limit, limit),
+                                                np.full(pulling.sum(), g.fz_min_n)])
+        held |= pulling
+        fixed = (held_forces - target.forces) * held[:, None]
+        wrench = np.concatenate([force_fb, torque_fb]) - grasp @ fixed.ravel()
+    forces = clip_to_friction_pyramid(np.where(held[:, None], held_forces, wanted), g.mu, g.fz_min_n, g.fz_max_n)
     forces[~stance] = 0.0
     swing = np.array(g.kp_swing) * (target.swing_pos - feet) + np.array(g.kd_swing) * (target.swing_vel - jac @ v)
     push = np.where(stance[:, None], -forces, swing)
@@ -200,13 +236,15 @@ def reference_torques(controller: WholeBodyController, q: np.ndarray, v: np.ndar
     return np.clip(tau, -controller.torque_limit_nm, controller.torque_limit_nm), forces
 
 
-@pytest.mark.parametrize("seed", range(4))
-def test_the_compiled_controller_is_the_plain_formulas(robot, seed):
+@pytest.mark.parametrize("seed, unload_rounds", [(0, 0), (1, 0), (2, 0), (3, 0), (4, 3), (5, 3)])
+def test_the_compiled_controller_is_the_plain_formulas(robot, seed, unload_rounds):
     """Random configurations, velocities and targets (stance sets, pushes): the compiled steps 1-5 give the plain
-    numpy form's torques and forces to rounding, and some torques saturate."""
+    numpy form's torques and forces to rounding, and some torques saturate; with and without the unloading
+    rounds."""
     rng = np.random.default_rng(seed)
-    controller = WholeBodyController(robot)
-    saturated = 0
+    controller = WholeBodyController(robot, dataclasses.replace(ControllerGains.for_robot(robot.description),
+                                                                unload_rounds=unload_rounds))
+    saturated = unloaded = 0
     for k in range(50):
         q = robot.q_standing.copy()
         q[:3] += rng.normal(0.0, 0.02, 3)
@@ -228,4 +266,6 @@ def test_the_compiled_controller_is_the_plain_formulas(robot, seed):
         np.testing.assert_allclose(tau, expected_tau, rtol=1e-9, atol=1e-9)
         np.testing.assert_allclose(controller.last_forces, expected_forces, rtol=1e-9, atol=1e-9)
         saturated += bool(np.isclose(np.abs(tau), controller.torque_limit_nm).any())
+        unloaded += bool(np.isclose(controller.last_forces[target.stance, 2], controller.gains.fz_min_n).any())
     assert saturated > 0
+    assert unloaded > 0  # feet at the minimum load: the unloading rounds (or the clip) were exercised

@@ -2,8 +2,10 @@
 
 Per tick (`WholeBodyController.torques`), as in the paper's Fig. 3 (after Grimminger et al. 2020):
 1. centroidal feedback: a PD on the CoM position/velocity and on the base orientation/angular
-   velocity gives a corrective wrench, spread over the stance feet (regularized least squares)
-   and added to the optimizer's reference forces; the forces are kept in the friction pyramid;
+   velocity gives a corrective wrench, spread over the stance feet (regularized least squares;
+   with ``unload_rounds``, feet it would make pull are held at the minimum load and the rest spread
+   again over the others) and added to the optimizer's reference forces; the forces are kept in the
+   friction pyramid;
 2. stance legs: tau = -J^T f (the ground pushes the robot with f);
 3. swing legs: a Cartesian PD that tracks the swing trajectory (semi-ellipse for the horizontal
    progress, fifth-order polynomial for the height, in the swing frame);
@@ -39,6 +41,9 @@ class ControllerGains:
     mu: float = 0.6
     fz_min_n: float = 0.5  # stance feet keep a little load so they do not slip off
     fz_max_n: float | None = None  # None: the robot's (RobotDescription.fz_max_n)
+    # A stance foot the feedback would make pull on the ground is held at fz_min_n and the rest of the wrench spread
+    # again over the others, up to this many rounds (0: spread once, then clip, as in the paper's controller).
+    unload_rounds: int = 0
 
     @classmethod
     def for_robot(cls, robot: RobotDescription) -> ControllerGains:
@@ -175,7 +180,7 @@ class WholeBodyController:
         self._kd_swing = np.array(gains.kd_swing)
         self._gains = pack_gains(self._kp_com, self._kd_com, self._kp_rot, self._kd_rot, self._kp_swing,
                                  self._kd_swing, gains.mu, gains.fz_min_n, gains.fz_max_n, gains.kd_joint,
-                                 gains.force_regularization)
+                                 gains.force_regularization, gains.unload_rounds)
         self._no_force = np.zeros(3)
         self._frame_jacobian = pin.getFrameJacobian
         self._frame_placement = pin.updateFramePlacement

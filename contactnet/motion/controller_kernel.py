@@ -15,16 +15,16 @@ import numpy as np
 
 #: Layout of the ``gains`` vector (``pack_gains``).
 KP_COM, KD_COM, KP_ROT, KD_ROT, KP_SWING, KD_SWING = 0, 3, 6, 9, 12, 15
-MU, FZ_MIN, FZ_MAX, KD_JOINT, REGULARIZATION = 18, 19, 20, 21, 22
-N_GAINS = 23
+MU, FZ_MIN, FZ_MAX, KD_JOINT, REGULARIZATION, UNLOAD_ROUNDS = 18, 19, 20, 21, 22, 23
+N_GAINS = 24
 
 
 def pack_gains(kp_com: np.ndarray, kd_com: np.ndarray, kp_rot: np.ndarray, kd_rot: np.ndarray, kp_swing: np.ndarray,
                kd_swing: np.ndarray, mu: float, fz_min: float, fz_max: float, kd_joint: float,
-               regularization: float) -> np.ndarray:
+               regularization: float, unload_rounds: int = 0) -> np.ndarray:
     """The controller's gains as one float64 vector (N_GAINS,) for ``wbc_torques``."""
     return np.concatenate([kp_com, kd_com, kp_rot, kd_rot, kp_swing, kd_swing,
-                           [mu, fz_min, fz_max, kd_joint, regularization]]).astype(np.float64)
+                           [mu, fz_min, fz_max, kd_joint, regularization, unload_rounds]]).astype(np.float64)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -68,6 +68,11 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
     velocity; ``rot_err`` (3,): log of the reference orientation times ``rot``'s transpose; the rest is the
     ``ControlTarget``, ``external_force`` zero for none, ``gains`` as ``pack_gains``.
 
+    With ``gains[UNLOAD_ROUNDS]`` > 0, a stance foot whose vertical force comes out below ``fz_min`` (the wrench
+    asks it to pull on the ground) is held at ``fz_min`` and the rest of the wrench is spread again over the other
+    stance feet, up to that many rounds (an active set): the wrench is kept where the plain spread, clipped
+    afterwards, would add the pull as a push (a net upward force and a lost moment: the body rises and rolls on).
+
     The caller makes the output arrays: arrays made here would be boxed on return through a Python callback
     (numba's ``_numba_unpickle``), and a Ctrl-C landing in it came back as a SystemError, not KeyboardInterrupt."""
     # 1. Centroidal feedback wrench, spread over the stance feet: delta = S G^T (G S G^T + eps I)^-1 wrench.
@@ -91,17 +96,43 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
         grasp[3, c + 1], grasp[3, c + 2] = -lz, ly
         grasp[4, c], grasp[4, c + 2] = lz, -lx
         grasp[5, c], grasp[5, c + 1] = -ly, lx
-    normal = np.empty((6, 6))
-    for i in range(6):
-        for j in range(6):
-            s = 0.0
-            for k in range(12):
-                s += grasp[i, k] * grasp[j, k]
-            normal[i, j] = s
-        normal[i, i] += gains[REGULARIZATION]
-    solved = _solve_spd(normal, wrench)
-    # 2-3. Stance legs push with the forces (tau = -J^T f), in the friction pyramid; swing legs track.
     mu, fz_min, fz_max = gains[MU], gains[FZ_MIN], gains[FZ_MAX]
+    held = np.zeros(4, dtype=np.bool_)  # stance feet held at fz_min by the unloading rounds
+    unloaded = np.zeros((4, 3))  # their forces
+    rounds = int(gains[UNLOAD_ROUNDS])
+    delta = np.zeros((4, 3))
+    for round_ in range(rounds + 1):
+        normal = np.empty((6, 6))
+        for i in range(6):
+            for j in range(6):
+                s = 0.0
+                for k in range(12):
+                    if not held[k // 3]:
+                        s += grasp[i, k] * grasp[j, k]
+                normal[i, j] = s
+            normal[i, i] += gains[REGULARIZATION]
+        solved = _solve_spd(normal, wrench.copy())
+        newly = False
+        for leg in range(4):
+            if not stance[leg] or held[leg]:
+                continue
+            for i in range(3):
+                s = 0.0
+                for k in range(6):
+                    s += grasp[k, 3 * leg + i] * solved[k]
+                delta[leg, i] = s
+            if round_ < rounds and forces_ref[leg, 2] + delta[leg, 2] < fz_min:
+                held[leg] = newly = True
+                limit = mu * fz_min
+                unloaded[leg, 0] = min(max(forces_ref[leg, 0] + delta[leg, 0], -limit), limit)
+                unloaded[leg, 1] = min(max(forces_ref[leg, 1] + delta[leg, 1], -limit), limit)
+                unloaded[leg, 2] = fz_min
+                for i in range(6):  # that foot's part of the wrench is now fixed: the others spread the rest
+                    for j in range(3):
+                        wrench[i] -= grasp[i, 3 * leg + j] * (unloaded[leg, j] - forces_ref[leg, j])
+        if not newly:
+            break
+    # 2-3. Stance legs push with the forces (tau = -J^T f), in the friction pyramid; swing legs track.
     forces[:] = 0.0
     push = np.empty((4, 3))
     for leg in range(4):
@@ -109,10 +140,7 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
         if stance[leg]:
             f = np.empty(3)
             for i in range(3):
-                s = 0.0
-                for k in range(6):
-                    s += grasp[k, 3 * leg + i] * solved[k]
-                f[i] = forces_ref[leg, i] + s
+                f[i] = unloaded[leg, i] if held[leg] else forces_ref[leg, i] + delta[leg, i]
             fz = min(max(f[2], fz_min), fz_max)
             limit = mu * fz
             forces[leg, 0] = min(max(f[0], -limit), limit)
