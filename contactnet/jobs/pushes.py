@@ -125,7 +125,7 @@ def by_sector(records: list[dict], sectors: int = SECTORS) -> list[tuple[int, in
 
 def plot_polar(records: list[dict], path) -> None:  # noqa: ANN001 - a path-like
     """Success by push direction: one polar panel per gait (and planner), one line per magnitude (the sectors'
-    success rates, with every failed push as a cross at its direction)."""
+    success rates, with every failed push as a cross at its direction, outside the 100 % ring)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -151,8 +151,8 @@ def plot_polar(records: list[dict], path) -> None:  # noqa: ANN001 - a path-like
             label += f": {sum(s for s, _ in counts)}/{len(rs)}"
             line, = ax.plot(centres, [*rate, rate[0]], marker="o", label=label)
             failed = [math.radians(push_facts(r)["push_deg"]) for r in rs if not r["success"]]
-            ax.plot(failed, [5.0] * len(failed), "x", color=line.get_color(), markersize=7)
-        ax.set_ylim(0, 105)
+            ax.plot(failed, [110.0] * len(failed), "x", color=line.get_color(), markersize=7)
+        ax.set_ylim(0, 115)
         ax.set_yticks([25, 50, 75, 100], ["25", "50", "75", "100 %"], fontsize=7)
         ax.set_title(", ".join(panel), fontsize=10)
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), fontsize=7)
