@@ -85,7 +85,7 @@ class PushAtAngle(_Strict):
     direction; 90 = +y, the robot's left at the start), starting now."""
 
     angle_deg: float = Field(..., ge=-360.0, le=360.0, allow_inf_nan=False, description="deg, world: 0 = +x, 90 = +y")
-    force: float = Field(..., gt=0.0, le=PUSH_FORCE_LIMIT_N, allow_inf_nan=False, description="N")
+    force: float = Field(..., ge=0.001, le=PUSH_FORCE_LIMIT_N, allow_inf_nan=False, description="N")
     duration: float = Field(1.0, gt=0.0, le=PUSH_DURATION_LIMIT_S, allow_inf_nan=False, description="s")
 
     def as_push(self) -> tuple[float, float, float]:
@@ -98,7 +98,7 @@ class ImpulseAtAngle(_Strict):
     0.1 s, starting now; it changes the free body's velocity by impulse / mass."""
 
     angle_deg: float = Field(..., ge=-360.0, le=360.0, allow_inf_nan=False, description="deg, world: 0 = +x, 90 = +y")
-    impulse: float = Field(..., gt=0.0, le=PUSH_FORCE_LIMIT_N * IMPULSE_DURATION_S, allow_inf_nan=False,
+    impulse: float = Field(..., ge=0.0001, le=PUSH_FORCE_LIMIT_N * IMPULSE_DURATION_S, allow_inf_nan=False,
                            description=f"N s, over {IMPULSE_DURATION_S:g} s")
 
     def as_push(self) -> tuple[float, float, float]:

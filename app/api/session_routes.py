@@ -84,15 +84,36 @@ def add_session_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: A
         "/api/push",
         response_model=State,
         tags=["session"],
-        description=f"Push the base now, one of: a force (fx, fy) for a duration (0 < |f| <= {PUSH_FORCE_LIMIT_N:g} "
-        f"N, 0 < duration <= {PUSH_DURATION_LIMIT_S:g} s); a force along angle_deg (world: 0 = +x, 90 = +y) for "
-        f"a duration; an impulse (N s) along angle_deg, over {IMPULSE_DURATION_S:g} s. Only while the robot walks: "
-        "409 when it is paused, has fallen or reached the goal.",
+        description=f"Push the base now with a force (fx, fy) for a duration (0 < |f| <= {PUSH_FORCE_LIMIT_N:g} N, "
+        f"0 < duration <= {PUSH_DURATION_LIMIT_S:g} s). Only while the robot walks: 409 when it is paused, "
+        "has fallen or reached the goal. Along an angle: /api/push/angle and /api/push/impulse.",
         responses=responses(*session_command, 409),
     )
-    def push(body: PushCommand | PushAtAngle | ImpulseAtAngle) -> State:
-        fx, fy, duration = (body.fx, body.fy, body.duration) if isinstance(body, PushCommand) else body.as_push()
-        return run(ApplyPush(fx, fy, duration))
+    def push(body: PushCommand) -> State:
+        return run(ApplyPush(body.fx, body.fy, body.duration))
+
+    @api.post(
+        "/api/push/angle",
+        response_model=State,
+        tags=["session"],
+        description=f"Push the base now with a force along angle_deg (world frame: 0 = +x, 90 = +y) for a duration "
+        f"(0 < force <= {PUSH_FORCE_LIMIT_N:g} N). 409 as /api/push.",
+        responses=responses(*session_command, 409),
+    )
+    def push_angle(body: PushAtAngle) -> State:
+        return run(ApplyPush(*body.as_push()))
+
+    @api.post(
+        "/api/push/impulse",
+        response_model=State,
+        tags=["session"],
+        description=f"Push the base now with an impulse (N s) along angle_deg (world frame: 0 = +x, 90 = +y), given "
+        f"as its force over {IMPULSE_DURATION_S:g} s: the free body's velocity changes by impulse / mass. 409 as "
+        "/api/push.",
+        responses=responses(*session_command, 409),
+    )
+    def push_impulse(body: ImpulseAtAngle) -> State:
+        return run(ApplyPush(*body.as_push()))
 
     @api.post("/api/reset", response_model=State, tags=["session"], responses=responses(*session_command))
     def reset() -> State:
