@@ -125,7 +125,10 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
 # ---- the command line's part (contactnet.cli calls these) --------------------------------------
 #: experiment options that the paper's plan fixes, with their defaults
 _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed": (80,), "height": None,
-                      "force": (5.0,), "noise": 0.0, "widths_cm": None, "gaps_cm": None, "robot": "solo12"}
+                      "force": None, "impulse": None, "push_seed": 0, "noise": 0.0, "widths_cm": None,
+                      "gaps_cm": None, "robot": "solo12", "mass_scale": 1.0, "payload": None, "friction": None,
+                      "torque_scale": 1.0, "orientation_noise": 0.0, "velocity_noise": 0.0, "gyro_noise": 0.0,
+                      "delay_ms": 0.0}
 
 
 def _command(args: argparse.Namespace, scale: float) -> str:
