@@ -20,12 +20,10 @@ the falls counted by reason; the polar plot gives success by direction (8 sector
 from __future__ import annotations
 
 import math
-from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 
-from contactnet.jobs.outcome import outcome
 from contactnet.sim.pybullet_world import IMPULSE_DURATION_S, Push
 
 EARLIEST_S = 2.0
@@ -81,11 +79,6 @@ def force_xy(force_n: float, angle_rad: float) -> tuple[float, float]:
     return Push.at_angle(0.0, angle_rad, force_n, FORCE_DURATION_S).force_world[:2]
 
 
-def fall_kind(record: dict) -> str:
-    """The kind of a failed trial's fall, in a few words (``contactnet.jobs.outcome``'s words)."""
-    return outcome(record).removeprefix("fell: ")
-
-
 def push_facts(record: dict) -> dict:
     """A push trial's push as force (N), duration (s), impulse (N s), the velocity change it would give the
     free body (m/s: impulse / the robot's mass, when the record has it) and its direction (deg, [0, 360))."""
@@ -100,16 +93,11 @@ def push_facts(record: dict) -> dict:
 
 
 def push_columns(records: list[dict]) -> dict:
-    """The summary row's push columns for the records of one cell (one magnitude)."""
-    from contactnet.jobs.paper.stats import wilson_interval
-
+    """The summary row's push columns for the records of one cell (one magnitude): its kind, impulse and the
+    free body's velocity change (the success interval and the falls are every row's)."""
     facts = push_facts(records[0])
-    successes = sum(bool(r["success"]) for r in records)
-    low, high = wilson_interval(successes, len(records))
-    falls = Counter(fall_kind(r) for r in records if not r["success"])
     return {"push_kind": "impulse" if facts["push_duration_s"] < FORCE_DURATION_S else "force",
-            "push_ns": facts["push_ns"], "push_dv_m_s": facts["push_dv_m_s"],
-            "success_low": round(low, 4), "success_high": round(high, 4), "fall_reasons": dict(falls.most_common())}
+            "push_ns": facts["push_ns"], "push_dv_m_s": facts["push_dv_m_s"]}
 
 
 def by_sector(records: list[dict], sectors: int = SECTORS) -> list[tuple[int, int]]:

@@ -4,7 +4,6 @@ Wilson interval and the falls by reason, the success plot, and the table printed
 from __future__ import annotations
 
 import math
-from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +23,9 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
     """Success rate (with its 95 % Wilson interval), the falls by reason and the planner's facts per cell: gait,
     planner, terrain, removed, noise, bar width, last gap, height, push (force and duration), observer and model
     mismatch."""
+    from contactnet.jobs.outcome import falls_by_reason
     from contactnet.jobs.paper.stats import wilson_interval
-    from contactnet.jobs.pushes import fall_kind, push_columns
+    from contactnet.jobs.pushes import push_columns
 
     groups: dict[tuple, list[dict]] = {}
     for r in records:
@@ -49,7 +49,7 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
             "success_rate": successes / len(rs),
             "success_low": round(low, 4), "success_high": round(high, 4),
             "falls": sum(r["fell"] for r in rs),
-            "fall_reasons": dict(Counter(fall_kind(r) for r in rs if not r["success"]).most_common()),
+            "fall_reasons": falls_by_reason(rs),
             "mean_reached_x": float(np.mean([r["reached_x"] for r in rs])),
             "planner_ms_median": float(np.median([r["planner_ms"]["median"] for r in rs])),
             "planner_ms_mean": float(np.mean([r["planner_ms"]["mean"] for r in rs])),

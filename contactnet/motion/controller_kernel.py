@@ -111,7 +111,7 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
                         s += grasp[i, k] * grasp[j, k]
                 normal[i, j] = s
             normal[i, i] += gains[REGULARIZATION]
-        solved = _solve_spd(normal, wrench.copy())
+        solved = _solve_spd(normal, wrench)  # (b is copied inside)
         newly = False
         for leg in range(4):
             if not stance[leg] or held[leg]:

@@ -217,6 +217,7 @@ class Simulator:
         self._payload_frame_base = np.zeros(3)
         self._apply_mismatch()
         self._delay_steps = round(config.mismatch.delay_ms / (1e3 * config.dt_s))
+        self._noisy_base = config.mismatch.sensor_noise  # read at 1 kHz (state) and every tick (the referee)
         self._pending_tau: collections.deque = collections.deque()
         self.reset()
 
@@ -413,13 +414,12 @@ class Simulator:
         else:
             contact, force = np.zeros(4, dtype=bool), np.zeros((4, 3))
         lin, ang, rot = np.array(lin), np.array(ang), np.array(pb.getMatrixFromQuaternion(quat)).reshape(3, 3)
-        mismatch = self.config.mismatch
-        if mismatch.sensor_noise:
-            quat, rot, lin, ang = self._noisy_base(quat, rot, lin, ang)
+        if self._noisy_base:
+            quat, rot, lin, ang = self._measured_base(quat, rot, lin, ang)
         return SimState(self.t_s, np.array(pos), np.array(quat), lin, ang, np.array(q_tuple), v, v_true, contact, force,
                         rot)
 
-    def _noisy_base(self, quat, rot: np.ndarray, lin: np.ndarray, ang: np.ndarray) -> tuple:  # noqa: ANN001
+    def _measured_base(self, quat, rot: np.ndarray, lin: np.ndarray, ang: np.ndarray) -> tuple:  # noqa: ANN001
         """The base's orientation and velocities as the noisy sensors measure them."""
         from scipy.spatial.transform import Rotation
 
@@ -519,10 +519,8 @@ class Simulator:
     def _truth(self, state: SimState | None) -> SimState:
         """``state`` for the referee: read now when not given, and read without noise when the base's sensors are
         noisy (the referee sees the truth)."""
-        if state is not None and not self.config.mismatch.sensor_noise:
-            return state
-        if not self.config.mismatch.sensor_noise:
-            return self.state()
+        if not self._noisy_base:
+            return self.state() if state is None else state
         pb, cid = self._pb, self._cid
         pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
         lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)

@@ -11,12 +11,12 @@ from __future__ import annotations
 import base64
 import html as html_lib
 import re
-from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
 from contactnet.atomic import atomic_write_text
+from contactnet.jobs.outcome import falls_text
 from contactnet.jobs.paper import plots, reference
 from contactnet.jobs.paper.results import (
     SectionResult,
@@ -328,7 +328,7 @@ def _table2(r: _Report) -> None:
 
 
 def _push(r: _Report) -> None:
-    from contactnet.jobs.pushes import fall_kind, plot_polar, push_facts
+    from contactnet.jobs.pushes import plot_polar, push_facts
 
     r.add("## Push recovery", "",
           "Walk and trot at vx = 0.05 m/s on `push_field` (10 x 10 cm holes); one push per trial, at a start time "
@@ -348,15 +348,13 @@ def _push(r: _Report) -> None:
     rows = []
     for (gait, force, duration), rs in cells.items():
         dv = push_facts(rs[0])["push_dv_m_s"]
-        reasons = Counter(fall_kind(x) for x in rs if not x["success"])
         rows.append([gait, f"{force:g} N x {duration:g} s", f"{force * duration:g}", "-" if dv is None else f"{dv:g}",
-                     rate_of(rs).text(), "; ".join(f"{reason}: {n}" for reason, n in reasons.most_common()) or "-"])
+                     rate_of(rs).text(), falls_text(rs)])
     r.add(*table(["gait", "push", "impulse (N s)", "velocity change (m/s)", "no fall", "falls by reason"], rows))
     r.figure("push_polar", "success by push direction", lambda p: plot_polar(section.records, p))
 
 
 def _robustness(r: _Report) -> None:
-    from contactnet.jobs.pushes import fall_kind
     from contactnet.sim.mismatch import ModelMismatch
 
     r.add("## A robot that is not the model (beyond the paper)", "",
@@ -374,9 +372,7 @@ def _robustness(r: _Report) -> None:
 
     rows = []
     for (gait, terrain, mismatch), rs in group(section.records, lambda t: (t["gait"], t["terrain"], label(t))).items():
-        reasons = Counter(fall_kind(x) for x in rs if not x["success"])
-        rows.append([gait, terrain, mismatch, rate_of(rs).text(),
-                     "; ".join(f"{reason}: {n}" for reason, n in reasons.most_common()) or "-"])
+        rows.append([gait, terrain, mismatch, rate_of(rs).text(), falls_text(rs)])
     r.add(*table(["gait", "terrain", "mismatch", "crossed", "failures by reason"], rows))
 
 
