@@ -106,6 +106,27 @@ def test_a_run_ends_is_summed_up_and_the_loop_starts_the_next(tmp_path):
         live.stop()
 
 
+def test_a_pause_holds_the_loops_count_down(tmp_path):
+    """Paused while the next run counts down: the robot stays where it ended (no restart behind the back of
+    whoever paused it, a click on a disk still names what is drawn); Run lets the count-down go on."""
+    live = make_session(tmp_path, short_flat(), vx_m_s=0.2, wait_for_viewer=False, loop_delay_s=0.6)
+    try:
+        live.call(SetSpeed(2.0))
+        live.wait_view(lambda v: v.run.runs == 1, timeout=20)
+        live.call(SetPaused(True))
+        held = live.view.run.restart_in_s
+        assert held is not None and 0.0 < held <= 0.6
+        time.sleep(1.2)  # twice the loop's delay
+        view = live.view
+        assert view.run.runs == 1 and view.status.done == "goal reached" and view.status.paused
+        assert view.run.restart_in_s == held and "paused, next run" in status_line(view)
+        live.call(SetPaused(False))
+        view = live.wait_view(lambda v: v.status.done is None and v.snapshot.t_s > 0.0, timeout=5)
+        assert view.run.runs == 1 and not view.status.paused
+    finally:
+        live.stop()
+
+
 def test_loop_off_stays_at_the_end_and_on_again_restarts(tmp_path):
     live = make_session(tmp_path, short_flat(), vx_m_s=0.2, wait_for_viewer=False, loop=False)
     try:

@@ -31,6 +31,7 @@ class RunClock:
         self.start_at: float | None = None  #: wall time the count-down after the first viewer ends
         self.loop = loop
         self.restart_at: float | None = None  #: wall time the next run starts (loop)
+        self.restart_left_s: float | None = None  #: the loop's count-down held by a pause (seconds left)
         self.runs = 0
         self.last_run: RunSummary | None = None
         self.viewer_start_delay_s = viewer_start_delay_s
@@ -41,6 +42,7 @@ class RunClock:
         self.over = False  #: every robot ended (or the compare grace ran out)
         self.first_end_s: float | None = None
         self.restart_at = None
+        self.restart_left_s = None
 
     @property
     def holding(self) -> bool:
@@ -60,9 +62,18 @@ class RunClock:
     def set_loop(self, on: bool) -> None:
         self.loop = on
         if not on:
-            self.restart_at = None
-        elif self.over and self.restart_at is None:
+            self.restart_at = self.restart_left_s = None
+        elif self.over and self.restart_at is None and self.restart_left_s is None:
             self.restart_at = time.perf_counter() + self.loop_delay_s
+
+    def hold(self, paused: bool) -> None:
+        """A pause holds the loop's count-down where it is (the next run does not start, and unpause the robot,
+        behind the back of whoever paused it); the end of the pause lets it run on from there."""
+        now = time.perf_counter()
+        if paused and self.restart_at is not None:
+            self.restart_left_s, self.restart_at = max(0.0, self.restart_at - now), None
+        elif not paused and self.restart_left_s is not None:
+            self.restart_at, self.restart_left_s = now + self.restart_left_s, None
 
     def should_end(self, ended: list[bool], clock_s: float) -> bool:
         """Given which robots ended (main first) at the run's simulated time ``clock_s``: is the run over?"""
@@ -106,7 +117,7 @@ class RunClock:
 
     @property
     def counting_down(self) -> bool:
-        return self.start_at is not None or self.restart_at is not None
+        return self.start_at is not None or self.restart_at is not None  # (a held one does not count)
 
     def info(self, x_m: float, start_x_m: float, goal_x_m: float) -> RunInfo:
         now = time.perf_counter()
@@ -116,7 +127,8 @@ class RunClock:
             last_run=self.last_run,
             waiting_for_viewer=self.waiting,
             starts_in_s=None if self.start_at is None else max(0.0, self.start_at - now),
-            restart_in_s=None if self.restart_at is None else max(0.0, self.restart_at - now),
+            restart_in_s=(self.restart_left_s if self.restart_at is None
+                          else max(0.0, self.restart_at - now)),
             loop=self.loop,
             progress=float(np.clip((x_m - start_x_m) / span, 0.0, 1.0)) if span > 0 else 0.0,
             start_x_m=start_x_m,

@@ -419,6 +419,7 @@ class LiveSession:
     @_handle.register
     def _on_paused(self, command: SetPaused) -> None:
         self._paused = bool(command.paused)
+        self._runs.hold(self._paused)
         if not self._paused:
             self._runs.start_now()  # an explicit start needs no viewer
 

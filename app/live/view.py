@@ -356,6 +356,8 @@ def status_line(view: LiveView) -> str:
         state = "waiting for a browser"
     elif run.starts_in_s is not None:
         state = f"starting in {math.ceil(run.starts_in_s)} s"
+    elif s.done and run.restart_in_s is not None and s.paused:
+        state = f"{_done_text(s.done)}; paused, next run {math.ceil(run.restart_in_s)} s after Run"
     elif s.done and run.restart_in_s is not None:
         state = f"{_done_text(s.done)}; next run in {math.ceil(run.restart_in_s)} s"
     elif s.done:
