@@ -163,6 +163,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.planning.observer import DEFAULT_OBSERVER
+    from contactnet.planning.retarget import RetargetConfig
     from contactnet.sim.pybullet_world import Push, SimConfig
     from contactnet.terrain import resolve
 
@@ -184,7 +185,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 recording = stack.enter_context(FileRecording(args.record))
             except RecordingPathError as exc:
                 raise UserError(str(exc)) from None
-        loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if args.observer else None)
+        loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if args.observer else None,
+                                       retarget=RetargetConfig() if args.retarget else None)
         loco = stack.enter_context(Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config,
                                               vel_cmd_xy=(args.vx, args.vy)))
         for push in pushes:
@@ -307,7 +309,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            height_m=DEFAULT_HEIGHT_M if args.height is None else args.height,
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
-                           mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch)
+                           retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch)
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
@@ -377,6 +379,8 @@ def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean the capture step into it "
                  "(contactnet.planning.observer; off by default)")
+RETARGET_HELP = ("rank a swinging leg's landing again when the measured velocity leaves the command "
+                 "(contactnet.planning.retarget; off by default)")
 
 
 def _engine_arguments(parser: argparse.ArgumentParser) -> None:
@@ -441,6 +445,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="variance of joint-velocity noise, (rad/s)^2")
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
+    sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(sim)
     sim.add_argument("--record", metavar="FILE.viser")
     sim.add_argument("--json", action="store_true")
@@ -518,6 +523,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
+    experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(experiment)
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     _engine_arguments(experiment)

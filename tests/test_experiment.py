@@ -12,6 +12,7 @@ from contactnet.jobs.experiment import (
     Trial,
     run_experiment,
     run_trial,
+    trial_inputs,
     trials_of,
 )
 from contactnet.jobs.summary import format_summary, plot_success, summarize
@@ -38,6 +39,20 @@ def test_the_robot_is_in_the_key_only_when_it_is_not_solo12():
     assert {t.robot for t in trials_of("narrow_map", robot="go2") + trials_of("random", robot="go2")} == {"go2"}
     random = trials_of("random", trials=1, gaits=("walk",), planners=("fixed",), removed=(50,))
     assert random[0].key == "random/50/seed0/walk/fixed/noise0"
+
+
+def test_the_stacks_parts_are_in_the_key_and_the_inputs_only_when_on():
+    def one(**parts):  # noqa: ANN003, ANN202
+        (trial,) = trials_of("stepping_stones", gaits=("walk",), planners=("heuristic",), **parts)
+        return trial
+
+    plain, observer, retarget, both = one(), one(observer=True), one(retarget=True), one(observer=True, retarget=True)
+    assert (plain.observer, plain.retarget, both.observer, both.retarget) == (False, False, True, True)
+    assert plain.key == "stepping_stones/seed0/walk/heuristic/noise0"  # as before either part existed
+    assert (observer.key, retarget.key, both.key) == tuple(plain.key + s for s in
+                                                          ("/observer", "/retarget", "/observer/retarget"))
+    assert "retarget" not in trial_inputs(plain)["trial"] and "observer" not in trial_inputs(plain)["trial"]
+    assert trial_inputs(retarget)["trial"]["retarget"] is True
 
 
 def test_the_terrains_with_heights_have_their_experiments():

@@ -139,13 +139,14 @@ class Trial:
     push_force_xy: tuple[float, float] | None = None  # ... its force (N, world) ...
     push_duration_s: float = PUSH_DURATION_S  # ... for this long
     observer: bool = False  # the disturbance observer on (contactnet.planning.observer; off by default)
+    retarget: bool = False  # swing retargeting on (contactnet.planning.retarget; off by default)
     mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
 
     @property
     def key(self) -> str:
         """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
-        random_heights, a push's duration only when not 1 s, the observer only when on and the mismatch only when
-        there is one."""
+        random_heights, a push's duration only when not 1 s, the observer and retargeting only when on and the
+        mismatch only when there is one."""
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
@@ -155,7 +156,7 @@ class Trial:
             push += "" if self.push_duration_s == PUSH_DURATION_S else f"x{self.push_duration_s:g}s"
         mismatch = "" if self.mismatch.neutral else f"/{self.mismatch.label()}"
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
-                f"{robot}{'/observer' if self.observer else ''}{mismatch}")
+                f"{robot}{'/observer' if self.observer else ''}{'/retarget' if self.retarget else ''}{mismatch}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -164,13 +165,14 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
               forces_n: tuple[float, ...] = (5.0,), observer: bool = False, impulses_ns: tuple[float, ...] = (),
-              push_seed: int = 0, mismatch: ModelMismatch | None = None) -> list[Trial]:
+              push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
     ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 sampled pushes
     (``push_seed``) per force of ``forces_n`` and impulse of ``impulses_ns``; on ``robustness``, 20 seeds of the
     random field and the stepping stones per case of ``ROBUSTNESS_CASES``). Every trial's robot differs from the
-    model by ``mismatch`` (neutral by default; on ``robustness``: the cases', unless given)."""
+    model by ``mismatch`` (neutral by default; on ``robustness``: the cases', unless given); ``observer`` and
+    ``retarget`` turn those parts of the stack on in every trial."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
@@ -210,13 +212,14 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                         for seed in range(n)]
     if mismatch is not None and name != "robustness":
         out = [replace(t, mismatch=mismatch) for t in out]
-    return [replace(t, observer=True) for t in out] if observer else out
+    return [replace(t, observer=observer, retarget=retarget) for t in out] if observer or retarget else out
 
 
 def run_trial(trial: Trial) -> dict:
     """Run one trial in this process and return its record (the trial, the simulate summary, facts)."""
     from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.planning.observer import DEFAULT_OBSERVER
+    from contactnet.planning.retarget import RetargetConfig
     from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
     from contactnet.sim.pybullet_world import SimConfig
 
@@ -229,7 +232,8 @@ def run_trial(trial: Trial) -> dict:
     distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
     limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
     sim_config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed, mismatch=trial.mismatch)
-    loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if trial.observer else None)
+    loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if trial.observer else None,
+                                   retarget=RetargetConfig() if trial.retarget else None)
     with Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
         if trial.push_force_xy is not None:  # success: no fall until the push has settled
             from contactnet.sim.pybullet_world import Push
@@ -291,8 +295,9 @@ def trial_inputs(trial: Trial) -> dict:
         model = _model_identity(str(path), stamp)
     settings = asdict(trial)
     del settings["model_dir"]  # where the model lies does not matter, its content does
-    if not settings["observer"]:
-        del settings["observer"]  # as before the observer existed (older logs resume)
+    for part in ("observer", "retarget"):
+        if not settings[part]:
+            del settings[part]  # as before the part existed (older logs resume)
     if trial.mismatch.neutral:
         del settings["mismatch"]
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,

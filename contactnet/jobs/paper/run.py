@@ -128,7 +128,7 @@ _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed"
                       "force": None, "impulse": None, "push_seed": 0, "noise": 0.0, "widths_cm": None,
                       "gaps_cm": None, "robot": "solo12", "mass_scale": 1.0, "payload": None, "friction": None,
                       "torque_scale": 1.0, "orientation_noise": 0.0, "velocity_noise": 0.0, "gyro_noise": 0.0,
-                      "delay_ms": 0.0}
+                      "delay_ms": 0.0, "observer": False, "retarget": False}  # the plan runs the defaults
 
 
 def _command(args: argparse.Namespace, scale: float) -> str:
