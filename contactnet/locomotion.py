@@ -121,6 +121,7 @@ class _Plan:
     swings: dict[int, SwingTrajectory] = field(default_factory=dict)
     tops_z: np.ndarray | None = None  # (N, 4) the top under each foot at each node (contactnet.motion.ground)
     touched: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))  # swung legs that touched down
+    solution_force_world: np.ndarray | None = None  # (3,) the external force `solution` was planned with (observer)
 
 
 class Locomotion:
@@ -415,6 +416,8 @@ class Locomotion:
         com, vcom, _, _ = self.controller.kinematics(state.q_pinocchio(), state.v_pinocchio())
         rot_omega = state.base_ang_vel_world
         x0 = np.concatenate([com, vcom, state.rpy, rot_omega])
+        known = None if self.observer is None else self.observer.force_for("plan")
+        known_world = None if known is None else np.array([known[0], known[1], 0.0])
         problem = TrajoptProblem(
             x0=x0,
             contact=contact,
@@ -424,16 +427,19 @@ class Locomotion:
             yaw_ref_rad=self.yaw_ref_rad,
             com_xy_ref_start=self.com_xy_ref.copy(),
             pitch_ref_rad=body_pitch(tops, self._front_to_hind_m),
+            external_force_world=known_world,
         )
         solution = self.optimizer.solve(problem)
         self.trajopt_times_s.append(solution.solve_time_s)
         if solution.success:
             plan.solution = solution
+            plan.solution_force_world = known_world
             plan.t0_s = t_now
             return
         self.trajopt_failures += 1
         if plan.solution is None and fallback is not None and fallback.solution is not None:
             plan.solution = fallback.solution
+            plan.solution_force_world = fallback.solution_force_world
             plan.t0_s = fallback.t0_s
 
     def _target(self, t_s: float) -> ControlTarget:
@@ -451,8 +457,8 @@ class Locomotion:
         if self._adapt_touchdown and plan.swings:
             self._adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel)
         solution = plan.solution
-        external = None if self.observer is None else self.observer.force_for("feedforward")
-        external_world = None if external is None else np.array([external[0], external[1], 0.0])
+        external_world = None if self.observer is None else self.observer.feedforward_world(
+            None if solution is None else plan.solution_force_world)
         if solution is None:
             com = self.controller.last_com.copy()
             weight = reference_forces(stance[None], self.robot.mass_kg, self.sim.config.gravity)[0]

@@ -54,6 +54,24 @@ def test_below_its_threshold_the_estimate_is_not_used():
     assert observer.force_for("feedforward") == (x, y) and observer.force_for("lean") is None  # lean off
 
 
+def test_the_controller_cancels_what_the_plan_does_not_hold():
+    """The trajectory optimizer plans with the estimate at its re-solves (``plan``); between them the controller
+    cancels the estimate less the force the active plan holds, and after the push what the plan still holds."""
+    observer = DisturbanceObserver(DEFAULT_OBSERVER, mass_kg=2.5, dt_s=1e-3)
+    assert observer.feedforward_world(None) is None  # nothing estimated, nothing planned
+    _momentum_run(observer, (0.0, 5.0), 1000)
+    now = np.array([*observer.active_force_xy(), 0.0])
+    assert observer.force_for("plan") == observer.active_force_xy()
+    np.testing.assert_allclose(observer.feedforward_world(None), now)  # a plan solved before the push
+    np.testing.assert_allclose(observer.feedforward_world(now), 0.0, atol=1e-12)  # a plan solved with it
+    np.testing.assert_allclose(observer.feedforward_world(np.array([0.0, 3.0, 0.0])), now - [0.0, 3.0, 0.0])
+    observer.reset()
+    np.testing.assert_allclose(observer.feedforward_world(now), -now)  # the push is over: the plan still holds it
+    off = DisturbanceObserver(ObserverConfig(feedforward=False, plan=False), mass_kg=2.5, dt_s=1e-3)
+    _momentum_run(off, (0.0, 5.0), 1000)
+    assert off.feedforward_world(now) is None and off.force_for("plan") is None
+
+
 def test_the_observer_is_off_by_default_and_its_trials_are_named(tmp_path):
     from contactnet.jobs.experiment import trial_inputs, trials_of
 

@@ -139,13 +139,14 @@ def test_numpy_and_casadi_nonlinear_steps_agree(model: SrbdModel) -> None:
 
     rng = np.random.default_rng(0)
     x, f = ca.SX.sym("x", 12), ca.SX.sym("f", 12)
-    feet = ca.SX.sym("r", 12)
-    step = ca.Function("step", [x, f, feet], [_casadi_step(model, DT, x, f, feet, 1.0, ca.DM.zeros(3))])
-    for _ in range(5):
+    feet, ext = ca.SX.sym("r", 12), ca.SX.sym("ext", 3)
+    step = ca.Function("step", [x, f, feet, ext], [_casadi_step(model, DT, x, f, feet, 1.0, ca.DM.zeros(3), ext)])
+    for k in range(6):
         x0 = rng.normal(0.0, 0.3, 12)
         forces, footholds = rng.normal(5.0, 3.0, (4, 3)), rng.normal(0.0, 0.2, (4, 3))
-        expected = srbd_step(model, DT, x0, forces, footholds)
-        got = np.asarray(step(x0, forces.ravel(), footholds.ravel())).ravel()
+        push = rng.normal(0.0, 5.0, 3) if k % 2 else None  # an external force at the CoM, or none
+        expected = srbd_step(model, DT, x0, forces, footholds, push)
+        got = np.asarray(step(x0, forces.ravel(), footholds.ravel(), np.zeros(3) if push is None else push)).ravel()
         assert np.allclose(got, expected, atol=1e-12)
 
 
@@ -212,6 +213,39 @@ def test_fast_path_agrees_with_nonlinear_reference(optimizers, desc: RobotDescri
             fast = optimizers[(solver, n)].solve(problem)
             assert np.abs(fast.x[:, 0:3] - ref.x[:, 0:3]).max() < 3e-3  # CoM within 3 mm
             assert abs(fast.cost - ref.cost) < 0.03 * ref.cost  # cost within 3 %
+
+
+def test_a_known_push_enters_every_solver_alike(optimizers, model: SrbdModel, desc: RobotDescription) -> None:
+    """A known external force at the CoM (TrajoptProblem.external_force_world): the nonlinear reference is exact
+    with it, the fast paths agree with the reference and with each other, the cost is the same function, and the
+    plan holds the body against the push (the stance feet push back; without it the body drifts away)."""
+    push = np.array([1.0, 5.0, 0.0])  # N, mostly sideways (Solo12 weighs ~25 N)
+    for base in typical_problems(desc)[:4]:
+        problem = dataclasses.replace(base, external_force_world=push)
+        n = len(problem.contact)
+        ref = optimizers[("nlp-ipopt", n)].solve(problem, warm_start=False)
+        assert ref.success, ref.status
+        assert np.abs(dynamics_residual(model, DT, ref.x, ref.forces_world, problem.foot_pos_world, push)).max() < 1e-7
+        assert np.abs(dynamics_residual(model, DT, ref.x, ref.forces_world, problem.foot_pos_world)).max() > 1e-5
+        for solver in ("auto", "qp-ipm"):
+            fast = optimizers[(solver, n)].solve(problem)
+            assert fast.success, fast.status
+            assert_force_constraints(model, problem, fast)
+            assert np.abs(dynamics_residual(model, DT, fast.x, fast.forces_world, problem.foot_pos_world,
+                                            push)[:, 0:6]).max() < 1e-9
+            assert np.abs(fast.x[:, 0:3] - ref.x[:, 0:3]).max() < 3e-3
+            assert math.isclose(fast.cost, trajectory_cost(TrajoptWeights(), problem, model, DT, fast.x,
+                                                           fast.forces_world), rel_tol=1e-9)
+            unaware = optimizers[(solver, n)].solve(base)
+            end_ref = base.x0[0:2] + DT * n * base.com_vel_ref_xy  # where the CoM reference ends (xy)
+            assert np.sum(fast.forces_world[..., 1]) < np.sum(unaware.forces_world[..., 1]) - 2.0 * n  # pushes back
+            # the unaware plan, simulated with the push, ends farther from the reference than the aware one
+            x = base.x0
+            for k in range(n):
+                x = srbd_step(model, DT, x, unaware.forces_world[k], base.foot_pos_world[k], push)
+            assert np.linalg.norm(fast.x[-1, 0:2] - end_ref) < np.linalg.norm(x[0:2] - end_ref)
+    with pytest.raises(ValueError, match="external_force_world"):
+        optimizers[("auto", 8)].solve(dataclasses.replace(typical_problems(desc)[4], external_force_world=np.ones(2)))
 
 
 def test_interior_point_matches_casadi_qp(model: SrbdModel, desc: RobotDescription) -> None:

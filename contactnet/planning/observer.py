@@ -20,7 +20,11 @@ been run with it. Above it:
   moment about the CoM);
 * the planner leans into it: the capture step moves the first step's candidate grid by
   ``F_ext h / (m g)`` beyond its velocity part, the offset of the centre of pressure from the CoM that balances
-  a horizontal force at the CoM height ``h`` (``contactnet.planning.capture.capture_offset``).
+  a horizontal force at the CoM height ``h`` (``contactnet.planning.capture.capture_offset``);
+* the trajectory optimizer plans with it (``plan``): at each re-solve the estimate is a known force on the body
+  over the horizon (``TrajoptProblem.external_force_world``), so the planned ground forces hold it and the planned
+  CoM moves where the feet can hold it from (a walk's three feet cannot hold a sideways push with the CoM near
+  the edge of their triangle). The controller then cancels only what changed since that solve.
 
 Computed on Python floats: it runs at 1 kHz.
 """
@@ -41,6 +45,7 @@ class ObserverConfig:
     threshold_n: float = 2.0  # an estimate below this (horizontal magnitude) is not used
     feedforward: bool = True  # the controller cancels the estimate
     lean: bool = True  # the capture step leans the footholds into it
+    plan: bool = True  # the trajectory optimizer plans with it (its re-solves; the controller cancels the rest)
 
     def __post_init__(self) -> None:
         for name in ("time_constant_s", "threshold_n"):
@@ -91,9 +96,21 @@ class DisturbanceObserver:
             self.max_estimate_n = magnitude
 
     def force_for(self, use: str) -> tuple[float, float] | None:
-        """``active_force_xy`` if ``use`` (``"lean"``: the planner's, ``"feedforward"``: the controller's) is on in the
-        config, else None."""
+        """``active_force_xy`` if ``use`` (``"lean"``: the planner's, ``"feedforward"``: the controller's, ``"plan"``:
+        the trajectory optimizer's) is on in the config, else None."""
         return self.active_force_xy() if getattr(self.config, use) else None
+
+    def feedforward_world(self, planned_world: np.ndarray | None) -> np.ndarray | None:
+        """The push (3,) (N, world) the controller cancels (``ControlTarget.external_force_world``): the estimate,
+        less ``planned_world``, the force the active plan was solved with (its forces hold that already); after
+        a push, minus what the plan still holds. None: nothing to cancel (or the feedforward is off)."""
+        if not self.config.feedforward:
+            return None
+        now = self.active_force_xy()
+        if now is None and planned_world is None:
+            return None
+        external = np.zeros(3) if now is None else np.array([now[0], now[1], 0.0])
+        return external if planned_world is None else external - planned_world
 
     def active_force_xy(self) -> tuple[float, float] | None:
         """The estimate (N, world) when it is at least ``threshold_n``, else None (not used)."""

@@ -29,8 +29,9 @@ from contactnet.motion.trajopt.model import (
 from contactnet.motion.trajopt.problem import ProblemBatch, TrajoptSolution, _result
 
 
-def _casadi_step(model: SrbdModel, dt_s: float, x, f, feet, support, p_bar):  # noqa: ANN001, ANN202
-    """The nonlinear SRBD step of ``srbd_step`` in casadi SX (x (12), f (12), feet (12)).
+def _casadi_step(model: SrbdModel, dt_s: float, x, f, feet, support, p_bar, ext):  # noqa: ANN001, ANN202
+    """The nonlinear SRBD step of ``srbd_step`` in casadi SX (x (12), f (12), feet (12), ext (3): the external
+    force at the CoM).
 
     ``support`` and ``p_bar`` are unused (same signature as ``_casadi_linear_step``).
     """
@@ -50,7 +51,7 @@ def _casadi_step(model: SrbdModel, dt_s: float, x, f, feet, support, p_bar):  # 
     inertia_w = rot @ ca.DM(model.inertia_matrix()) @ rot.T
     tau = sum(ca.cross(feet[3 * i : 3 * i + 3] - p, f[3 * i : 3 * i + 3]) for i in range(N_LEGS))
     w_dot = rot @ ca.DM(np.linalg.inv(model.inertia_matrix())) @ rot.T @ (tau - ca.cross(w, inertia_w @ w))
-    acc = (f[0:3] + f[3:6] + f[6:9] + f[9:12]) / model.mass_kg + ca.DM([0.0, 0.0, -model.gravity])
+    acc = (f[0:3] + f[3:6] + f[6:9] + f[9:12] + ext) / model.mass_kg + ca.DM([0.0, 0.0, -model.gravity])
     return ca.vertcat(
         p + dt_s * v + 0.5 * dt_s**2 * acc,
         v + dt_s * acc,
@@ -59,9 +60,11 @@ def _casadi_step(model: SrbdModel, dt_s: float, x, f, feet, support, p_bar):  # 
     )
 
 
-def _casadi_linear_step(model: SrbdModel, dt_s: float, x, f, feet, support, p_bar):  # noqa: ANN001, ANN202
+def _casadi_linear_step(model: SrbdModel, dt_s: float, x, f, feet, support, p_bar, ext):  # noqa: ANN001, ANN202
     """The linearized step of the fast path in casadi SX, in the heading frame (reference yaw 0): moments
-    about ``p_bar`` plus the tipping term ``(p - p_bar) x F_ref`` with ``F_ref = support * weight``."""
+    about ``p_bar`` plus the tipping term ``(p - p_bar) x F_ref`` with ``F_ref = support * weight`` (the weight
+    only: of the ground's reaction to a known external force ``ext`` at the CoM the term is left out, the
+    CoM's deviation from ``p_bar`` times a push, small next to the feet's exact moments about ``p_bar``)."""
     import casadi as ca
 
     i_inv = ca.DM(np.linalg.inv(model.inertia_matrix()))
@@ -69,7 +72,7 @@ def _casadi_linear_step(model: SrbdModel, dt_s: float, x, f, feet, support, p_ba
     tau = sum(ca.cross(feet[3 * i : 3 * i + 3] - p_bar, f[3 * i : 3 * i + 3]) for i in range(N_LEGS))
     f_ref = ca.vertcat(0, 0, model.weight_n * support)
     w_dot = i_inv @ (tau + ca.cross(f_ref, p - p_bar))
-    acc = (f[0:3] + f[3:6] + f[6:9] + f[9:12]) / model.mass_kg + ca.DM([0.0, 0.0, -model.gravity])
+    acc = (f[0:3] + f[3:6] + f[6:9] + f[9:12] + ext) / model.mass_kg + ca.DM([0.0, 0.0, -model.gravity])
     return ca.vertcat(
         p + dt_s * v + 0.5 * dt_s**2 * acc,
         v + dt_s * acc,
@@ -102,13 +105,13 @@ def _qpsol_status(plugin: str, stats: dict) -> str:
 def srbd_problem(model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights, kind: str) -> dict:
     """The multiple-shooting SRBD problem in casadi SX (``kind`` "qp": linearized, "nlp": nonlinear), as a
     qpsol/nlpsol problem dict: variables stage-wise ``[f_k (12), x_{k+1} (12)]``, constraints per stage
-    ``[dynamics (12), pyramid rows (16)]``, parameters ``[x0, feet, x_ref, f_ref, support, p_bar]``."""
+    ``[dynamics (12), pyramid rows (16)]``, parameters ``[x0, feet, x_ref, f_ref, support, p_bar, ext]``."""
     import casadi as ca
 
     n = config.n_nodes
     x0 = ca.SX.sym("x0", NX)
     feet, x_ref, f_ref = ca.SX.sym("feet", NU, n), ca.SX.sym("xr", NX, n), ca.SX.sym("fr", NU, n)
-    support, p_bar = ca.SX.sym("support", n), ca.SX.sym("pbar", 3, n)
+    support, p_bar, ext = ca.SX.sym("support", n), ca.SX.sym("pbar", 3, n), ca.SX.sym("ext", 3)
     step = _casadi_step if kind == "nlp" else _casadi_linear_step
     q, wf = weights.node_state_weights(n), np.tile(np.asarray(weights.force, dtype=float), N_LEGS)
     pyramid = ca.DM(_foot_rows(model.mu)[0:4])
@@ -116,7 +119,7 @@ def srbd_problem(model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeight
     for k in range(n):
         f_k, x_k = ca.SX.sym(f"f{k}", NU), ca.SX.sym(f"x{k + 1}", NX)
         variables += [f_k, x_k]
-        g.append(x_k - step(model, config.dt_s, x_prev, f_k, feet[:, k], support[k], p_bar[:, k]))
+        g.append(x_k - step(model, config.dt_s, x_prev, f_k, feet[:, k], support[k], p_bar[:, k], ext))
         g.extend(pyramid @ f_k[3 * i : 3 * i + 3] for i in range(N_LEGS))
         cost += ca.sumsqr(np.sqrt(q[k]) * (x_k - x_ref[:, k])) + ca.sumsqr(np.sqrt(wf) * (f_k - f_ref[:, k]))
         x_prev = x_k
@@ -124,7 +127,7 @@ def srbd_problem(model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeight
         "x": ca.vertcat(*variables),
         "f": cost,
         "g": ca.vertcat(*g),
-        "p": ca.vertcat(x0, ca.vec(feet), ca.vec(x_ref), ca.vec(f_ref), support, ca.vec(p_bar)),
+        "p": ca.vertcat(x0, ca.vec(feet), ca.vec(x_ref), ca.vec(f_ref), support, ca.vec(p_bar), ext),
     }
 
 
@@ -184,7 +187,7 @@ class _CasadiOcp:
         n, model = self.config.n_nodes, self.model
         x0, contact = problem.x0[0], problem.contact[0]
         x_ref = problem.reference_states(self.config.dt_s)[0]
-        f_ref = reference_forces(contact, model.mass_kg, model.gravity).reshape(n, NU)
+        f_ref = reference_forces(contact, model.mass_kg, model.gravity, problem.ext[0]).reshape(n, NU)
         p_bar = x_ref[:n, 0:3].copy()
         p_bar[0] = x0[0:3]
         p = np.concatenate(
@@ -195,6 +198,7 @@ class _CasadiOcp:
                 f_ref.ravel(),
                 contact.any(axis=1),
                 p_bar.ravel(),
+                problem.ext[0],
             ]
         )
         # Bounds, stage-wise [f_k, x_{k+1}]: forces of stance feet in 0 <= f_z <= fz_max (swing feet: 0), the CoM

@@ -123,13 +123,16 @@ def _wrench_sensitivity(a: np.ndarray, bw: np.ndarray) -> np.ndarray:
 
 
 def _free_response(
-    model: SrbdModel, dt_s: float, a: np.ndarray, tipping: np.ndarray, x0: np.ndarray, p_bar: np.ndarray
+    model: SrbdModel, dt_s: float, a: np.ndarray, tipping: np.ndarray, x0: np.ndarray, p_bar: np.ndarray,
+    ext: np.ndarray,
 ) -> np.ndarray:
-    """States (B, N, 12) of nodes 1..N under zero wrenches (gravity and tipping terms only)."""
+    """States (B, N, 12) of nodes 1..N under zero wrenches (gravity, the external forces ``ext`` (B, 3) at the
+    CoM, and the tipping terms only)."""
     b, n = p_bar.shape[:2]
     c = -(tipping @ p_bar[..., None])[..., 0]
-    c[..., 0:3] += 0.5 * dt_s**2 * np.array([0.0, 0.0, -model.gravity])
-    c[..., 3:6] += dt_s * np.array([0.0, 0.0, -model.gravity])
+    acc = np.array([0.0, 0.0, -model.gravity]) + ext / model.mass_kg  # (B, 3)
+    c[..., 0:3] += 0.5 * dt_s**2 * acc[:, None]
+    c[..., 3:6] += dt_s * acc[:, None]
     x_free = np.zeros((b, n, NX))
     x = x0
     for k in range(n):
@@ -201,11 +204,12 @@ def build_condensed_qp(
 
     p_bar = x_ref[:, :n, 0:3].copy()
     p_bar[:, 0] = batch.x0[:, 0:3]  # exact moment arms at the first node
-    x_free = _free_response(model, dt_s, per_candidate("a"), per_candidate("tipping"), batch.x0, p_bar)
+    x_free = _free_response(model, dt_s, per_candidate("a"), per_candidate("tipping"), batch.x0, p_bar,
+                            batch.ext)
     w_state = weights.node_state_weights(n).reshape(-1)
     err = (x_free - x_ref[:, 1:]).reshape(b, -1)
     w_force = np.asarray(weights.force, dtype=float)
-    f_ref = reference_forces(batch.contact, model.mass_kg, model.gravity)
+    f_ref = reference_forces(batch.contact, model.mass_kg, model.gravity, batch.ext)
     z_rel = x_ref[:, 1:, 2] - x_free[..., 2]
     band = model.com_height_band_m
     return CondensedQp(

@@ -135,13 +135,18 @@ class TrajoptConfig:
 # ----------------------------------------------------------------------------------------------------
 
 
-def reference_forces(contact: np.ndarray, mass_kg: float, gravity: float) -> np.ndarray:
-    """Reference forces (..., N, 4, 3): weight shared by the stance legs, vertical; zero in swing."""
+def reference_forces(contact: np.ndarray, mass_kg: float, gravity: float,
+                     external_force: np.ndarray | None = None) -> np.ndarray:
+    """Reference forces (..., N, 4, 3): weight shared by the stance legs, vertical; zero in swing. With
+    ``external_force`` (..., 3), a known force on the body at the CoM (N), the stance legs share its opposite
+    too: the ground forces that hold the body still against it (a steady push)."""
     c = np.asarray(contact, dtype=float)
     n_stance = c.sum(axis=-1, keepdims=True)
-    fz = np.divide(mass_kg * gravity * c, n_stance, out=np.zeros_like(c), where=n_stance > 0)
+    share = np.divide(c, n_stance, out=np.zeros_like(c), where=n_stance > 0)
     f = np.zeros((*c.shape, 3))
-    f[..., 2] = fz
+    f[..., 2] = mass_kg * gravity * share
+    if external_force is not None:
+        f -= share[..., None] * np.asarray(external_force, dtype=float)[..., None, None, :]
     return f
 
 
@@ -165,16 +170,20 @@ def _foot_rows(mu: float) -> np.ndarray:
 
 
 def srbd_step(
-    model: SrbdModel, dt_s: float, x: np.ndarray, forces_world: np.ndarray, foot_pos_world: np.ndarray
+    model: SrbdModel, dt_s: float, x: np.ndarray, forces_world: np.ndarray, foot_pos_world: np.ndarray,
+    external_force_world: np.ndarray | None = None,
 ) -> np.ndarray:
     """One discrete nonlinear SRBD step, vectorized over leading axes.
 
-    ``x`` (..., 12), ``forces_world`` and ``foot_pos_world`` (..., 4, 3).
+    ``x`` (..., 12), ``forces_world`` and ``foot_pos_world`` (..., 4, 3); ``external_force_world`` (3,) a force on
+    the body at the CoM (N), no moment about it.
     """
     x = np.asarray(x, dtype=float)
     f = np.asarray(forces_world, dtype=float)
     p, v, rpy, w = x[..., 0:3], x[..., 3:6], x[..., 6:9], x[..., 9:12]
     acc = f.sum(axis=-2) / model.mass_kg + np.array([0.0, 0.0, -model.gravity])
+    if external_force_world is not None:
+        acc = acc + np.asarray(external_force_world, dtype=float) / model.mass_kg
     tau = np.cross(np.asarray(foot_pos_world, dtype=float) - p[..., None, :], f).sum(axis=-2)
     rot = rotation_rpy(rpy)
     inertia_w = rot @ model.inertia_matrix() @ np.swapaxes(rot, -1, -2)
@@ -187,11 +196,12 @@ def srbd_step(
 
 
 def dynamics_residual(
-    model: SrbdModel, dt_s: float, x: np.ndarray, forces_world: np.ndarray, foot_pos_world: np.ndarray
+    model: SrbdModel, dt_s: float, x: np.ndarray, forces_world: np.ndarray, foot_pos_world: np.ndarray,
+    external_force_world: np.ndarray | None = None,
 ) -> np.ndarray:
     """Residuals x[k+1] - step(x[k], f[k]) of a trajectory under the nonlinear SRBD, (N, 12).
 
     ``x`` is (N+1, 12), ``forces_world`` and ``foot_pos_world`` are (N, 4, 3).
     """
     x = np.asarray(x, dtype=float)
-    return x[1:] - srbd_step(model, dt_s, x[:-1], forces_world, foot_pos_world)
+    return x[1:] - srbd_step(model, dt_s, x[:-1], forces_world, foot_pos_world, external_force_world)

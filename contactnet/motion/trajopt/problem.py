@@ -42,6 +42,10 @@ class TrajoptProblem:
     #: Base pitch reference (rad, positive nose down): one number, or (N+1,) one per node; 0 keeps the body
     #: level. On stairs it follows the slope from the hind to the front feet.
     pitch_ref_rad: float | np.ndarray = 0.0
+    #: (3,) a known force on the body at the CoM over the whole horizon (N, world), e.g. the push the disturbance
+    #: observer estimates (``contactnet.planning.observer``); None: none. The plan then leans against it, and its
+    #: reference forces include holding it (``reference_forces``).
+    external_force_world: np.ndarray | None = None
 
     def ref_xy_start(self) -> np.ndarray:
         return np.asarray(self.x0 if self.com_xy_ref_start is None else self.com_xy_ref_start, dtype=float)[0:2]
@@ -70,6 +74,8 @@ def _check_shapes(problem: TrajoptProblem, n_nodes: int) -> None:
         "foot_pos_world": (np.shape(problem.foot_pos_world), (n_nodes, N_LEGS, 3)),
         "com_vel_ref_xy": (np.shape(problem.com_vel_ref_xy), (2,)),
     }
+    if problem.external_force_world is not None:
+        shapes["external_force_world"] = (np.shape(problem.external_force_world), (3,))
     for name in ("com_height_ref_m", "pitch_ref_rad"):
         if np.ndim(getattr(problem, name)) != 0:
             shapes[name] = (np.shape(getattr(problem, name)), (n_nodes + 1,))
@@ -142,7 +148,7 @@ def trajectory_cost(
     x_local = _states_to_frame(np.asarray(x, dtype=float)[None], rot, batch.origins(), batch.yaw)[0]
     err = x_local[1:] - batch.in_heading_frame().reference_states(dt_s)[0, 1:]
     forces = np.asarray(forces_world, dtype=float) @ rot[0]
-    f_err = forces - reference_forces(batch.contact[0], model.mass_kg, model.gravity)
+    f_err = forces - reference_forces(batch.contact[0], model.mass_kg, model.gravity, batch.ext[0] @ rot[0])
     return float(
         np.sum(weights.node_state_weights(n) * err**2) + np.sum(np.asarray(weights.force) * f_err**2)
     )
@@ -160,6 +166,7 @@ class ProblemBatch:
     height: np.ndarray  #: (B, N+1) CoM height reference of every node
     yaw: np.ndarray  #: (B,)
     pitch: np.ndarray  #: (B, N+1) pitch reference of every node
+    ext: np.ndarray  #: (B, 3) known external force on the body (zero: none)
 
     @classmethod
     def of(cls, problems: Sequence[TrajoptProblem], n_nodes: int) -> ProblemBatch:
@@ -179,6 +186,8 @@ class ProblemBatch:
             yaw=np.array([p.yaw_ref_rad for p in problems], dtype=float),
             pitch=np.array([np.broadcast_to(np.asarray(p.pitch_ref_rad, dtype=float), (n_nodes + 1,))
                             for p in problems]).reshape(-1, n_nodes + 1),
+            ext=np.array([np.zeros(3) if p.external_force_world is None else p.external_force_world
+                          for p in problems], dtype=float).reshape(-1, 3),
         )
 
     def __len__(self) -> int:
@@ -189,8 +198,8 @@ class ProblemBatch:
 
     def finite(self) -> np.ndarray:
         """(B,) True where every number is finite."""
-        scalars = np.isfinite(np.concatenate((self.x0, self.ref_xy, self.vel, self.height, self.yaw[:, None], self.pitch),
-                                             axis=1)).all(axis=1)
+        scalars = np.isfinite(np.concatenate((self.x0, self.ref_xy, self.vel, self.height, self.yaw[:, None], self.pitch,
+                                              self.ext), axis=1)).all(axis=1)
         return np.isfinite(self.feet).all(axis=(1, 2, 3)) & scalars
 
     def rotations(self) -> np.ndarray:
@@ -215,6 +224,7 @@ class ProblemBatch:
             height=self.height,
             yaw=np.zeros(len(self)),
             pitch=self.pitch,
+            ext=(self.ext[:, None] @ rot)[:, 0],
         )
 
     def reference_states(self, dt_s: float) -> np.ndarray:
