@@ -118,6 +118,16 @@ def viser_client(app):  # noqa: ANN001, ANN201
     return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]
 
 
+def camera_offset(app, client):  # noqa: ANN001, ANN201 - an (3,) array
+    """``client``'s camera position - look-at (m), read from one state: viser replaces the state at each report
+    of the browser (on its event loop) and our setters change it in place (under the camera control's lock), so
+    two separate reads of ``client.camera.position`` and ``.look_at`` can pair poses of different moments (a
+    busy-machine failure: an offset 0.58 m off while the camera followed the robot)."""
+    with app.viewer.panel.camera._lock:
+        state = client.camera._state
+        return state.position - state.look_at
+
+
 def live_app(tmp_path_factory, stand_models: bool = False, **settings):  # noqa: ANN001, ANN201
     """A ContactnetApp (the live session and its 3D view on a free loopback port) with shipped-format random
     models (``stand_models``: that can choose to stand) and its own recordings folder; ``settings`` are

@@ -17,7 +17,7 @@ import msgspec
 import numpy as np
 import pytest
 import viser
-from helpers import save_random_models, wait_for
+from helpers import camera_offset, save_random_models, wait_for
 from viser import _messages as messages
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
@@ -427,7 +427,7 @@ def test_camera_modes_per_browser(app, browser):
     browser.set(mode, "top-down")
     wait_for(lambda: camera.mode(client_id) == "top-down", what="top-down")
     def from_above() -> bool:
-        offset = client.camera.position - client.camera.look_at
+        offset = camera_offset(app, client)
         return offset[2] > 0.5 and np.linalg.norm(offset[:2]) < 0.05 * offset[2]
 
     wait_for(from_above, what="the camera above the terrain, looking down")

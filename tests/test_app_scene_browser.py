@@ -10,7 +10,16 @@ import time
 
 import numpy as np
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, live_app, open_viser, viser_client, wait_for
+from helpers import (
+    ARTIFACTS,
+    browser_marks,
+    camera_offset,
+    chromium,
+    live_app,
+    open_viser,
+    viser_client,
+    wait_for,
+)
 
 from app.live.commands import SetCompare, SetPaused, SetPlanner, SetVelocity
 from app.scene.camera import place_camera
@@ -119,7 +128,7 @@ def test_an_orbit_keeps_following_and_recenter_restores_the_view(live, page):
     client = viser_client(app)
     camera = app.viewer.panel.camera
     mode, recenter = camera.controls[client.client_id]
-    recenter_offset = lambda: client.camera.position - client.camera.look_at  # noqa: E731
+    recenter_offset = lambda: camera_offset(app, client)  # noqa: E731
     seen = [recenter_offset().copy()]
 
     def settled() -> bool:  # the camera glides (an orbit's damping too, frame by frame); a software renderer on a
@@ -146,7 +155,9 @@ def test_an_orbit_keeps_following_and_recenter_restores_the_view(live, page):
     x0, look0 = app.session.view.snapshot.q[0], client.camera.look_at[0]
     wait_for(lambda: app.session.view.snapshot.q[0] > x0 + 0.1, timeout=60, what="the robot to walk 10 cm")
     wait_for(lambda: client.camera.look_at[0] > look0 + 0.05, timeout=30, what="the camera to come along")
-    assert np.linalg.norm(recenter_offset() - orbited) < 0.1  # at the user's angle
+    offset = recenter_offset()
+    assert np.linalg.norm(offset - orbited) < 0.1, (  # at the user's angle
+        f"offset {offset}, the user's {orbited}, the control's {camera._browsers[client.client_id].offset}")
     app.session.call(SetPaused(True))
     page.screenshot(path=str(ARTIFACTS / "viser_after_orbit.png"))
     page.get_by_role("button", name="Re-center").dispatch_event("click")  # no scrolling: see the e2e test
