@@ -416,8 +416,7 @@ class Locomotion:
         com, vcom, _, _ = self.controller.kinematics(state.q_pinocchio(), state.v_pinocchio())
         rot_omega = state.base_ang_vel_world
         x0 = np.concatenate([com, vcom, state.rpy, rot_omega])
-        known = None if self.observer is None else self.observer.force_for("plan")
-        known_world = None if known is None else np.array([known[0], known[1], 0.0])
+        known_world = None if self.observer is None else self.observer.force_world("plan")
         problem = TrajoptProblem(
             x0=x0,
             contact=contact,

@@ -106,11 +106,17 @@ class DisturbanceObserver:
         a push, minus what the plan still holds. None: nothing to cancel (or the feedforward is off)."""
         if not self.config.feedforward:
             return None
-        now = self.active_force_xy()
+        now = self.force_world("feedforward")
         if now is None and planned_world is None:
             return None
-        external = np.zeros(3) if now is None else np.array([now[0], now[1], 0.0])
+        external = np.zeros(3) if now is None else now
         return external if planned_world is None else external - planned_world
+
+    def force_world(self, use: str) -> np.ndarray | None:
+        """``force_for(use)`` as a horizontal force (3,) (N, world); None when not used (the trajectory optimizer's
+        e.g. for ``TrajoptProblem.external_force_world``)."""
+        force = self.force_for(use)
+        return None if force is None else np.array([force[0], force[1], 0.0])
 
     def active_force_xy(self) -> tuple[float, float] | None:
         """The estimate (N, world) when it is at least ``threshold_n``, else None (not used)."""
