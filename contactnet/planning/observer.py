@@ -113,8 +113,8 @@ class DisturbanceObserver:
         return external if planned_world is None else external - planned_world
 
     def force_world(self, use: str) -> np.ndarray | None:
-        """``force_for(use)`` as a horizontal force (3,) (N, world); None when not used (the trajectory optimizer's
-        e.g. for ``TrajoptProblem.external_force_world``)."""
+        """``force_for(use)`` as a horizontal force (3,) (N, world), e.g. for ``TrajoptProblem.external_force_world``;
+        None when not used."""
         force = self.force_for(use)
         return None if force is None else np.array([force[0], force[1], 0.0])
 
