@@ -184,6 +184,48 @@ def test_swing_over_an_obstacle_rises_above_it_and_leaves_vertically(swing):
             np.testing.assert_array_equal(a, b)
 
 
+def _reference_cop_line(com, feet, stance, forces_ref, wrench):
+    """The centre of pressure p(alpha) (2,) of the planned forces plus the feedback wrench with its horizontal
+    force scaled by alpha, from the resultant's force and moment about the CoM (numpy cross products), and the
+    height h of the CoM above the stance feet; None when there is no upward force."""
+    lever = feet[stance] - com
+    force = forces_ref[stance].sum(axis=0) + wrench[:3]
+    moment = np.cross(lever, forces_ref[stance]).sum(axis=0) + wrench[3:]
+    height = com[2] - feet[stance, 2].mean()
+    if force[2] <= 1e-6 or height <= 0.0:
+        return None
+
+    def cop(alpha: float) -> np.ndarray:
+        fx, fy = force[:2] - (1.0 - alpha) * wrench[:2]
+        return com[:2] + np.array([-moment[1] - height * fx, moment[0] - height * fy]) / force[2]
+
+    return cop
+
+
+def reference_cop_share(com, feet, stance, forces_ref, wrench, margin_m) -> float:
+    """``cop_scale`` from shapely's hull of the stance feet, edge by edge: the largest alpha in [0, 1] with every
+    edge's slack (margin taken off) at p(alpha) at least min(its slack at p(0), 0)."""
+    from shapely.geometry import MultiPoint
+    from shapely.geometry.polygon import orient
+
+    if stance.sum() < 3:
+        return 1.0
+    hull = MultiPoint([tuple(f) for f in feet[stance, :2]]).convex_hull
+    cop = _reference_cop_line(com, feet, stance, forces_ref, wrench)
+    if hull.geom_type != "Polygon" or hull.area < 5e-9 or cop is None:
+        return 1.0
+    corners = np.array(orient(hull, 1.0).exterior.coords)  # counter-clockwise, closed
+    p0, d = cop(0.0), cop(1.0) - cop(0.0)
+    alpha = 1.0
+    for a, b in zip(corners[:-1], corners[1:], strict=True):
+        edge = b - a
+        inward = np.array([-edge[1], edge[0]]) / np.linalg.norm(edge)
+        slack, rate = inward @ (p0 - a) - margin_m, inward @ d
+        if rate < 0.0:
+            alpha = 0.0 if slack <= 0.0 else min(alpha, slack / -rate)
+    return max(alpha, 0.0)
+
+
 def reference_torques(controller: WholeBodyController, q: np.ndarray, v: np.ndarray,
                       target: ControlTarget) -> tuple[np.ndarray, np.ndarray]:
     """The controller's steps 1-5 written plainly in numpy (the form the compiled kernel replaced): torques and
@@ -213,6 +255,9 @@ def reference_torques(controller: WholeBodyController, q: np.ndarray, v: np.ndar
         grasp[3:, 3 * leg:3 * leg + 3] = np.array([[0, -lever[2], lever[1]], [lever[2], 0, -lever[0]],
                                                     [-lever[1], lever[0], 0]])
     wrench = np.concatenate([force_fb, torque_fb])
+    if g.cop_margin_m is not None:
+        force_fb[:2] *= reference_cop_share(com, feet, stance, target.forces, wrench, g.cop_margin_m)
+        wrench = np.concatenate([force_fb, torque_fb])
     held = np.zeros(4, dtype=bool)  # the unloading rounds' feet held at fz_min, with their forces
     held_forces = np.zeros((4, 3))
     for round_ in range(g.unload_rounds + 1):
@@ -236,14 +281,16 @@ def reference_torques(controller: WholeBodyController, q: np.ndarray, v: np.ndar
     return np.clip(tau, -controller.torque_limit_nm, controller.torque_limit_nm), forces
 
 
-@pytest.mark.parametrize("seed, unload_rounds", [(0, 0), (1, 0), (2, 0), (3, 0), (4, 3), (5, 3)])
-def test_the_compiled_controller_is_the_plain_formulas(robot, seed, unload_rounds):
+@pytest.mark.parametrize("seed, unload_rounds, cop_margin_m",
+                         [(0, 0, None), (1, 0, None), (2, 0, None), (3, 0, None), (4, 3, None), (5, 3, None),
+                          (6, 0, 0.01), (7, 3, 0.02)])
+def test_the_compiled_controller_is_the_plain_formulas(robot, seed, unload_rounds, cop_margin_m):
     """Random configurations, velocities and targets (stance sets, pushes): the compiled steps 1-5 give the plain
     numpy form's torques and forces to rounding, and some torques saturate; with and without the unloading
-    rounds."""
+    rounds and the centre-of-pressure limit."""
     rng = np.random.default_rng(seed)
     controller = WholeBodyController(robot, dataclasses.replace(ControllerGains.for_robot(robot.description),
-                                                                unload_rounds=unload_rounds))
+                                                                unload_rounds=unload_rounds, cop_margin_m=cop_margin_m))
     saturated = unloaded = 0
     for k in range(50):
         q = robot.q_standing.copy()
@@ -269,3 +316,43 @@ def test_the_compiled_controller_is_the_plain_formulas(robot, seed, unload_round
         unloaded += bool(np.isclose(controller.last_forces[target.stance, 2], controller.gains.fz_min_n).any())
     assert saturated > 0
     assert unloaded > 0  # feet at the minimum load: the unloading rounds (or the clip) were exercised
+
+
+def test_the_cop_share_keeps_the_centre_of_pressure_in_the_stance_polygon():
+    """cop_scale against its definition, on random walk-like stances: where the planned forces' centre of
+    pressure lies inside the shrunk polygon, alpha is the largest share whose whole path stays in shapely's
+    buffered hull (scanned on a fine grid), and the CoP at alpha lies on its edge when alpha < 1; where it lies
+    outside, the feedback never takes the CoP further from the polygon. Both kinds and clipped shares occur."""
+    from shapely.geometry import MultiPoint, Point
+
+    from contactnet.motion.controller_kernel import cop_scale
+
+    rng = np.random.default_rng(3)
+    margin = 0.01
+    grid = np.linspace(0.0, 1.0, 2001)
+    kinds = {"inside": 0, "clipped": 0, "outside": 0}
+    for _ in range(300):
+        feet = np.array([[0.2, 0.15, 0.0], [0.2, -0.15, 0.0], [-0.2, 0.15, 0.0], [-0.2, -0.15, 0.0]])
+        feet += rng.normal(0.0, [0.04, 0.03, 0.005], (4, 3))
+        stance = np.ones(4, dtype=bool)
+        stance[rng.integers(0, 4)] = rng.random() < 0.7  # mostly a walk's three feet
+        com = np.array([*rng.normal(0.0, 0.05, 2), 0.24])
+        forces_ref = np.where(stance[:, None], [0.0, 0.0, 25.0 / stance.sum()], 0.0) + rng.normal(0.0, 0.5, (4, 3))
+        # moments of up to a few N m put p(0) outside the polygon at times
+        wrench = np.concatenate([rng.normal(0.0, 8.0, 2), rng.normal(0.0, 2.0, 1), rng.normal(0.0, 1.5, 3)])
+        alpha = cop_scale(com, feet, stance, forces_ref, wrench, margin)
+        assert 0.0 <= alpha <= 1.0
+        assert alpha == pytest.approx(reference_cop_share(com, feet, stance, forces_ref, wrench, margin), abs=1e-12)
+        cop = _reference_cop_line(com, feet, stance, forces_ref, wrench)
+        region = MultiPoint([tuple(f) for f in feet[stance, :2]]).convex_hull.buffer(-margin)
+        if region.contains(Point(cop(0.0))):
+            inside = np.array([region.buffer(1e-9).contains(Point(cop(a))) for a in grid])
+            allowed = grid[np.cumprod(inside).astype(bool)].max()  # the path's first exit
+            assert alpha == pytest.approx(allowed, abs=1e-3)
+            if alpha < 1.0:
+                assert region.exterior.distance(Point(cop(alpha))) < 1e-9
+            kinds["clipped" if alpha < 1.0 else "inside"] += 1
+        else:
+            assert region.distance(Point(cop(alpha))) <= region.distance(Point(cop(0.0))) + 1e-9
+            kinds["outside"] += 1
+    assert min(kinds.values()) >= 10, kinds

@@ -44,6 +44,9 @@ class ControllerGains:
     # A stance foot the feedback would make pull on the ground is held at fz_min_n and the rest of the wrench spread
     # again over the others, up to this many rounds (0: spread once, then clip, as in the paper's controller).
     unload_rounds: int = 0
+    # The horizontal feedback force is scaled down so the centre of pressure stays this far inside the stance
+    # feet's polygon (controller_kernel.cop_scale); None: not limited.
+    cop_margin_m: float | None = None
 
     @classmethod
     def for_robot(cls, robot: RobotDescription) -> ControllerGains:
@@ -180,7 +183,7 @@ class WholeBodyController:
         self._kd_swing = np.array(gains.kd_swing)
         self._gains = pack_gains(self._kp_com, self._kd_com, self._kp_rot, self._kd_rot, self._kp_swing,
                                  self._kd_swing, gains.mu, gains.fz_min_n, gains.fz_max_n, gains.kd_joint,
-                                 gains.force_regularization, gains.unload_rounds)
+                                 gains.force_regularization, gains.unload_rounds, gains.cop_margin_m)
         self._no_force = np.zeros(3)
         self._frame_jacobian = pin.getFrameJacobian
         self._frame_placement = pin.updateFramePlacement

@@ -15,16 +15,105 @@ import numpy as np
 
 #: Layout of the ``gains`` vector (``pack_gains``).
 KP_COM, KD_COM, KP_ROT, KD_ROT, KP_SWING, KD_SWING = 0, 3, 6, 9, 12, 15
-MU, FZ_MIN, FZ_MAX, KD_JOINT, REGULARIZATION, UNLOAD_ROUNDS = 18, 19, 20, 21, 22, 23
-N_GAINS = 24
+MU, FZ_MIN, FZ_MAX, KD_JOINT, REGULARIZATION, UNLOAD_ROUNDS, COP_MARGIN = 18, 19, 20, 21, 22, 23, 24
+N_GAINS = 25
 
 
 def pack_gains(kp_com: np.ndarray, kd_com: np.ndarray, kp_rot: np.ndarray, kd_rot: np.ndarray, kp_swing: np.ndarray,
                kd_swing: np.ndarray, mu: float, fz_min: float, fz_max: float, kd_joint: float,
-               regularization: float, unload_rounds: int = 0) -> np.ndarray:
-    """The controller's gains as one float64 vector (N_GAINS,) for ``wbc_torques``."""
+               regularization: float, unload_rounds: int = 0, cop_margin_m: float | None = None) -> np.ndarray:
+    """The controller's gains as one float64 vector (N_GAINS,) for ``wbc_torques`` (``cop_margin_m`` None: -1)."""
+    cop = -1.0 if cop_margin_m is None else cop_margin_m
     return np.concatenate([kp_com, kd_com, kp_rot, kd_rot, kp_swing, kd_swing,
-                           [mu, fz_min, fz_max, kd_joint, regularization, unload_rounds]]).astype(np.float64)
+                           [mu, fz_min, fz_max, kd_joint, regularization, unload_rounds, cop]]).astype(np.float64)
+
+
+@numba.njit(cache=True, nogil=True)
+def cop_scale(com: np.ndarray, foot: np.ndarray, stance: np.ndarray, forces_ref: np.ndarray, wrench: np.ndarray,
+              margin_m: float) -> float:
+    """The share in [0, 1] of the feedback wrench's horizontal force that keeps the centre of pressure
+    ``margin_m`` inside the stance feet's polygon (1: all of it; with fewer than three stance feet, or three on a
+    line, 1).
+
+    The ground forces' resultant F with moment M about the CoM has its centre of pressure at
+    ``p_xy = c_xy + ((-M_y - h F_x) / F_z, (M_x - h F_y) / F_z)``, ``h`` the CoM's height above the stance feet.
+    The planned forces plus the whole feedback wrench give F and M; the horizontal feedback force, scaled by
+    alpha, moves p along a line. Alpha is the largest value in [0, 1] that keeps p, edge by edge, inside where
+    p(0) is inside and no further out where p(0) is outside (so 0 when the horizontal feedback would move p
+    further out across an edge it is already beyond: the rotation's feedback is kept, the push is not
+    fought by tipping the body).
+
+    Why: a walk's three stance feet hold a horizontal force only as far as its moment about the CoM can be
+    balanced by shifting their vertical loads; a sideways push plus the feedback that fights it asks for more,
+    a foot unloads (its force clipped at ``fz_min``), the moment is lost and the body rolls over the other
+    two feet. Less horizontal force lets the push move the body instead, which the next steps catch."""
+    n = 0
+    xs, ys = np.empty(4), np.empty(4)
+    ground_z = 0.0
+    fx0, fy0, fz, mx, my = 0.0, 0.0, wrench[2], wrench[3], wrench[4]
+    for leg in range(4):
+        if not stance[leg]:
+            continue
+        xs[n], ys[n] = foot[leg, 0], foot[leg, 1]
+        ground_z += foot[leg, 2]
+        n += 1
+    if n < 3:
+        return 1.0
+    ground_z /= n
+    h = com[2] - ground_z
+    for leg in range(4):
+        if not stance[leg]:
+            continue
+        fx, fy, fzl = forces_ref[leg, 0], forces_ref[leg, 1], forces_ref[leg, 2]
+        lx, ly, lz = foot[leg, 0] - com[0], foot[leg, 1] - com[1], foot[leg, 2] - com[2]
+        fx0 += fx
+        fy0 += fy
+        fz += fzl
+        mx += ly * fzl - lz * fy
+        my += lz * fx - lx * fzl
+    if fz <= 1e-6 or h <= 0.0:
+        return 1.0
+    # p(alpha) = p0 + alpha d
+    p0x = com[0] + (-my - h * fx0) / fz
+    p0y = com[1] + (mx - h * fy0) / fz
+    dx, dy = -h * wrench[0] / fz, -h * wrench[1] / fz
+    # the stance feet in counter-clockwise order about their centroid (insertion sort by angle)
+    cx, cy = 0.0, 0.0
+    for i in range(n):
+        cx += xs[i] / n
+        cy += ys[i] / n
+    angle = np.empty(n)
+    for i in range(n):
+        angle[i] = np.arctan2(ys[i] - cy, xs[i] - cx)
+    for i in range(1, n):
+        j = i
+        while j > 0 and angle[j - 1] > angle[j]:
+            angle[j - 1], angle[j] = angle[j], angle[j - 1]
+            xs[j - 1], xs[j] = xs[j], xs[j - 1]
+            ys[j - 1], ys[j] = ys[j], ys[j - 1]
+            j -= 1
+    twice_area = 0.0
+    for i in range(n):
+        twice_area += xs[i] * ys[(i + 1) % n] - xs[(i + 1) % n] * ys[i]
+    if twice_area < 1e-8:
+        return 1.0  # the stance feet on a line: no polygon to keep p in
+    alpha = 1.0
+    for i in range(n):
+        ax, ay = xs[i], ys[i]
+        bx, by = xs[(i + 1) % n], ys[(i + 1) % n]
+        ex, ey = bx - ax, by - ay
+        length = np.sqrt(ex * ex + ey * ey)
+        if length < 1e-9:
+            continue
+        nx, ny = -ey / length, ex / length  # inward (left of a counter-clockwise edge)
+        slack = nx * (p0x - ax) + ny * (p0y - ay) - margin_m
+        rate = nx * dx + ny * dy
+        if rate >= 0.0:
+            continue  # the feedback moves p inwards of this edge (or along it)
+        if slack <= 0.0:
+            return 0.0  # outside this edge already: no horizontal feedback that moves p further out
+        alpha = min(alpha, slack / -rate)
+    return max(0.0, min(alpha, 1.0))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -86,6 +175,10 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
     for leg in range(4):
         for i in range(3):
             foot[leg, i] = feet[leg][i]
+    if gains[COP_MARGIN] >= 0.0:  # 1b. no more horizontal feedback than the stance polygon can hold (cop_scale)
+        alpha = cop_scale(com, foot, stance, forces_ref, wrench, gains[COP_MARGIN])
+        wrench[0] *= alpha
+        wrench[1] *= alpha
     grasp = np.zeros((6, 12))  # [I I I I; skew(lever_0) ... skew(lever_3)]
     for leg in range(4):
         if not stance[leg]:
