@@ -2,7 +2,9 @@
 
 Per tick (`WholeBodyController.torques`), as in the paper's Fig. 3 (after Grimminger et al. 2020):
 1. centroidal feedback: a PD on the CoM position/velocity and on the base orientation/angular
-   velocity gives a corrective wrench, spread over the stance feet (regularized least squares;
+   velocity gives a corrective wrench; its horizontal force is scaled down where the centre of pressure
+   would leave the stance feet's polygon (``cop_margin_m``: beyond the paper, against tipping under pushes);
+   the wrench is spread over the stance feet (regularized least squares;
    with ``unload_rounds``, feet it would make pull are held at the minimum load and the rest spread
    again over the others) and added to the optimizer's reference forces; the forces are kept in the
    friction pyramid;
@@ -46,7 +48,7 @@ class ControllerGains:
     unload_rounds: int = 0
     # The horizontal feedback force is scaled down so the centre of pressure stays this far inside the stance
     # feet's polygon (controller_kernel.cop_scale); None: not limited.
-    cop_margin_m: float | None = None
+    cop_margin_m: float | None = 0.01
 
     @classmethod
     def for_robot(cls, robot: RobotDescription) -> ControllerGains:
