@@ -356,3 +356,9 @@ def test_the_cop_share_keeps_the_centre_of_pressure_in_the_stance_polygon():
             assert region.distance(Point(cop(alpha))) <= region.distance(Point(cop(0.0))) + 1e-9
             kinds["outside"] += 1
     assert min(kinds.values()) >= 10, kinds
+
+
+@pytest.mark.parametrize("margin", [-0.01, float("nan"), float("inf"), "1cm"])
+def test_a_bad_cop_margin_is_refused_by_name(margin):
+    with pytest.raises(ValueError, match="cop_margin_m"):
+        ControllerGains(cop_margin_m=margin)

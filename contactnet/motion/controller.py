@@ -50,6 +50,11 @@ class ControllerGains:
     # feet's polygon (controller_kernel.cop_scale); None: not limited.
     cop_margin_m: float | None = 0.01
 
+    def __post_init__(self) -> None:
+        margin = self.cop_margin_m
+        if margin is not None and not (isinstance(margin, int | float) and math.isfinite(margin) and margin >= 0.0):
+            raise ValueError(f"ControllerGains.cop_margin_m must be None (off) or a finite number >= 0 (m), got {margin!r}")
+
     @classmethod
     def for_robot(cls, robot: RobotDescription) -> ControllerGains:
         """The defaults with the robot's force cap and the gains its module sets differently."""
