@@ -337,6 +337,19 @@ def cmd_report(args: argparse.Namespace) -> int:
     return report_command(Path(args.dir))
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    from contactnet.jobs.outcome import outcome
+    from contactnet.jobs.replay import replay
+
+    stored, now = replay(args.dir, args.key)
+    if args.json:
+        print(json.dumps({"key": args.key, "stored": stored, "now": now}, indent=1, default=str))
+    else:
+        print(f"{args.key}\n  stored: {outcome(stored)} (x {stored['reached_x']:.2f} m)\n"
+              f"  now:    {outcome(now)} (x {now['reached_x']:.2f} m)")
+    return 0
+
+
 def _mismatch_of(args: argparse.Namespace):  # noqa: ANN202 - a ModelMismatch
     """The model mismatch the options ask for (neutral without them)."""
     from contactnet.sim.mismatch import ModelMismatch, parse_payload
@@ -532,6 +545,12 @@ def build_parser() -> argparse.ArgumentParser:
     report = sub.add_parser("report", help="write the report of an `experiment paper` folder from its stored trials")
     report.add_argument("dir", metavar="DIR")
     report.set_defaults(func=cmd_report)
+
+    again = sub.add_parser("replay", help="run one stored experiment trial again and compare its outcome")
+    again.add_argument("dir", metavar="DIR", help="the experiment's --out folder (a paper run's too)")
+    again.add_argument("key", metavar="KEY", help="the trial's key, as in DIR's trials.jsonl")
+    again.add_argument("--json", action="store_true", help="both records whole")
+    again.set_defaults(func=cmd_replay)
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
     bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion", "live", "upload"])

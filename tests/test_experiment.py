@@ -245,3 +245,53 @@ def test_a_push_trial_succeeds_when_the_robot_stands_the_push(tmp_path):
     assert rows[0.5]["successes"] == 1 and rows[150.0]["falls"] == 1
     assert rows[150.0]["failed_pushes"] == ["push0,150@0.2"]
     assert "push_n" in format_summary(summary)
+
+
+def test_a_stored_trial_is_rebuilt_exactly_and_a_missing_one_is_named(tmp_path):
+    """``trial_from_record`` inverts the record's JSON (tuples, the mismatch); ``find_record`` finds a trial in a
+    folder or a paper run's section folders, and names the folder and key it cannot find."""
+    from dataclasses import asdict
+
+    from contactnet.jobs.replay import find_record, trial_from_record
+    from contactnet.sim.mismatch import ModelMismatch
+
+    trial = Trial("push", "push_field", None, 3, "trot", "contactnet", push_t0_s=4.5, push_force_xy=(1.5, -2.0),
+                  mismatch=ModelMismatch(payload_kg=0.3, payload_offset_xy_m=(0.02, -0.01), friction=0.6),
+                  observer=True)
+    record = json.loads(json.dumps({"key": trial.key, "trial": asdict(trial), "success": True}))
+    assert trial_from_record(record) == trial
+    section = tmp_path / "push"
+    section.mkdir()
+    (section / "trials.jsonl").write_text(json.dumps(record) + "\n")
+    assert find_record(tmp_path, trial.key) == record  # a paper run: DIR/<section>/trials.jsonl
+    assert find_record(section, trial.key) == record
+    with pytest.raises(ExperimentError, match="no trial 'nope'"):
+        find_record(section, "nope")
+    with pytest.raises(ExperimentError, match="no trials.jsonl"):
+        find_record(tmp_path / "empty", trial.key)
+    bad = {**record, "trial": {**record["trial"], "warp_drive": 1}}
+    with pytest.raises(ExperimentError, match="warp_drive"):
+        trial_from_record(bad)
+
+
+@pytest.mark.slow
+def test_replay_runs_a_stored_trial_again_with_the_same_outcome(tmp_path, capsys):
+    """`contactnet replay DIR KEY` runs a logged trial again (here a fall under a hard push with a payload):
+    on the same code, the same outcome at the same place."""
+    from contactnet.cli import main
+    from contactnet.sim.mismatch import ModelMismatch
+
+    hard = Trial("push", "push_field", None, 1, "walk", "contactnet", push_t0_s=0.2, push_force_xy=(0.0, 150.0),
+                 mismatch=ModelMismatch(payload_kg=0.2, payload_offset_xy_m=(0.03, 0.0)))
+    run_experiment("push", tmp_path, [hard], workers=1, progress=False)
+    stored = json.loads((tmp_path / "trials.jsonl").read_text().splitlines()[0])
+    assert main(["replay", str(tmp_path), hard.key, "--json"]) == 0
+    both = json.loads(capsys.readouterr().out)
+    assert both["stored"]["fall_reason"] == stored["fall_reason"]
+    assert both["now"]["fell"] and both["now"]["fall_reason"] == stored["fall_reason"]
+    assert both["now"]["reached_x"] == pytest.approx(stored["reached_x"], abs=1e-9)
+    assert main(["replay", str(tmp_path), hard.key]) == 0
+    text = capsys.readouterr().out
+    assert text.count("fell: ") == 2 and hard.key in text
+    assert main(["replay", str(tmp_path), "push_field/none"]) != 0
+    assert "no trial 'push_field/none'" in capsys.readouterr().err

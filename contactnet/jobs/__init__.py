@@ -4,7 +4,8 @@
 - ``ray_engine``: the Ray engine (imported only when chosen);
 - ``datagen``, ``train``: the network's dataset and training;
 - ``experiment``: the paper's experiments, one resumable batch per folder; ``pushes``: the sampled-push
-  protocol; ``summary``: a batch's table and plots; ``outcome``: a trial's outcome in words;
+  protocol; ``summary``: a batch's table and plots; ``outcome``: a trial's outcome in words; ``replay``: one
+  stored trial run again;
 - ``paper/``: the paper's whole evaluation and its report.
 """
 
