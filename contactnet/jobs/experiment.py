@@ -313,7 +313,7 @@ def _one_torch_thread() -> None:
     torch.set_num_threads(1)
 
 
-def _read_log(path: Path) -> list[dict]:
+def read_log(path: Path) -> list[dict]:
     """The trial records in the log, in order. A last line cut by a kill is dropped (that trial runs again)
     and the log rewritten without it; a bad line elsewhere is an error (the file is not ours)."""
     records: list[dict] = []
@@ -403,7 +403,7 @@ def open_batch(name: str, out_dir: str | Path, trials: list[Trial]) -> Batch:
     out.mkdir(parents=True, exist_ok=True)
     _check_header(out, name)
     log = out / "trials.jsonl"
-    done = _reusable(log, _read_log(log), inputs, fingerprints)
+    done = _reusable(log, read_log(log), inputs, fingerprints)
     atomic_write_text(out / "experiment.json", json.dumps(
         {"format": HEADER_FORMAT, "experiment": name, "code": code_identity(), "trials": fingerprints}, indent=1))
     return Batch(name, out, list(trials), inputs, fingerprints, done)

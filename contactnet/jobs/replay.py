@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from contactnet.jobs.experiment import ExperimentError, Trial, _read_log, run_trial
+from contactnet.jobs.experiment import ExperimentError, Trial, read_log, run_trial
 from contactnet.sim.mismatch import ModelMismatch
 
 
@@ -39,7 +39,7 @@ def find_record(out: str | Path, key: str) -> dict:
     logs = [out / "trials.jsonl"] if (out / "trials.jsonl").exists() else sorted(out.glob("*/trials.jsonl"))
     if not logs:
         raise ExperimentError(f"{out}: no trials.jsonl here (nor in its section folders)")
-    found = [record for log in logs for record in _read_log(log) if record["key"] == key]
+    found = [record for log in logs for record in read_log(log) if record["key"] == key]
     if not found:
         raise ExperimentError(f"{out}: no trial {key!r} (the keys are the 'key' fields of trials.jsonl)")
     return found[-1]

@@ -47,6 +47,9 @@ def cop_scale(com: np.ndarray, foot: np.ndarray, stance: np.ndarray, forces_ref:
     balanced by shifting their vertical loads; a sideways push plus the feedback that fights it asks for more,
     a foot unloads (its force clipped at ``fz_min``), the moment is lost and the body rolls over the other
     two feet. Less horizontal force lets the push move the body instead, which the next steps catch."""
+    if wrench[0] == 0.0 and wrench[1] == 0.0:
+        return 1.0  # no horizontal feedback to scale
+    # One pass over the stance feet: their xy, mean height, and the planned forces' resultant and moment.
     n = 0
     xs, ys = np.empty(4), np.empty(4)
     ground_z = 0.0
@@ -57,13 +60,6 @@ def cop_scale(com: np.ndarray, foot: np.ndarray, stance: np.ndarray, forces_ref:
         xs[n], ys[n] = foot[leg, 0], foot[leg, 1]
         ground_z += foot[leg, 2]
         n += 1
-    if n < 3:
-        return 1.0
-    ground_z /= n
-    h = com[2] - ground_z
-    for leg in range(4):
-        if not stance[leg]:
-            continue
         fx, fy, fzl = forces_ref[leg, 0], forces_ref[leg, 1], forces_ref[leg, 2]
         lx, ly, lz = foot[leg, 0] - com[0], foot[leg, 1] - com[1], foot[leg, 2] - com[2]
         fx0 += fx
@@ -71,6 +67,9 @@ def cop_scale(com: np.ndarray, foot: np.ndarray, stance: np.ndarray, forces_ref:
         fz += fzl
         mx += ly * fzl - lz * fy
         my += lz * fx - lx * fzl
+    if n < 3:
+        return 1.0
+    h = com[2] - ground_z / n
     if fz <= 1e-6 or h <= 0.0:
         return 1.0
     # p(alpha) = p0 + alpha d
