@@ -391,7 +391,7 @@ def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
 # ---- parser ------------------------------------------------------------------------------------
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean the capture step into it "
-                 "(contactnet.planning.observer; off by default)")
+                 "(contactnet.planning.observer; on by default, --no-observer turns it off)")
 RETARGET_HELP = ("rank a swinging leg's landing again when the measured velocity leaves the command "
                  "(contactnet.planning.retarget; off by default)")
 
@@ -457,7 +457,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
                      help="variance of joint-velocity noise, (rad/s)^2")
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
-    sim.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
+    sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(sim)
     sim.add_argument("--record", metavar="FILE.viser")
@@ -535,7 +535,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--gaps-cm", type=_number_list("--gaps-cm", 0.0, 40.0), default=None,
                             help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
-    experiment.add_argument("--observer", action="store_true", help=OBSERVER_HELP)
+    experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(experiment)
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")

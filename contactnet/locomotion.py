@@ -39,7 +39,7 @@ from contactnet.motion.trajopt import (
     TrajoptWeights,
     reference_forces,
 )
-from contactnet.planning.observer import DisturbanceObserver, ObserverConfig
+from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
 from contactnet.planning.planner import PlannedStep, Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
 from contactnet.records import StepCounts, StepRecord, summary_stats
@@ -80,9 +80,8 @@ class LocomotionConfig:
     early_touchdown_radius_m: float = 0.03
     # None: adapt touchdown only on terrain with heights; True / False: always / never.
     adapt_touchdown: bool | None = None
-    # A push estimated from the body's momentum, cancelled and leaned into (contactnet.planning.observer: DEFAULT_OBSERVER);
-    # None: off, the default until the paper's evaluation is run with it (it also acts on stumbles over holes).
-    observer: ObserverConfig | None = None
+    # A push estimated from the body's momentum, cancelled and leaned into (contactnet.planning.observer); None: off.
+    observer: ObserverConfig | None = DEFAULT_OBSERVER
 
 
 @dataclass

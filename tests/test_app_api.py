@@ -408,15 +408,18 @@ def test_retargeting_is_a_setting_off_by_default(client, app):
     assert state["retarget"] is False and app.session._loco.config.retarget is None
 
 
-def test_the_disturbance_observer_is_a_setting_off_by_default(client, app):
+def test_the_disturbance_observer_is_a_setting_on_by_default(client, app):
     """POST /api/settings {"observer": ...} turns the disturbance observer on and off in the live robot, no restart;
     toggling retargeting leaves it as it is."""
     properties = client.get("/openapi.json").json()["components"]["schemas"]["SettingsCommand"]["properties"]
     assert "observer" in properties and properties["observer"]["description"]
     client.post("/api/pause", json={"paused": False})
     state = client.get("/api/state").json()
-    assert state["observer"] is False and app.session._loco.observer is None
+    assert state["observer"] is True and app.session._loco.observer is not None  # on by default, like the library
     wait_for(lambda: client.get("/api/state").json()["t_s"] > 0.2, what="the robot to run")
+    state = client.post("/api/settings", json={"observer": False}).json()
+    assert state["observer"] is False and app.session._loco.observer is None
+    assert state["t_s"] > 0.2 and "observer off" in state["notices"][-1]["text"].lower()  # no restart
     state = client.post("/api/settings", json={"observer": True}).json()
     assert state["observer"] is True and app.session._loco.observer is not None
     assert app.session._loco.config.observer is not None
@@ -432,6 +435,7 @@ def test_the_disturbance_observer_is_a_setting_off_by_default(client, app):
     assert response.status_code == 422 and ("body", "observer") in detail_locations(response)
     state = client.post("/api/settings", json={"observer": False, "retarget": False}).json()
     assert state["observer"] is False and app.session._loco.observer is None and app.session._loco.config.observer is None
+    assert client.post("/api/settings", json={"observer": True}).json()["observer"] is True  # the default again
 
 
 def test_a_planner_that_stands_shows_in_the_state(client):

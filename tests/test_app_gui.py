@@ -231,7 +231,10 @@ def test_the_retarget_switch(app, browser):
 def test_the_resist_pushes_switch(app, browser):
     """The "Resist pushes" checkbox turns the disturbance observer on and off without a restart; REST shows it."""
     panel = app.viewer.panel.gait_planner
-    assert panel.observer.value is False and not state(app).observer  # off by default, like the library
+    assert panel.observer.value is True and state(app).observer  # on by default, like the library
+    browser.set(panel.observer, False)
+    wait_for(lambda: not state(app).observer, what="the observer off")
+    assert app.session._loco.observer is None
     browser.set(panel.observer, True)
     wait_for(lambda: state(app).observer, what="the observer on")
     assert app.session._loco.observer is not None
@@ -251,6 +254,8 @@ def test_the_resist_pushes_switch(app, browser):
     wait_for(lambda: panel.observer.value is True, what="the checkbox to follow")
     app.session.call(SetObserver(False))
     wait_for(lambda: panel.observer.value is False, what="the checkbox to follow back")
+    app.session.call(SetObserver(True))  # the default again, for the tests after this one
+    wait_for(lambda: panel.observer.value is True, what="the checkbox to follow")
 
 
 def test_terrain_picker_files_and_random_field(app, browser):

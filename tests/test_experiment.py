@@ -46,13 +46,15 @@ def test_the_stacks_parts_are_in_the_key_and_the_inputs_only_when_on():
         (trial,) = trials_of("stepping_stones", gaits=("walk",), planners=("heuristic",), **parts)
         return trial
 
-    plain, observer, retarget, both = one(), one(observer=True), one(retarget=True), one(observer=True, retarget=True)
-    assert (plain.observer, plain.retarget, both.observer, both.retarget) == (False, False, True, True)
-    assert plain.key == "stepping_stones/seed0/walk/heuristic/noise0"  # as before either part existed
-    assert (observer.key, retarget.key, both.key) == tuple(plain.key + s for s in
-                                                          ("/observer", "/retarget", "/observer/retarget"))
+    plain, no_observer, retarget, both = one(), one(observer=False), one(retarget=True), one(observer=False,
+                                                                                              retarget=True)
+    assert (plain.observer, plain.retarget, both.observer, both.retarget) == (True, False, False, True)  # defaults
+    assert plain.key == "stepping_stones/seed0/walk/heuristic/noise0"  # the default stack: as before either part
+    assert (no_observer.key, retarget.key, both.key) == tuple(plain.key + s for s in
+                                                             ("/no-observer", "/retarget", "/no-observer/retarget"))
     assert "retarget" not in trial_inputs(plain)["trial"] and "observer" not in trial_inputs(plain)["trial"]
     assert trial_inputs(retarget)["trial"]["retarget"] is True
+    assert trial_inputs(no_observer)["trial"]["observer"] is False
 
 
 def test_the_terrains_with_heights_have_their_experiments():

@@ -221,7 +221,7 @@ def test_report_errors_are_one_line(tmp_path, capsys):
     for option, value in (("--force", "7.5"), ("--impulse", "1"), ("--mass-scale", "1.2"), ("--delay-ms", "3")):
         assert main(["experiment", "paper", "--out", str(tmp_path / "x"), option, value]) == 2
         assert f"drop {option}" in capsys.readouterr().err  # the plan fixes the pushes and the robot
-    for option in ("--observer", "--retarget"):  # ... and runs the default stack (was: --observer ignored)
+    for option in ("--no-observer", "--retarget"):  # ... and runs the default stack (was: --observer ignored)
         assert main(["experiment", "paper", "--out", str(tmp_path / "x"), option]) == 2
         assert f"drop {option}" in capsys.readouterr().err
     assert main(["experiment", "random", "--out", str(tmp_path / "y"), "--scale", "0.1"]) == 2

@@ -164,7 +164,7 @@ def settings_command_model() -> type[BaseModel]:
         observer=(
             bool | None,
             Field(None, description="the disturbance observer: a push is estimated from the body's momentum, cancelled "
-                  "by the controller and leaned into by the capture step (off by default; no restart)"),
+                  "by the controller and leaned into by the capture step (on by default; no restart)"),
         ),
         speed=(
             float | None,
@@ -332,8 +332,8 @@ class State(StepCounters):
                            "down): a choice, not a pause")
     retarget: bool = Field(description="swing retargeting is on (POST /api/settings {\"retarget\": true}); off by "
                            "default")
-    observer: bool = Field(description="the disturbance observer is on (POST /api/settings {\"observer\": true}); off "
-                           "by default")
+    observer: bool = Field(description="the disturbance observer is on (POST /api/settings {\"observer\": false} "
+                           "turns it off); on by default")
     rank_chosen: int | None = Field(description="ranking position of the step being taken (ranking planners)")
     last_planner_ms: float = Field(description="ms, the last planner call")
     last_trajopt_ms: float = Field(description="ms, the last trajectory optimization")

@@ -60,7 +60,7 @@ class ServeSettings:
     loop_delay_s: float = 6.0  #: wall seconds the end-of-run card shows before the next run
     noise: bool = False  #: the paper's joint-velocity noise at the start
     retarget: bool = False  #: swing retargeting (`contactnet.planning.retarget`) at the start; off like the library's default
-    observer: bool = False  #: the disturbance observer (`contactnet.planning.observer`) at the start; off like the library's
+    observer: bool = True  #: the disturbance observer (`contactnet.planning.observer`) at the start; on like the library's
     sim_speed: float = 1.0  #: simulated seconds per wall-clock second at the start
     #: the user's terrain files (saved from the page or PUT /api/terrains); None: <data dir>/terrains, the data
     #: dir being $CONTACTNET_DATA or ~/.local/share/contactnet. The shipped terrains are read from the package.

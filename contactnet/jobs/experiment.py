@@ -138,15 +138,15 @@ class Trial:
     push_t0_s: float | None = None  # push: when the push starts ...
     push_force_xy: tuple[float, float] | None = None  # ... its force (N, world) ...
     push_duration_s: float = PUSH_DURATION_S  # ... for this long
-    observer: bool = False  # the disturbance observer on (contactnet.planning.observer; off by default)
+    observer: bool = True  # the disturbance observer on (contactnet.planning.observer; on by default)
     retarget: bool = False  # swing retargeting on (contactnet.planning.retarget; off by default)
     mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
 
     @property
     def key(self) -> str:
         """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
-        random_heights, a push's duration only when not 1 s, the observer and retargeting only when on and the
-        mismatch only when there is one."""
+        random_heights, a push's duration only when not 1 s, the observer only when off, retargeting only when on
+        and the mismatch only when there is one."""
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
@@ -156,7 +156,7 @@ class Trial:
             push += "" if self.push_duration_s == PUSH_DURATION_S else f"x{self.push_duration_s:g}s"
         mismatch = "" if self.mismatch.neutral else f"/{self.mismatch.label()}"
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
-                f"{robot}{'/observer' if self.observer else ''}{'/retarget' if self.retarget else ''}{mismatch}")
+                f"{robot}{'' if self.observer else '/no-observer'}{'/retarget' if self.retarget else ''}{mismatch}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -164,7 +164,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               vx: float = 0.05, model_dir: str | None = None,
               widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
-              forces_n: tuple[float, ...] = (5.0,), observer: bool = False, impulses_ns: tuple[float, ...] = (),
+              forces_n: tuple[float, ...] = (5.0,), observer: bool = True, impulses_ns: tuple[float, ...] = (),
               push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
@@ -212,7 +212,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                         for seed in range(n)]
     if mismatch is not None and name != "robustness":
         out = [replace(t, mismatch=mismatch) for t in out]
-    return [replace(t, observer=observer, retarget=retarget) for t in out] if observer or retarget else out
+    return [replace(t, observer=observer, retarget=retarget) for t in out] if not observer or retarget else out
 
 
 def run_trial(trial: Trial) -> dict:
@@ -295,9 +295,10 @@ def trial_inputs(trial: Trial) -> dict:
         model = _model_identity(str(path), stamp)
     settings = asdict(trial)
     del settings["model_dir"]  # where the model lies does not matter, its content does
-    for part in ("observer", "retarget"):
-        if not settings[part]:
-            del settings[part]  # as before the part existed (older logs resume)
+    if settings["observer"]:
+        del settings["observer"]  # on, the default: named only when off
+    if not settings["retarget"]:
+        del settings["retarget"]  # as before the part existed (older logs resume)
     if trial.mismatch.neutral:
         del settings["mismatch"]
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,

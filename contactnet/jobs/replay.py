@@ -26,6 +26,7 @@ def trial_from_record(record: dict) -> Trial:
     for name, value in fields.items():
         if isinstance(value, list):
             fields[name] = tuple(value)
+    fields.setdefault("observer", False)  # a record from before the observer existed ran without it
     mismatch = fields.get("mismatch")
     if isinstance(mismatch, dict):
         fields["mismatch"] = ModelMismatch(**{k: tuple(v) if isinstance(v, list) else v for k, v in mismatch.items()})

@@ -60,7 +60,7 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
             "failed_seeds": [r["trial"]["seed"] for r in rs if not r["success"]],
             **({"failed_pushes": [r["key"].split("/")[1] for r in rs if not r["success"]], "push_duration_s": duration,
                 **push_columns(rs)} if push_n is not None else {}),
-            **({"observer": True} if observer else {}),
+            "observer": bool(observer),
             **({"mismatch": mismatch} if mismatch else {}),
         })
     return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
@@ -81,7 +81,7 @@ def plot_success(summary: dict, path: Path) -> None:
               + (f"\npush {r['push_n']:g} N" if r.get("push_n") is not None else "")
               + (f" x {r['push_duration_s']:g} s" if r.get("push_duration_s") not in (None, 1.0) else "")
               + (f"\n{r['mismatch']}" if r.get("mismatch") else "")
-              + ("\nobserver" if r.get("observer") else "") for r in rows]
+              + ("" if r.get("observer", True) else "\nno observer") for r in rows]
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
     bars = ax.bar(range(len(rows)), [100 * r["success_rate"] for r in rows], color="#3b7dd8")
     for bar, r in zip(bars, rows, strict=True):
@@ -135,5 +135,5 @@ def format_summary(summary: dict) -> str:
     keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "success_low", "falls",
             "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
     keep += ("max_height_change_m",) if any(r.get("max_height_change_m") for r in rows) else ()
-    keep += ("observer",) if any(r.get("observer") for r in rows) else ()
+    keep += ("observer",) if not all(r.get("observer", True) for r in rows) else ()  # shown when one is off
     return format_table([{k: r.get(k) for k in keep} for r in rows])

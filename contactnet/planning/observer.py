@@ -75,6 +75,9 @@ class DisturbanceObserver:
         w = config.bandwidth_rad_s
         self._velocity_gain = 2.0 * w * self.dt_s  # per tick, on the velocity's prediction error
         self._force_gain_n_per_m_s = self.mass_kg * w * w * self.dt_s  # per tick, N per (m/s) of that error
+        # the first 1 / w seconds: the observed velocity is the mean of the measured ones and the force is not yet
+        # estimated (one noisy first sample taken as the velocity would be a false push of m w |error| / e)
+        self._warmup_ticks = max(1, round(1.0 / (w * self.dt_s)))
         self.reset()
 
     def reset(self) -> None:
@@ -82,13 +85,20 @@ class DisturbanceObserver:
         self.estimate_x_n = self.estimate_y_n = 0.0
         self.max_estimate_n = 0.0
         self._vel_xy: tuple[float, float] | None = None  # the observed CoM velocity (m/s, world)
+        self._samples = 0  # velocities measured since the reset
 
     def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray) -> None:
         """One tick: ``com_vel_world`` (3,) the CoM velocity measured now, ``applied_forces_world`` (4, 3) the ground
         forces commanded over the tick that led here (forces on the robot)."""
         vel_x, vel_y = float(com_vel_world[0]), float(com_vel_world[1])
-        if self._vel_xy is None:
-            self._vel_xy = (vel_x, vel_y)
+        self._samples += 1
+        if self._samples <= self._warmup_ticks:  # the mean so far: the velocity's estimate under white noise
+            if self._vel_xy is None:
+                self._vel_xy = (vel_x, vel_y)
+            else:
+                share = 1.0 / self._samples
+                self._vel_xy = (self._vel_xy[0] + share * (vel_x - self._vel_xy[0]),
+                                self._vel_xy[1] + share * (vel_y - self._vel_xy[1]))
             return
         (x0, y0, _), (x1, y1, _), (x2, y2, _), (x3, y3, _) = applied_forces_world.tolist()  # four legs
         step = self.dt_s / self.mass_kg

@@ -128,7 +128,7 @@ _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed"
                       "force": None, "impulse": None, "push_seed": 0, "noise": 0.0, "widths_cm": None,
                       "gaps_cm": None, "robot": "solo12", "mass_scale": 1.0, "payload": None, "friction": None,
                       "torque_scale": 1.0, "orientation_noise": 0.0, "velocity_noise": 0.0, "gyro_noise": 0.0,
-                      "delay_ms": 0.0, "observer": False, "retarget": False}  # the plan runs the defaults
+                      "delay_ms": 0.0, "observer": True, "retarget": False}  # the plan runs the defaults
 
 
 def _command(args: argparse.Namespace, scale: float) -> str:
@@ -144,7 +144,9 @@ def paper_command(args: argparse.Namespace) -> int:
     """``contactnet experiment paper --out DIR [--scale S] [--workers N] [--model-dir D] [--report-only]``."""
     bad = [name for name, default in _FIXED_BY_THE_PLAN.items() if getattr(args, name, default) != default]
     if bad:
-        raise ExperimentError(f"experiment paper runs the paper's own settings: drop --{bad[0].replace('_', '-')}")
+        option = bad[0].replace("_", "-")
+        option = f"no-{option}" if _FIXED_BY_THE_PLAN[bad[0]] is True else option  # a switch that is on by default
+        raise ExperimentError(f"experiment paper runs the paper's own settings: drop --{option}")
     out = Path(args.out)
     if args.report_only:
         return report_command(out)
