@@ -21,7 +21,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 
@@ -39,10 +38,11 @@ from contactnet.motion.trajopt import (
     TrajoptWeights,
     reference_forces,
 )
+from contactnet.planning.brace import BraceConfig, braces, standing_horizon
 from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
 from contactnet.planning.planner import PlannedStep, Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
-from contactnet.records import StepCounts, StepRecord, summary_stats
+from contactnet.records import Snapshot, StepCounts, StepRecord, summary_stats
 from contactnet.robots.description import Robot
 from contactnet.sim.pybullet_world import Push, SimConfig, SimState, Simulator
 from contactnet.terrain import Terrain
@@ -82,29 +82,8 @@ class LocomotionConfig:
     adapt_touchdown: bool | None = None
     # A push estimated from the body's momentum, cancelled and leaned into (contactnet.planning.observer); None: off.
     observer: ObserverConfig | None = DEFAULT_OBSERVER
-
-
-@dataclass
-class Snapshot:
-    """Everything a viewer needs at one instant (world frame)."""
-
-    t_s: float
-    q: np.ndarray  # (19,) pinocchio configuration
-    com_pos: np.ndarray
-    com_vel: np.ndarray
-    stance: np.ndarray  # (4,) bool, planned
-    foot_contact: np.ndarray  # (4,) bool, measured
-    forces: np.ndarray  # (4, 3) commanded ground reaction forces
-    planned_steps: list[PlannedStep]
-    com_plan: np.ndarray  # (N+1, 3) planned CoM positions
-    vel_cmd_xy: tuple[float, float]
-    fell: bool
-    fall_reason: str | None
-    reached_goal: bool
-    last_planner_ms: float
-    last_trajopt_ms: float
-    steps: int
-    candidates: Any = None  # the ranking planner's CandidateRanking of the current step (None: no ranking)
+    # While the observer's push is at least its threshold, new step horizons stand (contactnet.planning.brace).
+    brace: BraceConfig | None = BraceConfig()
 
 
 @dataclass
@@ -217,6 +196,7 @@ class Locomotion:
         """The disturbance observer on (a fresh estimate) or off (None), also while it runs (no restart)."""
         self.config = replace(self.config, observer=observer)
         self.observer = None if observer is None else DisturbanceObserver(observer, self.robot.mass_kg, self.sim.config.dt_s)
+        self._saturated = False  # a motor saturated in the tick the observer reads next
 
     @property
     def t_s(self) -> float:
@@ -259,8 +239,10 @@ class Locomotion:
         target = self._target(self.sim.t_s)
         applied = self.controller.last_forces  # the ground forces of the last tick, before this one's
         tau = self.controller.torques(state.q_pinocchio(), state.v_pinocchio(), target)
-        if self.observer is not None:
-            self.observer.update(self.controller.last_com_vel, applied)
+        if self.observer is not None:  # a foot off the ground delivered none of its force, a saturated leg not all
+            self.observer.update(self.controller.last_com_vel, applied * self.sim.foot_contact()[:, None],
+                                 known=not self._saturated)
+            self._saturated = bool((np.abs(tau) >= self.controller.torque_limit_nm).any())
         self._last_target = target
         self.sim.step(tau)
         self._advance_reference(self.controller.last_com[:2])
@@ -313,6 +295,9 @@ class Locomotion:
         steps = self.planner.plan(ctx)
         planner_s = time.perf_counter() - t0
         self.planner_times_s.append(planner_s)
+        braced = braces(self.config.brace, None if self.observer is None else self.observer.active_force_xy(), steps[0])
+        if braced:  # pushed: stand on four feet until the push is over
+            steps = standing_horizon(self.gait, len(steps))
 
         gait = self.gait
         terrain = self.terrain
@@ -354,6 +339,7 @@ class Locomotion:
                 discarded=first.discarded,
                 safe_landing=landing_safe,
                 captured=first.captured,
+                braced=braced,
             )
         )
         plan = _Plan(
@@ -589,6 +575,7 @@ class Locomotion:
             "max_height_change_m": max((r.height_change_m for r in self.records
                                         if not math.isnan(r.height_change_m)), default=0.0),
             "max_external_force_n": 0.0 if self.observer is None else float(self.observer.max_estimate_n),
+            "brace_steps": sum(r.braced for r in self.records),
         }
 
     def close(self) -> None:

@@ -1,11 +1,15 @@
-"""What a run of the locomotion loop records: one ``StepRecord`` per planned step horizon, and timing statistics."""
+"""What a run of the locomotion loop records: one ``StepRecord`` per planned step horizon, the ``Snapshot`` a viewer
+draws at one instant, and timing statistics."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
+
+from contactnet.planning.ranking import PlannedStep
 
 #: A step whose swinging feet all land closer than this to where they lifted off is useless (``useless_steps``).
 USELESS_STEP_M = 0.02
@@ -30,6 +34,8 @@ class StepRecord:
     moved_m: float = math.nan
     # The planner shifted this step's candidates towards the capture point after a push (contactnet.planning.capture).
     captured: bool = False
+    # The loop stood on four feet instead of this step because a push was on (contactnet.planning.brace).
+    braced: bool = False
 
     @property
     def stand(self) -> bool:
@@ -62,6 +68,29 @@ class StepCounts:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
+@dataclass
+class Snapshot:
+    """Everything a viewer needs at one instant (world frame)."""
+
+    t_s: float
+    q: np.ndarray  # (19,) pinocchio configuration
+    com_pos: np.ndarray
+    com_vel: np.ndarray
+    stance: np.ndarray  # (4,) bool, planned
+    foot_contact: np.ndarray  # (4,) bool, measured
+    forces: np.ndarray  # (4, 3) commanded ground reaction forces
+    planned_steps: list[PlannedStep]
+    com_plan: np.ndarray  # (N+1, 3) planned CoM positions
+    vel_cmd_xy: tuple[float, float]
+    fell: bool
+    fall_reason: str | None
+    reached_goal: bool
+    last_planner_ms: float
+    last_trajopt_ms: float
+    steps: int
+    candidates: Any = None  # the ranking planner's CandidateRanking of the current step (None: no ranking)
+
+
 def summary_stats(values_s: list[float]) -> dict[str, float]:
     """mean / median / p99 / max in milliseconds (zeros when empty)."""
     if not values_s:
@@ -75,4 +104,4 @@ def summary_stats(values_s: list[float]) -> dict[str, float]:
     }
 
 
-__all__ = ["USELESS_STEP_M", "StepCounts", "StepRecord", "summary_stats"]
+__all__ = ["USELESS_STEP_M", "Snapshot", "StepCounts", "StepRecord", "summary_stats"]

@@ -123,20 +123,23 @@ def test_a_pushed_robot_steps_rather_than_stands(robot, gait):
 @pytest.mark.slow
 def test_the_pushed_trot_catches_itself_on_holed_ground(robot):
     """The push experiment's trial that made the shipped trot fall before the capture step (push_field seed 5, +5 N
-    along y for 1 s at 11.5 s: the body drifted sideways until the HL thigh touched the ground): it stands, with
-    capture steps, and every landing is safe."""
+    along y for 1 s at 11.5 s: the body drifted sideways until the HL thigh touched the ground): it stands, and
+    every landing is safe. With bracing (the default) it stands on four feet while pushed; without, it catches
+    itself with capture steps."""
     from contactnet import registry
     from contactnet.jobs.experiment import PUSH_DURATION_S, PUSH_SETTLE_S
-    from contactnet.locomotion import Locomotion
+    from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.sim.pybullet_world import Push, SimConfig
     from contactnet.terrain import resolve
 
     gait = registry.gait_by_name("trot")
     terrain = resolve("push_field")
     planner = registry.make_planner("contactnet", gait, robot)
-    with Locomotion(robot, terrain, gait, planner, SimConfig(seed=5), vel_cmd_xy=(0.05, 0.0)) as loco:
-        loco.push(Push(11.5, PUSH_DURATION_S, (0.0, 5.0, 0.0)))
-        summary = loco.run(11.5 + PUSH_DURATION_S + PUSH_SETTLE_S)
-    assert not summary["fell"], summary["fall_reason"]
-    assert summary["capture_steps"] >= 1
-    assert summary["unsafe_landings"] == 0
+    for config in (LocomotionConfig(), LocomotionConfig(brace=None)):
+        with Locomotion(robot, terrain, gait, planner, SimConfig(seed=5), config=config,
+                        vel_cmd_xy=(0.05, 0.0)) as loco:
+            loco.push(Push(11.5, PUSH_DURATION_S, (0.0, 5.0, 0.0)))
+            summary = loco.run(11.5 + PUSH_DURATION_S + PUSH_SETTLE_S)
+        assert not summary["fell"], summary["fall_reason"]
+        assert summary["brace_steps" if config.brace else "capture_steps"] >= 1
+        assert summary["unsafe_landings"] == 0

@@ -51,6 +51,23 @@ def test_the_estimate_follows_a_step_of_force_as_the_critically_damped_observer_
     assert observer.max_estimate_n >= math.hypot(*force) * (1 - 1e-6)
 
 
+def test_ticks_whose_forces_are_not_known_hold_the_estimate():
+    """A saturated motor does not deliver the commanded forces (``known=False``): those ticks hold the estimate,
+    however far the velocity moves, and the ticks after them go on from the measured velocity."""
+    observer = DisturbanceObserver(ObserverConfig(bandwidth_rad_s=40.0), mass_kg=2.5, dt_s=1e-3)
+    _momentum_run(observer, (4.0, 0.0), 500)
+    held = (observer.estimate_x_n, observer.estimate_y_n)
+    assert held[0] == pytest.approx(4.0, rel=1e-4)
+    vel = np.array([0.3, 0.0, 0.0])
+    for _ in range(200):  # the commanded 20 N forward are not delivered: the body slows down instead
+        vel = vel + 1e-3 / 2.5 * np.array([-6.0, 0.0, 0.0])
+        observer.update(vel, np.array([[20.0, 0.0, 0.0]] + [[0.0, 0.0, 0.0]] * 3), known=False)
+        assert (observer.estimate_x_n, observer.estimate_y_n) == held
+    for _ in range(500):  # known again, no push: the estimate returns to zero from the measured velocity
+        observer.update(vel, np.zeros((4, 3)))
+    assert abs(observer.estimate_x_n) < 1e-3 and abs(observer.estimate_y_n) < 1e-3
+
+
 def test_a_noisy_first_velocity_is_not_taken_for_a_push():
     """The observer's start: the velocity is the mean of the first 1 / w s of measurements (here a body at rest,
     measured with 0.05 m/s of noise), so its first estimates stay at the noise's level. Over the first 0.1 s of
@@ -220,3 +237,45 @@ def test_a_summary_tells_observer_rows_apart():
     assert "observer" not in format_summary({"rows": rows[1:]})  # the default stack: no column, as before
     legacy = {k: v for k, v in trial(False).items() if k != "observer"}  # a record from before the observer
     assert summarize("push", [_record(key, legacy, True)])["rows"][0]["observer"] is False
+
+
+def test_bracing_stands_a_two_legged_step_while_a_push_lasts():
+    from contactnet.motion.gait import TROT
+    from contactnet.planning.brace import BraceConfig, braces, standing_horizon
+    from contactnet.planning.ranking import PlannedStep
+
+    config = BraceConfig(threshold_n=3.0)
+    trot_step = PlannedStep(legs=(0, 3), footholds_xy_world=np.zeros((2, 2)))
+    walk_step = PlannedStep(legs=(1,), footholds_xy_world=np.zeros((1, 2)))
+    assert braces(config, (0.0, 3.0), trot_step) and braces(config, (-2.5, -2.5), trot_step)
+    assert not braces(config, (2.0, 2.0), trot_step)  # 2.83 N: below the threshold
+    assert not braces(config, None, trot_step) and not braces(None, (0.0, 9.0), trot_step)  # no push; bracing off
+    assert not braces(config, (0.0, 9.0), walk_step)  # three stance feet hold it
+    assert braces(BraceConfig(min_swinging_legs=1), (0.0, 9.0), walk_step)
+    horizon = standing_horizon(TROT, 3)
+    assert [(s.legs, s.action_index, s.footholds_xy_world.shape) for s in horizon] == [((), TROT.stand_index, (0, 2))] * 3
+    for field, value in (("threshold_n", -1.0), ("threshold_n", float("nan")), ("min_swinging_legs", 0)):
+        with pytest.raises(ValueError, match=field):
+            BraceConfig(**{field: value})
+
+
+def test_a_trot_pushed_from_the_side_braces_and_walks_on(robot):
+    """7.5 N along -y for 1 s on flat: the steps planned while the push is estimated stand on four feet, the trot
+    steps again after it, and nothing falls; without bracing the same push is met by stepping."""
+    from contactnet.motion.gait import TROT
+    from contactnet.sim.pybullet_world import Push
+
+    counts = {}
+    for brace in (True, False):
+        config = LocomotionConfig() if brace else LocomotionConfig(brace=None)
+        with Locomotion(robot, flat(), TROT, HeuristicPlanner(TROT), config=config, vel_cmd_xy=(0.05, 0.0)) as loco:
+            loco.push(Push(1.5, 1.0, (0.0, -7.5, 0.0)))
+            summary = loco.run(4.0)
+            during = [r for r in loco.records if 1.6 < r.t_s < 2.4]
+            after = [r for r in loco.records if r.t_s > 3.0]
+        assert not summary["fell"], summary["fall_reason"]
+        counts[brace] = summary["brace_steps"]
+        if brace:
+            assert during and all(r.braced and not r.legs for r in during)
+            assert after and all(r.legs and not r.braced for r in after)  # stepping again
+    assert counts[True] >= 2 and counts[False] == 0

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 from app.live.planners import PlannerFactory
 from app.live.view import CompareResult, CompareRobot
-from contactnet.locomotion import Locomotion, LocomotionConfig, Snapshot
+from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.motion.gait import GaitSpec
+from contactnet.records import Snapshot
 from contactnet.robots import Robot
 from contactnet.sim.pybullet_world import Push, SimConfig
 from contactnet.terrain import Terrain

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 
-from contactnet.locomotion import Snapshot
+from contactnet.records import Snapshot
 from contactnet.robots import Robot
 from contactnet.terrain import Terrain
 

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from app.live.step_events import LiveCounts, RetargetFlash, StepEvents
-from contactnet.locomotion import Locomotion, Snapshot
+from contactnet.locomotion import Locomotion
 from contactnet.motion.gait import GaitSpec
-from contactnet.records import StepCounts
+from contactnet.records import Snapshot, StepCounts
 from contactnet.robots import Robot
 from contactnet.terrain import Terrain
 

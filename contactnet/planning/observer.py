@@ -87,10 +87,15 @@ class DisturbanceObserver:
         self._vel_xy: tuple[float, float] | None = None  # the observed CoM velocity (m/s, world)
         self._samples = 0  # velocities measured since the reset
 
-    def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray) -> None:
+    def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray, known: bool = True) -> None:
         """One tick: ``com_vel_world`` (3,) the CoM velocity measured now, ``applied_forces_world`` (4, 3) the ground
-        forces commanded over the tick that led here (forces on the robot)."""
+        forces commanded over the tick that led here (forces on the robot). ``known`` False: the legs did not
+        deliver those forces (a motor saturated), so the tick tells nothing about the push: the velocity is
+        followed (the measurement taken as it is) and the estimate held."""
         vel_x, vel_y = float(com_vel_world[0]), float(com_vel_world[1])
+        if not known and self._vel_xy is not None:
+            self._vel_xy = (vel_x, vel_y)
+            return
         self._samples += 1
         if self._samples <= self._warmup_ticks:  # the mean so far: the velocity's estimate under white noise
             if self._vel_xy is None:
