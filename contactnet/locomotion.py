@@ -295,7 +295,8 @@ class Locomotion:
         steps = self.planner.plan(ctx)
         planner_s = time.perf_counter() - t0
         self.planner_times_s.append(planner_s)
-        braced = braces(self.config.brace, None if self.observer is None else self.observer.active_force_xy(), steps[0])
+        braced = braces(self.config.brace, None if self.observer is None else self.observer.active_force_xy(), steps[0],
+                        self.robot.mass_kg)
         if braced:  # pushed: stand on four feet until the push is over
             steps = standing_horizon(self.gait, len(steps))
 

@@ -38,7 +38,7 @@ def test_the_estimate_follows_a_step_of_force_as_the_critically_damped_observer_
     """Both poles at -w: a constant force F is seen as ``F (1 - (1 + w t) e^(-w t))`` (the continuous closed form,
     the reference; the 1 kHz update approximates it to within w dt of the force)."""
     w = 40.0
-    observer = DisturbanceObserver(ObserverConfig(bandwidth_rad_s=w, threshold_n=2.0), mass_kg=2.5, dt_s=1e-3)
+    observer = DisturbanceObserver(ObserverConfig(bandwidth_rad_s=w, threshold_m_s2=0.8), mass_kg=2.5, dt_s=1e-3)
     force = (3.0, -5.0)
     for ticks in (10, 30, 54, 100, 200, 1000):
         observer.reset()
@@ -102,7 +102,7 @@ def test_velocity_noise_reaches_the_estimate_as_the_formula_says(w):
 
 
 def test_below_its_threshold_the_estimate_is_not_used():
-    observer = DisturbanceObserver(ObserverConfig(threshold_n=2.0, lean=False), mass_kg=2.5, dt_s=1e-3)
+    observer = DisturbanceObserver(ObserverConfig(threshold_m_s2=0.8, lean=False), mass_kg=2.5, dt_s=1e-3)
     _momentum_run(observer, (1.0, 1.0), 500)
     assert observer.active_force_xy() is None  # |F| = 1.41 N
     _momentum_run(observer, (0.0, 2.5), 500)
@@ -143,7 +143,7 @@ def test_the_observer_is_on_by_default_and_a_trial_without_it_is_named(tmp_path)
     assert trial_from_record(old).observer is False  # a record from before the observer existed ran without it
 
 
-@pytest.mark.parametrize("field", ["bandwidth_rad_s", "threshold_n"])
+@pytest.mark.parametrize("field", ["bandwidth_rad_s", "threshold_m_s2"])
 @pytest.mark.parametrize("value", [-1.0, float("nan"), float("inf")])
 def test_a_bad_setting_names_its_field(field, value):
     with pytest.raises(ValueError, match=field):
@@ -184,7 +184,7 @@ def test_undisturbed_walking_runs_exactly_as_without_the_observer(robot):
         with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), config=config, vel_cmd_xy=(0.1, 0.0)) as loco:
             summaries.append(loco.run(3.0))
     with_observer, without = summaries
-    assert 0.0 < with_observer["max_external_force_n"] < ObserverConfig().threshold_n
+    assert 0.0 < with_observer["max_external_force_n"] < ObserverConfig().threshold_m_s2 * robot.mass_kg
     assert without["max_external_force_n"] == 0.0
     for key in ("wall_time_s", "max_external_force_n", "planner_ms", "trajopt_ms"):
         del with_observer[key], without[key]
@@ -203,7 +203,7 @@ def test_noisy_base_sensors_do_not_look_like_a_push(robot):
     with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), noisy, vel_cmd_xy=(0.05, 0.0)) as loco:
         summary = loco.run(3.0)
     assert not summary["fell"]
-    assert 0.3 < summary["max_external_force_n"] < 1.5 * ObserverConfig().threshold_n
+    assert 0.3 < summary["max_external_force_n"] < 1.5 * ObserverConfig().threshold_m_s2 * robot.mass_kg
 
 
 @pytest.mark.slow
@@ -244,17 +244,18 @@ def test_bracing_stands_a_two_legged_step_while_a_push_lasts():
     from contactnet.planning.brace import BraceConfig, braces, standing_horizon
     from contactnet.planning.ranking import PlannedStep
 
-    config = BraceConfig(threshold_n=3.0)
+    config = BraceConfig(threshold_m_s2=1.2)  # 3 N on 2.5 kg
     trot_step = PlannedStep(legs=(0, 3), footholds_xy_world=np.zeros((2, 2)))
     walk_step = PlannedStep(legs=(1,), footholds_xy_world=np.zeros((1, 2)))
-    assert braces(config, (0.0, 3.0), trot_step) and braces(config, (-2.5, -2.5), trot_step)
-    assert not braces(config, (2.0, 2.0), trot_step)  # 2.83 N: below the threshold
-    assert not braces(config, None, trot_step) and not braces(None, (0.0, 9.0), trot_step)  # no push; bracing off
-    assert not braces(config, (0.0, 9.0), walk_step)  # three stance feet hold it
-    assert braces(BraceConfig(min_swinging_legs=1), (0.0, 9.0), walk_step)
+    assert braces(config, (0.0, 3.0), trot_step, 2.5) and braces(config, (-2.5, -2.5), trot_step, 2.5)
+    assert not braces(config, (2.0, 2.0), trot_step, 2.5)  # 2.83 N: below the threshold
+    assert not braces(config, (0.0, 9.0), trot_step, 16.0)  # 19.2 N on a robot of 16 kg
+    assert not braces(config, None, trot_step, 2.5) and not braces(None, (0.0, 9.0), trot_step, 2.5)  # no push; off
+    assert not braces(config, (0.0, 9.0), walk_step, 2.5)  # three stance feet hold it
+    assert braces(BraceConfig(min_swinging_legs=1), (0.0, 9.0), walk_step, 2.5)
     horizon = standing_horizon(TROT, 3)
     assert [(s.legs, s.action_index, s.footholds_xy_world.shape) for s in horizon] == [((), TROT.stand_index, (0, 2))] * 3
-    for field, value in (("threshold_n", -1.0), ("threshold_n", float("nan")), ("min_swinging_legs", 0)):
+    for field, value in (("threshold_m_s2", -1.0), ("threshold_m_s2", float("nan")), ("min_swinging_legs", 0)):
         with pytest.raises(ValueError, match=field):
             BraceConfig(**{field: value})
 

@@ -341,7 +341,7 @@ class State(StepCounters):
     push_force: Float3 = Field(description="N, the pushes acting now (world)")
     estimated_push: Float3 | None = Field(
         None, description="N, world: the push the disturbance observer estimates and uses now; null when it is off "
-        "or its estimate is below its threshold (2 N)")
+        "or its estimate is below its threshold (0.8 N per kg of the robot: 2 N for Solo12)")
     error: str | None = Field(description="the error that stopped the simulation; null when none")
     recording: bool = Field(description="a scene recording is in progress")
     viser_port: int = Field(description="port of the 3D view's websocket (viser)")

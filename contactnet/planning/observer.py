@@ -17,8 +17,9 @@ estimate with std ``m w^1.5 sqrt(S) / 2``: 0.5 N at ``w = 40 rad/s`` with base-v
 (The first version filtered the differentiated momentum, ``m (v_k - v_(k-1)) / dt``, over 30 ms: that noise gave
 it about 4 N of false pushes, and with noisy base sensors the robot crossed 2 of 30 fields instead of 30.)
 Leg inertia, impacts and the torque tracking of the commanded forces are the rest of its noise walking
-undisturbed; below ``threshold_n`` the estimate is not used at all, so walking that stays below it runs exactly as
-without the observer. Above it:
+undisturbed; below ``threshold_m_s2`` times the robot's mass (2 N for Solo12, 13 N for Go2: the noise grows with
+the mass) the estimate is not used at all, so walking that stays below it runs exactly as without the observer.
+Above it:
 
 * the controller cancels it: its centroidal feedback force gets ``-F_ext``, spread over the stance feet with the
   rest of the feedback wrench (the feet push against the push, and the vertical loads shift to balance the
@@ -47,14 +48,14 @@ class ObserverConfig:
     """How the external force is estimated and used."""
 
     bandwidth_rad_s: float = 40.0  # both poles of the velocity-and-force observer (63 % of a step after 2.15 / w)
-    threshold_n: float = 2.0  # an estimate below this (horizontal magnitude) is not used
+    threshold_m_s2: float = 0.8  # an estimate below this times the mass (horizontal magnitude, N) is not used
     feedforward: bool = True  # the controller cancels the estimate
     lean: bool = True  # the capture step leans the footholds into it
     plan: bool = True  # the trajectory optimizer plans with it (its re-solves; the controller cancels the rest)
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.threshold_n) and self.threshold_n >= 0.0):
-            raise ValueError(f"ObserverConfig.threshold_n must be a finite number >= 0, got {self.threshold_n!r}")
+        if not (math.isfinite(self.threshold_m_s2) and self.threshold_m_s2 >= 0.0):
+            raise ValueError(f"ObserverConfig.threshold_m_s2 must be a finite number >= 0, got {self.threshold_m_s2!r}")
         # 500 rad/s: beyond it the 1 kHz loop's explicit update is no longer a good approximation (w dt = 0.5)
         if not (math.isfinite(self.bandwidth_rad_s) and 0.0 < self.bandwidth_rad_s <= 500.0):
             raise ValueError(f"ObserverConfig.bandwidth_rad_s must be in (0, 500], got {self.bandwidth_rad_s!r}")
@@ -78,6 +79,7 @@ class DisturbanceObserver:
         # the first 1 / w seconds: the observed velocity is the mean of the measured ones and the force is not yet
         # estimated (one noisy first sample taken as the velocity would be a false push of m w |error| / e)
         self._warmup_ticks = max(1, round(1.0 / (w * self.dt_s)))
+        self.threshold_n = config.threshold_m_s2 * self.mass_kg  # the estimate is used from this force on
         self.reset()
 
     def reset(self) -> None:
@@ -144,7 +146,7 @@ class DisturbanceObserver:
 
     def active_force_xy(self) -> tuple[float, float] | None:
         """The estimate (N, world) when it is at least ``threshold_n``, else None (not used)."""
-        if not math.hypot(self.estimate_x_n, self.estimate_y_n) >= self.config.threshold_n:
+        if not math.hypot(self.estimate_x_n, self.estimate_y_n) >= self.threshold_n:
             return None
         return self.estimate_x_n, self.estimate_y_n
 
