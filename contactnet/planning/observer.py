@@ -49,13 +49,19 @@ class ObserverConfig:
 
     bandwidth_rad_s: float = 40.0  # both poles of the velocity-and-force observer (63 % of a step after 2.15 / w)
     threshold_m_s2: float = 0.8  # an estimate below this times the mass (horizontal magnitude, N) is not used
+    # ... and above it, used only once the CoM also moves along it this fast beyond the commanded velocity (a
+    # push sets the body moving; the slow drift of a foot's contact on a square's edge does not); then used until
+    # it falls below the threshold. 0: used from the threshold on.
+    onset_velocity_m_s: float = 0.1
     feedforward: bool = True  # the controller cancels the estimate
     lean: bool = True  # the capture step leans the footholds into it
     plan: bool = True  # the trajectory optimizer plans with it (its re-solves; the controller cancels the rest)
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.threshold_m_s2) and self.threshold_m_s2 >= 0.0):
-            raise ValueError(f"ObserverConfig.threshold_m_s2 must be a finite number >= 0, got {self.threshold_m_s2!r}")
+        for name in ("threshold_m_s2", "onset_velocity_m_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"ObserverConfig.{name} must be a finite number >= 0, got {value!r}")
         # 500 rad/s: beyond it the 1 kHz loop's explicit update is no longer a good approximation (w dt = 0.5)
         if not (math.isfinite(self.bandwidth_rad_s) and 0.0 < self.bandwidth_rad_s <= 500.0):
             raise ValueError(f"ObserverConfig.bandwidth_rad_s must be in (0, 500], got {self.bandwidth_rad_s!r}")
@@ -87,13 +93,16 @@ class DisturbanceObserver:
         self.estimate_x_n = self.estimate_y_n = 0.0
         self.max_estimate_n = 0.0
         self._vel_xy: tuple[float, float] | None = None  # the observed CoM velocity (m/s, world)
+        self._active = False  # the estimate is in use (see ObserverConfig.onset_velocity_m_s)
         self._samples = 0  # velocities measured since the reset
 
-    def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray, known: bool = True) -> None:
+    def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray, known: bool = True,
+               vel_cmd_xy_world: tuple[float, float] = (0.0, 0.0)) -> None:
         """One tick: ``com_vel_world`` (3,) the CoM velocity measured now, ``applied_forces_world`` (4, 3) the ground
-        forces commanded over the tick that led here (forces on the robot). ``known`` False: the legs did not
-        deliver those forces (a motor saturated), so the tick tells nothing about the push: the velocity is
-        followed (the measurement taken as it is) and the estimate held."""
+        forces commanded over the tick that led here (forces on the robot), ``vel_cmd_xy_world`` the commanded
+        velocity (m/s, world). ``known`` False: the legs did not deliver those forces (a motor saturated), so the
+        tick tells nothing about the push: the velocity is followed (the measurement taken as it is) and the
+        estimate held."""
         vel_x, vel_y = float(com_vel_world[0]), float(com_vel_world[1])
         if not known and self._vel_xy is not None:
             self._vel_xy = (vel_x, vel_y)
@@ -120,6 +129,12 @@ class DisturbanceObserver:
         magnitude = math.hypot(self.estimate_x_n, self.estimate_y_n)
         if magnitude > self.max_estimate_n:
             self.max_estimate_n = magnitude
+        if magnitude < self.threshold_n:
+            self._active = False
+        elif not self._active:  # the onset: the CoM moves along the estimate beyond the command
+            along_m_s = ((self._vel_xy[0] - vel_cmd_xy_world[0]) * self.estimate_x_n
+                         + (self._vel_xy[1] - vel_cmd_xy_world[1]) * self.estimate_y_n) / magnitude
+            self._active = along_m_s >= self.config.onset_velocity_m_s
 
     def force_for(self, use: str) -> tuple[float, float] | None:
         """``active_force_xy`` if ``use`` (``"lean"``: the planner's, ``"feedforward"``: the controller's, ``"plan"``:
@@ -145,8 +160,9 @@ class DisturbanceObserver:
         return None if force is None else np.array([force[0], force[1], 0.0])
 
     def active_force_xy(self) -> tuple[float, float] | None:
-        """The estimate (N, world) when it is at least ``threshold_n``, else None (not used)."""
-        if not math.hypot(self.estimate_x_n, self.estimate_y_n) >= self.threshold_n:
+        """The estimate (N, world) when in use (at least ``threshold_n``, and the CoM moved along it when it got
+        there: ``ObserverConfig.onset_velocity_m_s``), else None."""
+        if not self._active:
             return None
         return self.estimate_x_n, self.estimate_y_n
 
