@@ -19,10 +19,10 @@ from contactnet.terrain import flat
 
 
 def _momentum_run(observer: DisturbanceObserver, external_xy: tuple[float, float], ticks: int, seed: int = 0,
-                  quiet_ticks: int = 100) -> None:
+                  quiet_ticks: int = 100) -> np.ndarray:
     """Feed the observer a body of its mass under random ground forces, integrated exactly: ``quiet_ticks`` without
     an external force (the observer's start, ``ObserverConfig`` warm-up included), then ``ticks`` with
-    ``external_xy``."""
+    ``external_xy``; returns the body's velocity at the end."""
     rng = np.random.default_rng(seed)
     vel = np.zeros(3)
     observer.update(vel, np.zeros((4, 3)))
@@ -32,6 +32,7 @@ def _momentum_run(observer: DisturbanceObserver, external_xy: tuple[float, float
         total = applied.sum(axis=0) + np.array([external[0], external[1], -9.81 * observer.mass_kg])
         vel = vel + observer.dt_s / observer.mass_kg * total
         observer.update(vel, applied)
+    return vel
 
 
 def test_the_estimate_follows_a_step_of_force_as_the_critically_damped_observer_does():
@@ -66,6 +67,25 @@ def test_ticks_whose_forces_are_not_known_hold_the_estimate():
     for _ in range(500):  # known again, no push: the estimate returns to zero from the measured velocity
         observer.update(vel, np.zeros((4, 3)))
     assert abs(observer.estimate_x_n) < 1e-3 and abs(observer.estimate_y_n) < 1e-3
+
+
+def test_an_estimate_is_used_only_when_the_body_moves_along_it():
+    """A push sets the body moving; a slow mismatch does not (a foot's contact on a square's edge: the ground
+    delivers 4 N backwards that nobody commanded while the body walks on at the command). The first is used, the
+    second is not, though both read 4 N; once in use, an estimate stays in use until it drops below the
+    threshold."""
+    config = ObserverConfig(threshold_m_s2=0.8, onset_velocity_m_s=0.1)
+    drift = DisturbanceObserver(config, mass_kg=2.5, dt_s=1e-3)
+    forward = np.array([[4.0, 0.0, 0.0]] + [[0.0, 0.0, 0.0]] * 3)  # commanded; not delivered
+    for _ in range(1000):
+        drift.update(np.array([0.05, 0.0, 0.0]), forward, vel_cmd_xy_world=(0.05, 0.0))
+    assert drift.estimate_x_n == pytest.approx(-4.0, rel=1e-3) and drift.active_force_xy() is None
+    push = DisturbanceObserver(config, mass_kg=2.5, dt_s=1e-3)
+    vel = _momentum_run(push, (-4.0, 0.0), 300)  # the same 4 N, on a body that moves with it
+    assert push.active_force_xy() == pytest.approx((-4.0, 0.0), abs=0.05)
+    for _ in range(300):  # then the feet cancel it: the body keeps its velocity, the estimate stays in use
+        push.update(vel, np.array([[4.0, 0.0, 0.0]] + [[0.0, 0.0, 0.0]] * 3))
+    assert push.active_force_xy() is not None
 
 
 def test_a_noisy_first_velocity_is_not_taken_for_a_push():

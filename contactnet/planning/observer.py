@@ -19,7 +19,8 @@ it about 4 N of false pushes, and with noisy base sensors the robot crossed 2 of
 Leg inertia, impacts and the torque tracking of the commanded forces are the rest of its noise walking
 undisturbed; below ``threshold_m_s2`` times the robot's mass (2 N for Solo12, 13 N for Go2: the noise grows with
 the mass) the estimate is not used at all, so walking that stays below it runs exactly as without the observer.
-Above it:
+Above it, once the CoM also moves along it 0.1 m/s beyond the command (``onset_velocity_m_s``: a push sets the
+body moving, a foot's contact drifting on a square's edge does not), and until it drops below the threshold:
 
 * the controller cancels it: its centroidal feedback force gets ``-F_ext``, spread over the stance feet with the
   rest of the feedback wrench (the feet push against the push, and the vertical loads shift to balance the
