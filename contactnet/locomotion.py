@@ -241,7 +241,7 @@ class Locomotion:
         tau = self.controller.torques(state.q_pinocchio(), state.v_pinocchio(), target)
         if self.observer is not None:  # a foot off the ground delivered none of its force, a saturated leg not all
             self.observer.update(self.controller.last_com_vel, applied * self.sim.foot_contact()[:, None],
-                                 not self._saturated, self._vel_cmd_world)
+                                 not self._saturated)
             self._saturated = bool((np.abs(tau) >= self.controller.torque_limit_nm).any())
         self._last_target = target
         self.sim.step(tau)

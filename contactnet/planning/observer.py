@@ -19,8 +19,7 @@ it about 4 N of false pushes, and with noisy base sensors the robot crossed 2 of
 Leg inertia, impacts and the torque tracking of the commanded forces are the rest of its noise walking
 undisturbed; below ``threshold_m_s2`` times the robot's mass (2 N for Solo12, 13 N for Go2: the noise grows with
 the mass) the estimate is not used at all, so walking that stays below it runs exactly as without the observer.
-Above it, once the CoM also moves along it 0.1 m/s beyond the command (``onset_velocity_m_s``: a push sets the
-body moving, a foot's contact drifting on a square's edge does not), and until it drops below the threshold:
+Above it:
 
 * the controller cancels it: its centroidal feedback force gets ``-F_ext``, spread over the stance feet with the
   rest of the feedback wrench (the feet push against the push, and the vertical loads shift to balance the
@@ -28,7 +27,9 @@ body moving, a foot's contact drifting on a square's edge does not), and until i
 * the planner leans into it: the capture step moves the first step's candidate grid by
   ``F_ext h / (m g)`` beyond its velocity part, the offset of the centre of pressure from the CoM that balances
   a horizontal force at the CoM height ``h`` (``contactnet.planning.capture.capture_offset``);
-* the trajectory optimizer plans with it (``plan``): at each re-solve the estimate is a known force on the body
+* the trajectory optimizer plans with it (``plan``) when it rose from half the threshold to the threshold within
+  0.2 s (``onset_s``: a push is sudden; a foot's contact drifting on a square's edge, which the estimate also
+  reads, took a second, and planned with, that drift of 6 N made Table II's seed 3 fall): at each re-solve the estimate is a known force on the body
   over the horizon (``TrajoptProblem.external_force_world``), so the planned ground forces hold it and the planned
   CoM moves where the feet can hold it from (a walk's three feet cannot hold a sideways push with the CoM near
   the edge of their triangle). The controller then cancels only what changed since that solve.
@@ -50,16 +51,16 @@ class ObserverConfig:
 
     bandwidth_rad_s: float = 40.0  # both poles of the velocity-and-force observer (63 % of a step after 2.15 / w)
     threshold_m_s2: float = 0.8  # an estimate below this times the mass (horizontal magnitude, N) is not used
-    # ... and above it, used only once the CoM also moves along it this fast beyond the commanded velocity (a
-    # push sets the body moving; the slow drift of a foot's contact on a square's edge does not); then used until
-    # it falls below the threshold. 0: used from the threshold on.
-    onset_velocity_m_s: float = 0.1
+    # the trajectory optimizer plans with it only when it rose from half the threshold to the threshold within this
+    # time (a push is sudden; the drift of a foot's contact on a square's edge took a second), and then until it
+    # falls below the threshold
+    onset_s: float = 0.2
     feedforward: bool = True  # the controller cancels the estimate
     lean: bool = True  # the capture step leans the footholds into it
     plan: bool = True  # the trajectory optimizer plans with it (its re-solves; the controller cancels the rest)
 
     def __post_init__(self) -> None:
-        for name in ("threshold_m_s2", "onset_velocity_m_s"):
+        for name in ("threshold_m_s2", "onset_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"ObserverConfig.{name} must be a finite number >= 0, got {value!r}")
@@ -94,16 +95,15 @@ class DisturbanceObserver:
         self.estimate_x_n = self.estimate_y_n = 0.0
         self.max_estimate_n = 0.0
         self._vel_xy: tuple[float, float] | None = None  # the observed CoM velocity (m/s, world)
-        self._active = False  # the estimate is in use (see ObserverConfig.onset_velocity_m_s)
+        self._sudden = False  # the estimate rose to the threshold within ObserverConfig.onset_s
+        self._ticks = self._last_quiet_tick = 0  # ticks since the reset; the last one below half the threshold
         self._samples = 0  # velocities measured since the reset
 
-    def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray, known: bool = True,
-               vel_cmd_xy_world: tuple[float, float] = (0.0, 0.0)) -> None:
+    def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray, known: bool = True) -> None:
         """One tick: ``com_vel_world`` (3,) the CoM velocity measured now, ``applied_forces_world`` (4, 3) the ground
-        forces commanded over the tick that led here (forces on the robot), ``vel_cmd_xy_world`` the commanded
-        velocity (m/s, world). ``known`` False: the legs did not deliver those forces (a motor saturated), so the
-        tick tells nothing about the push: the velocity is followed (the measurement taken as it is) and the
-        estimate held."""
+        forces commanded over the tick that led here (forces on the robot). ``known`` False: the legs did not
+        deliver those forces (a motor saturated), so the tick tells nothing about the push: the velocity is
+        followed (the measurement taken as it is) and the estimate held."""
         vel_x, vel_y = float(com_vel_world[0]), float(com_vel_world[1])
         if not known and self._vel_xy is not None:
             self._vel_xy = (vel_x, vel_y)
@@ -130,17 +130,21 @@ class DisturbanceObserver:
         magnitude = math.hypot(self.estimate_x_n, self.estimate_y_n)
         if magnitude > self.max_estimate_n:
             self.max_estimate_n = magnitude
+        self._ticks += 1
+        if magnitude < 0.5 * self.threshold_n:
+            self._last_quiet_tick = self._ticks
         if magnitude < self.threshold_n:
-            self._active = False
-        elif not self._active:  # the onset: the CoM moves along the estimate beyond the command
-            along_m_s = ((self._vel_xy[0] - vel_cmd_xy_world[0]) * self.estimate_x_n
-                         + (self._vel_xy[1] - vel_cmd_xy_world[1]) * self.estimate_y_n) / magnitude
-            self._active = along_m_s >= self.config.onset_velocity_m_s
+            self._sudden = False
+        elif not self._sudden:  # the onset: from half the threshold to the threshold within onset_s
+            self._sudden = (self._ticks - self._last_quiet_tick) * self.dt_s <= self.config.onset_s
 
     def force_for(self, use: str) -> tuple[float, float] | None:
         """``active_force_xy`` if ``use`` (``"lean"``: the planner's, ``"feedforward"``: the controller's, ``"plan"``:
-        the trajectory optimizer's) is on in the config, else None."""
-        return self.active_force_xy() if getattr(self.config, use) else None
+        the trajectory optimizer's) is on in the config, else None; for ``"plan"`` only if the estimate rose suddenly
+        (``ObserverConfig.onset_s``)."""
+        if not getattr(self.config, use) or (use == "plan" and not self._sudden):
+            return None
+        return self.active_force_xy()
 
     def feedforward_world(self, planned_world: np.ndarray | None) -> np.ndarray | None:
         """The push (3,) (N, world) the controller cancels (``ControlTarget.external_force_world``): the estimate,
@@ -161,9 +165,8 @@ class DisturbanceObserver:
         return None if force is None else np.array([force[0], force[1], 0.0])
 
     def active_force_xy(self) -> tuple[float, float] | None:
-        """The estimate (N, world) when in use (at least ``threshold_n``, and the CoM moved along it when it got
-        there: ``ObserverConfig.onset_velocity_m_s``), else None."""
-        if not self._active:
+        """The estimate (N, world) when it is at least ``threshold_n``, else None (not used)."""
+        if not math.hypot(self.estimate_x_n, self.estimate_y_n) >= self.threshold_n:
             return None
         return self.estimate_x_n, self.estimate_y_n
 
