@@ -176,7 +176,9 @@ def test_compare_mode_runs_two_robots_with_the_same_command(tmp_path):
         view = live.view
         assert view.compare is not None and len(view.compare) == 1
         other = view.compare[0]
-        assert (other.planner, other.planner_active) == ("fixed", "heuristic") and other.snapshot.t_s == 0.0 and view.snapshot.t_s == 0.0
+        assert (other.planner, other.planner_active) == ("fixed", "heuristic")
+        # both restarted together (the session thread runs on: on a busy machine it may have ticked already)
+        assert view.snapshot.t_s < 0.5 and other.snapshot.t_s == pytest.approx(view.snapshot.t_s, abs=0.02)
         assert "Compare mode" in view.notices[-1].text
         view = live.wait_view(lambda v: v.snapshot.t_s > 1.5, timeout=30)
         other = view.compare[0]
