@@ -7,9 +7,9 @@ body rolls over its stance feet while the other legs swing (traced: a trot pushe
 over its FR-HL diagonal within 0.3 s). Four feet hold it inside their rectangle (half-widths of about 14 and 19 cm).
 
 So while the disturbance observer's estimate (``contactnet.planning.observer``) is at least ``threshold_m_s2`` times
-the robot's mass (3 N for Solo12), each
-new step horizon whose step would swing two legs or more (``min_swinging_legs``: the trot's) stands (``GaitSpec.stand_index``: no leg swings, the optimizer plans the body over four feet with
-the push as a known force); a swing under way still lands where it was going. Once the estimate falls below the
+the robot's mass (3 N for Solo12), each new step horizon whose step would swing two legs or more
+(``min_swinging_legs``: the trot's) stands (``GaitSpec.stand_index``: no leg swings, the optimizer plans the body
+over four feet with the push as a known force); a swing under way still lands where it was going. Once the estimate falls below the
 threshold the planner steps again, and the capture step (``contactnet.planning.capture``) takes the velocity the
 push left. Standing is always safe on the terrain the feet already stand on, so bracing needs no terrain check.
 """
