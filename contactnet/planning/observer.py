@@ -97,8 +97,8 @@ class DisturbanceObserver:
         self.max_estimate_n = 0.0
         self._vel_xy: tuple[float, float] | None = None  # the observed CoM velocity (m/s, world)
         self._sudden = False  # the estimate rose to the threshold within ObserverConfig.onset_s
-        self._ticks = self._last_quiet_tick = 0  # ticks since the reset; the last one below half the threshold
         self._samples = 0  # velocities measured since the reset
+        self._last_quiet_sample = 0  # the last of them with the estimate below half the threshold
 
     def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray, known: bool = True) -> None:
         """One tick: ``com_vel_world`` (3,) the CoM velocity measured now, ``applied_forces_world`` (4, 3) the ground
@@ -131,13 +131,12 @@ class DisturbanceObserver:
         magnitude = math.hypot(self.estimate_x_n, self.estimate_y_n)
         if magnitude > self.max_estimate_n:
             self.max_estimate_n = magnitude
-        self._ticks += 1
         if magnitude < 0.5 * self.threshold_n:
-            self._last_quiet_tick = self._ticks
+            self._last_quiet_sample = self._samples
         if magnitude < self.threshold_n:
             self._sudden = False
         elif not self._sudden:  # the onset: from half the threshold to the threshold within onset_s
-            self._sudden = (self._ticks - self._last_quiet_tick) * self.dt_s <= self.config.onset_s
+            self._sudden = (self._samples - self._last_quiet_sample) * self.dt_s <= self.config.onset_s
 
     def force_for(self, use: str) -> tuple[float, float] | None:
         """``active_force_xy`` if ``use`` (``"lean"``: the planner's, ``"feedforward"``: the controller's, ``"plan"``:
