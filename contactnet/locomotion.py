@@ -167,6 +167,7 @@ class Locomotion:
         self._contact = np.zeros(4, dtype=bool)
         if self.observer is not None:
             self.observer.reset()
+        self._delivered, self._leg_sigma_m = np.zeros((4, 3)), np.full(4, np.inf)
 
     def set_command(self, vx: float, vy: float) -> None:
         """Commanded velocity (m/s) in the horizontal body frame of the reference heading."""
@@ -196,7 +197,8 @@ class Locomotion:
         """The disturbance observer on (a fresh estimate) or off (None), also while it runs (no restart)."""
         self.config = replace(self.config, observer=observer)
         self.observer = None if observer is None else DisturbanceObserver(observer, self.robot.mass_kg, self.sim.config.dt_s)
-        self._saturated = False  # a motor saturated in the tick the observer reads next
+        self._delivered = np.zeros((4, 3))  # the ground forces of the last tick's torques (the observer's input)
+        self._leg_sigma_m = np.full(4, np.inf)  # and the legs' smallest Jacobian singular values then
 
     @property
     def t_s(self) -> float:
@@ -237,12 +239,13 @@ class Locomotion:
                 self._retarget(state, self.plan)
             self._optimize(state, self.plan)
         target = self._target(self.sim.t_s)
-        applied = self.controller.last_forces  # the ground forces of the last tick, before this one's
-        tau = self.controller.torques(state.q_pinocchio(), state.v_pinocchio(), target)
-        if self.observer is not None:  # a foot off the ground delivered none of its force, a saturated leg not all
-            self.observer.update(self.controller.last_com_vel, applied * self.sim.foot_contact()[:, None],
-                                 not self._saturated)
-            self._saturated = bool((np.abs(tau) >= self.controller.torque_limit_nm).any())
+        q = state.q_pinocchio()
+        tau = self.controller.torques(q, state.v_pinocchio(), target)
+        if self.observer is not None:  # the forces the last tick's torques delivered; a foot off the ground none
+            contact = self.sim.foot_contact()
+            known = not (contact & (self._leg_sigma_m < self.observer.config.min_leg_jacobian_m)).any()
+            self.observer.update(self.controller.last_com_vel, self._delivered * contact[:, None], known)
+            self._delivered, self._leg_sigma_m = self.controller.delivered_forces(q, tau)
         self._last_target = target
         self.sim.step(tau)
         self._advance_reference(self.controller.last_com[:2])

@@ -24,8 +24,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from contactnet.motion.controller_kernel import pack_gains, wbc_torques
+from contactnet.motion.controller_kernel import leg_ground_forces, pack_gains, wbc_torques
 from contactnet.robots.description import Robot, RobotDescription
+
+
+#: Damping of ``delivered_forces``'s least squares (m^2): directions in which a leg's Jacobian is below about 2 cm
+#: (a leg stretched straight) are damped instead of amplifying torque errors.
+LEG_FORCE_DAMPING_M2 = 4e-4
 
 
 @dataclass(frozen=True)
@@ -201,6 +206,7 @@ class WholeBodyController:
         self.last_foot_pos = np.zeros((4, 3))
         self.last_com = np.zeros(3)
         self.last_com_vel = np.zeros(3)
+        self._last_jacobians: tuple | None = None  # the feet's Jacobians of the last ``torques`` call
 
     def kinematics(self, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """CoM position, CoM velocity, foot positions (4, 3) and foot Jacobians (4, 3, 18), world frame."""
@@ -241,4 +247,28 @@ class WholeBodyController:
         self.last_foot_pos = foot_pos
         self.last_com = com
         self.last_com_vel = vcom
+        self._last_jacobians = jacobians
         return tau
+
+    def delivered_forces(self, q: np.ndarray, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(4, 3) the ground forces (on the robot, world frame) that the torques ``tau`` (12,), as applied at ``q``
+        (the configuration of the last ``torques`` call), deliver on each foot that is on the ground: each leg's
+        static balance with its own weight, ``tau = g_leg(q) - J^T f``
+        (``contactnet.motion.controller_kernel.leg_ground_forces``).
+
+        Not ``last_forces``: step 2 commands ``tau = -J^T f`` and leaves the legs' weight out, so the ground
+        receives the commanded forces plus ``J^-T g_leg``, a few tenths of a newton per leg that grow as a leg
+        stretches (a rear leg stretched behind a standing robot: 2-3 N backwards, measured against PyBullet's
+        contact forces), and the saturated torques, not the commanded forces, are what the motors give. The
+        disturbance observer (``contactnet.planning.observer``) takes these forces, so that neither reads as a
+        push.
+
+        Also returns (4,) each leg's smallest singular value of its foot Jacobian (m): about 9 cm in Solo12's
+        stance, near 0 for a leg stretched straight, whose torques do not tell the force along it."""
+        if self._last_jacobians is None:
+            raise RuntimeError("delivered_forces needs a torques() call first (its Jacobians)")
+        gravity = self._pin.computeGeneralizedGravity(self.model, self.data, q)[6:]
+        forces, sigma_min = np.empty((4, 3)), np.empty(4)
+        leg_ground_forces(self._last_jacobians, np.asarray(tau, dtype=float), gravity, LEG_FORCE_DAMPING_M2, forces,
+                          sigma_min)
+        return forces, sigma_min

@@ -256,3 +256,56 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
                 s += jac[i, 6 + j] * push[leg, i]
         s -= gains[KD_JOINT] * v[6 + j]
         tau[j] = min(max(s, -torque_limit[j]), torque_limit[j])
+
+
+@numba.njit(cache=True, nogil=True)
+def _min_eigenvalue_sym3(a: np.ndarray) -> float:
+    """The smallest eigenvalue of a symmetric (3, 3) matrix (closed form: the trigonometric solution of its
+    characteristic cubic)."""
+    off = a[0, 1] * a[0, 1] + a[0, 2] * a[0, 2] + a[1, 2] * a[1, 2]
+    if off == 0.0:
+        return min(a[0, 0], min(a[1, 1], a[2, 2]))
+    mean = (a[0, 0] + a[1, 1] + a[2, 2]) / 3.0
+    d0, d1, d2 = a[0, 0] - mean, a[1, 1] - mean, a[2, 2] - mean
+    scale = np.sqrt((d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * off) / 6.0)
+    # det((a - mean I) / scale) / 2, clipped into [-1, 1] against rounding
+    b00, b11, b22 = d0 / scale, d1 / scale, d2 / scale
+    b01, b02, b12 = a[0, 1] / scale, a[0, 2] / scale, a[1, 2] / scale
+    half_det = 0.5 * (b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) + b02 * (b01 * b12 - b11 * b02))
+    half_det = min(max(half_det, -1.0), 1.0)
+    angle = np.arccos(half_det) / 3.0
+    return mean + 2.0 * scale * np.cos(angle + 2.0 * np.pi / 3.0)
+
+
+@numba.njit(cache=True, nogil=True)
+def leg_ground_forces(jacobians: tuple, tau: np.ndarray, gravity_tau: np.ndarray, damping_m2: float,
+                      forces: np.ndarray, sigma_min: np.ndarray) -> None:
+    """Fills ``forces`` (4, 3) with the ground force on each foot (on the robot, world frame) that the joint torques
+    ``tau`` (12,) deliver if the foot is on the ground and the leg is still: each leg's static balance
+    ``tau_leg = g_leg - J_leg^T f``, ``g_leg`` the torques that hold the leg's own weight (``gravity_tau`` (12,),
+    pinocchio's generalized gravity without the base rows) and ``J_leg`` the foot's (3, 3) Jacobian in the leg's
+    joints, solved as damped least squares ``f = (J J^T + damping I)^-1 J (g_leg - tau_leg)`` so that a stretched
+    (near singular) leg does not amplify torque errors without bound. Fills ``sigma_min`` (4,) with each leg's
+    smallest singular value of ``J_leg`` (m): near zero, the leg is stretched straight and its torques do not tell
+    the force along it. ``jacobians`` as for ``wbc_torques``."""
+    for leg in range(4):
+        jac = jacobians[leg]
+        c = 6 + 3 * leg
+        rhs = np.empty(3)
+        normal = np.empty((3, 3))
+        for i in range(3):
+            s = 0.0
+            for k in range(3):
+                s += jac[i, c + k] * (gravity_tau[3 * leg + k] - tau[3 * leg + k])
+            rhs[i] = s
+            for j in range(3):
+                s = 0.0
+                for k in range(3):
+                    s += jac[i, c + k] * jac[j, c + k]
+                normal[i, j] = s
+        sigma_min[leg] = np.sqrt(max(_min_eigenvalue_sym3(normal), 0.0))
+        for i in range(3):
+            normal[i, i] += damping_m2
+        f = _solve_spd(normal, rhs)
+        for i in range(3):
+            forces[leg, i] = f[i]

@@ -56,12 +56,15 @@ class ObserverConfig:
     # time (a push is sudden; the drift of a foot's contact on a square's edge took a second), and then until it
     # falls below the threshold
     onset_s: float = 0.2
+    # a tick with a stance leg whose foot Jacobian's smallest singular value is below this (m: the leg stretched
+    # straight; about 9 cm in Solo12's stance) holds the estimate: the leg's torques do not tell its ground force
+    min_leg_jacobian_m: float = 0.03
     feedforward: bool = True  # the controller cancels the estimate
     lean: bool = True  # the capture step leans the footholds into it
     plan: bool = True  # the trajectory optimizer plans with it (its re-solves; the controller cancels the rest)
 
     def __post_init__(self) -> None:
-        for name in ("threshold_m_s2", "onset_s"):
+        for name in ("threshold_m_s2", "onset_s", "min_leg_jacobian_m"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"ObserverConfig.{name} must be a finite number >= 0, got {value!r}")
