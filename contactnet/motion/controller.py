@@ -27,7 +27,6 @@ import numpy as np
 from contactnet.motion.controller_kernel import leg_ground_forces, pack_gains, wbc_torques
 from contactnet.robots.description import Robot, RobotDescription
 
-
 #: Damping of ``delivered_forces``'s least squares (m^2): directions in which a leg's Jacobian is below about 2 cm
 #: (a leg stretched straight) are damped instead of amplifying torque errors.
 LEG_FORCE_DAMPING_M2 = 4e-4

@@ -6,9 +6,10 @@ caused. Under pushes of 7.5 N (30 % of Solo12's weight) for 1 s the shipped mode
 and 17 of 40 trot trials, 24 of the 31 after a sideways push (19 of those by tipping over the feet on the pushed
 side).
 
-The CoM's momentum tells the force: ``m dv/dt = sum of the ground forces applied + m g + F_ext``. A second-order
+The CoM's momentum tells the force: ``m dv/dt = sum of the ground forces + m g + F_ext``. A second-order
 observer per horizontal axis tracks the CoM velocity and the force together: it predicts the velocity from the
-controller's commanded ground forces (``WholeBodyController.last_forces`` of the tick before) and its current force
+ground forces the torques of the tick before delivered (``WholeBodyController.delivered_forces``: each stance leg's
+static balance with its own weight, on the feet the contact sensor says are down) and its current force
 estimate, and corrects both by the error of that prediction against the measured velocity (gains ``2 w`` and
 ``m w^2``, ``w`` = ``bandwidth_rad_s``: both poles at ``-w``). A constant force is then seen as
 ``F (1 - (1 + w t) e^(-w t))`` (63 % after ``2.15 / w``). It never differentiates the measured velocity, so
@@ -16,10 +17,13 @@ white velocity noise of spectral density ``S`` (std ``sigma`` per tick: ``S = si
 estimate with std ``m w^1.5 sqrt(S) / 2``: 0.5 N at ``w = 40 rad/s`` with base-velocity noise of 0.05 m/s at 1 kHz.
 (The first version filtered the differentiated momentum, ``m (v_k - v_(k-1)) / dt``, over 30 ms: that noise gave
 it about 4 N of false pushes, and with noisy base sensors the robot crossed 2 of 30 fields instead of 30.)
-Leg inertia, impacts and the torque tracking of the commanded forces are the rest of its noise walking
-undisturbed; below ``threshold_m_s2`` times the robot's mass (2 N for Solo12, 13 N for Go2: the noise grows with
-the mass) the estimate is not used at all, so walking that stays below it runs exactly as without the observer.
-Above it:
+Leg inertia and impacts are the rest of its noise walking undisturbed (0.05 N median, 0.5 N at most over 8 s of
+Solo12's walk on flat). It first subtracted the commanded forces (``last_forces``), which leave the legs' weight
+out: that read 0.2 N median on flat, and on Table II's seed 3 a rear leg stretched behind the standing robot
+delivered 2-3 N backwards that nobody commanded; the estimate crept to 6 N and the walk fell. A tick with a
+stance leg stretched straight (``min_leg_jacobian_m``), whose torques do not tell the force along it, holds the
+estimate. Below ``threshold_m_s2`` times the robot's mass (2 N for Solo12, 13 N for Go2) the estimate is not used
+at all, so walking that stays below it runs exactly as without the observer. Above it:
 
 * the controller cancels it: its centroidal feedback force gets ``-F_ext``, spread over the stance feet with the
   rest of the feedback wrench (the feet push against the push, and the vertical loads shift to balance the
@@ -28,9 +32,8 @@ Above it:
   ``F_ext h / (m g)`` beyond its velocity part, the offset of the centre of pressure from the CoM that balances
   a horizontal force at the CoM height ``h`` (``contactnet.planning.capture.capture_offset``);
 * the trajectory optimizer plans with it (``plan``) when it rose from half the threshold to the threshold within
-  0.2 s (``onset_s``: a push is sudden, a slow drift is kept out; a foot's contact drifting on a square's edge,
-  which the estimate also reads, made Table II's seed 3 fall once planned with, and the gate does not keep that
-  drift out (not yet traced why)): at each re-solve the estimate is a known force on the body
+  0.2 s (``onset_s``: a push is sudden, a slow drift is kept out): at each re-solve the estimate is a known force
+  on the body
   over the horizon (``TrajoptProblem.external_force_world``), so the planned ground forces hold it and the planned
   CoM moves where the feet can hold it from (a walk's three feet cannot hold a sideways push with the CoM near
   the edge of their triangle). The controller then cancels only what changed since that solve.
@@ -53,8 +56,7 @@ class ObserverConfig:
     bandwidth_rad_s: float = 40.0  # both poles of the velocity-and-force observer (63 % of a step after 2.15 / w)
     threshold_m_s2: float = 0.8  # an estimate below this times the mass (horizontal magnitude, N) is not used
     # the trajectory optimizer plans with it only when it rose from half the threshold to the threshold within this
-    # time (a push is sudden; the drift of a foot's contact on a square's edge took a second), and then until it
-    # falls below the threshold
+    # time (a push is sudden, a drift of the estimate is slow), and then until it falls below the threshold
     onset_s: float = 0.2
     # a tick with a stance leg whose foot Jacobian's smallest singular value is below this (m: the leg stretched
     # straight; about 9 cm in Solo12's stance) holds the estimate: the leg's torques do not tell its ground force
@@ -105,9 +107,10 @@ class DisturbanceObserver:
 
     def update(self, com_vel_world: np.ndarray, applied_forces_world: np.ndarray, known: bool = True) -> None:
         """One tick: ``com_vel_world`` (3,) the CoM velocity measured now, ``applied_forces_world`` (4, 3) the ground
-        forces commanded over the tick that led here (forces on the robot). ``known`` False: the legs did not
-        deliver those forces (a motor saturated), so the tick tells nothing about the push: the velocity is
-        followed (the measurement taken as it is) and the estimate held."""
+        forces on the robot over the tick that led here (``WholeBodyController.delivered_forces``, zero for a foot
+        in the air). ``known`` False: those forces are not known (a stance leg stretched straight), so the tick
+        tells nothing about the push: the velocity is followed (the measurement taken as it is) and the estimate
+        held."""
         vel_x, vel_y = float(com_vel_world[0]), float(com_vel_world[1])
         if not known and self._vel_xy is not None:
             self._vel_xy = (vel_x, vel_y)
