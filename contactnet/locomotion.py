@@ -38,7 +38,7 @@ from contactnet.motion.trajopt import (
     TrajoptWeights,
     reference_forces,
 )
-from contactnet.planning.brace import BraceConfig, braces, standing_horizon
+from contactnet.planning.brace import BraceConfig, braces, standing_horizon, touchdown_point
 from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
 from contactnet.planning.planner import PlannedStep, Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
@@ -100,6 +100,7 @@ class _Plan:
     tops_z: np.ndarray | None = None  # (N, 4) the top under each foot at each node (contactnet.motion.ground)
     touched: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))  # swung legs that touched down
     solution_force_world: np.ndarray | None = None  # (3,) the external force `solution` was planned with (observer)
+    braced_down: bool = False  # bracing put this step's swinging feet down early (contactnet.planning.brace)
 
 
 class Locomotion:
@@ -152,6 +153,7 @@ class Locomotion:
         self.trajopt_times_s: list[float] = []
         self.trajopt_failures = 0
         self.swing_retargets = 0
+        self.brace_touchdowns = 0  # steps whose swinging feet bracing put down early
         self.fall_reason: str | None = None
         self.reached_goal = False
         self._state = self.sim.state()
@@ -246,6 +248,9 @@ class Locomotion:
             known = not (contact & (self._leg_sigma_m < self.observer.config.min_leg_jacobian_m)).any()
             self.observer.update(self.controller.last_com_vel, self._delivered * contact[:, None], known)
             self._delivered, self._leg_sigma_m = self.controller.delivered_forces(q, tau)
+            plan = self.plan
+            if plan is not None and plan.swings and not plan.braced_down and self.config.brace is not None:
+                self._brace_touchdown(state, plan)
         self._last_target = target
         self.sim.step(tau)
         self._advance_reference(self.controller.last_com[:2])
@@ -372,6 +377,49 @@ class Locomotion:
             plan.foot_pos[start:end, leg] = swing.end_world - np.array([0.0, 0.0, self.foot_radius_m])
             plan.tops_z[start:end, leg] = swing.end_world[2] - self.foot_radius_m
         self.swing_retargets += 1
+
+    def _brace_touchdown(self, state: SimState, plan: _Plan) -> None:
+        """Bracing's touchdown (``contactnet.planning.brace``): the first tick a push is estimated at the bracing
+        threshold during a step that bracing would have stood, the swinging feet come down within
+        ``BraceConfig.touchdown_s`` (``touchdown_point``), feet not yet lifted stay down, and the optimizer solves
+        again with them in stance."""
+        config = self.config.brace
+        if not (config.touch_down and braces(config, self.observer.active_force_xy(), plan.steps[0],
+                                             self.robot.mass_kg)):
+            return
+        plan.braced_down = True  # once per step
+        gait, t_now = self.gait, self.sim.t_s
+        t_down_s = t_now + config.touchdown_s
+        node_now = int((t_now - plan.plan_t0_s + 1e-9) // gait.node_dt_s)
+        node_down = int(np.ceil((t_down_s - plan.plan_t0_s) / gait.node_dt_s - 1e-9))
+        changed = False
+        for leg, swing in list(plan.swings.items()):
+            if plan.touched[leg] or swing.t1_s - t_now < config.min_remaining_s:
+                continue
+            lifted = t_now >= swing.t0_s
+            base = swing
+            while not hasattr(base, "start_world"):  # a retargeted swing: the swing it displaces
+                base = base.base
+            start_xy = base.start_world
+            ground = touchdown_point(self.terrain, self.controller.last_foot_pos[leg] if lifted else start_xy, start_xy,
+                                     self.foot_radius_m)
+            if lifted:
+                plan.swings[leg] = SwingTrajectory(start_world=self.controller.last_foot_pos[leg].copy(),
+                                                   end_world=ground + np.array([0.0, 0.0, self.foot_radius_m]),
+                                                   t0_s=t_now, t1_s=t_down_s, height_m=0.0)
+            else:
+                plan.touched[leg] = True  # it has not left the ground: it stays
+            first = node_down if lifted else node_now
+            later = [j for j, s in enumerate(plan.steps[1:], 1) if leg in s.legs]
+            end = later[0] * gait.nodes_per_step + gait.n_stance_pre + gait.n_swing if later else len(plan.contact)
+            plan.contact[first:end, leg] = True
+            plan.foot_pos[first:end, leg] = ground
+            if plan.tops_z is not None:
+                plan.tops_z[first:end, leg] = ground[2]
+            changed = True
+        if changed:
+            self.brace_touchdowns += 1
+            self._optimize(state, plan)
 
     def _close_height_change(self, feet_world: np.ndarray) -> None:
         """The last step's rise or drop (the tops under its legs now against those at lift-off) and how far its
@@ -580,6 +628,7 @@ class Locomotion:
                                         if not math.isnan(r.height_change_m)), default=0.0),
             "max_external_force_n": 0.0 if self.observer is None else float(self.observer.max_estimate_n),
             "brace_steps": sum(r.braced for r in self.records),
+            "brace_touchdowns": self.brace_touchdowns,
         }
 
     def close(self) -> None:
