@@ -20,11 +20,12 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from contactnet.frames import rotate_xy
+from contactnet.motion.active_plan import ActivePlan
 from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
 from contactnet.motion.gait import GaitSpec
 from contactnet.motion.ground import body_pitch, front_to_hind_m
@@ -34,13 +35,12 @@ from contactnet.motion.trajopt import (
     TrajectoryOptimizer,
     TrajoptConfig,
     TrajoptProblem,
-    TrajoptSolution,
     TrajoptWeights,
     reference_forces,
 )
-from contactnet.planning.brace import BraceConfig, braces, standing_horizon, touchdown_point
+from contactnet.planning.brace import BraceConfig, braces, standing_horizon, touch_down_now
 from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
-from contactnet.planning.planner import PlannedStep, Planner, PlanningContext
+from contactnet.planning.planner import Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
 from contactnet.records import Snapshot, StepCounts, StepRecord, summary_stats
 from contactnet.robots.description import Robot
@@ -84,23 +84,6 @@ class LocomotionConfig:
     observer: ObserverConfig | None = DEFAULT_OBSERVER
     # While the observer's push is at least its threshold, new step horizons stand (contactnet.planning.brace).
     brace: BraceConfig | None = BraceConfig()
-
-
-@dataclass
-class _Plan:
-    """The active plan: contact schedule, footholds, optimizer solution and swing trajectories."""
-
-    t0_s: float  # time of node 0 of `solution`
-    plan_t0_s: float  # time the step plan started (start of the current step horizon)
-    steps: list[PlannedStep]
-    contact: np.ndarray  # (N, 4) from plan_t0_s
-    foot_pos: np.ndarray  # (N, 4, 3) contact points from plan_t0_s
-    solution: TrajoptSolution | None
-    swings: dict[int, SwingTrajectory] = field(default_factory=dict)
-    tops_z: np.ndarray | None = None  # (N, 4) the top under each foot at each node (contactnet.motion.ground)
-    touched: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))  # swung legs that touched down
-    solution_force_world: np.ndarray | None = None  # (3,) the external force `solution` was planned with (observer)
-    braced_down: bool = False  # bracing put this step's swinging feet down early (contactnet.planning.brace)
 
 
 class Locomotion:
@@ -147,7 +130,7 @@ class Locomotion:
         self.tick = 0
         self.yaw_ref_rad = 0.0
         self.set_command(*self.vel_cmd_xy)
-        self.plan: _Plan | None = None
+        self.plan: ActivePlan | None = None
         self.records: list[StepRecord] = []
         self.planner_times_s: list[float] = []
         self.trajopt_times_s: list[float] = []
@@ -351,7 +334,7 @@ class Locomotion:
                 braced=braced,
             )
         )
-        plan = _Plan(
+        plan = ActivePlan(
             t0_s=t_now, plan_t0_s=t_now, steps=steps, contact=contact, foot_pos=foot_pos, solution=None, swings=swings,
             tops_z=tops,
         )
@@ -359,7 +342,7 @@ class Locomotion:
         self.plan = plan
         self._optimize(state, plan, fallback=previous)
 
-    def _retarget(self, state: SimState, plan: _Plan) -> None:
+    def _retarget(self, state: SimState, plan: ActivePlan) -> None:
         """Give the swinging legs a new landing if the measured state calls for one (``contactnet.planning.retarget``):
         the swings, the first step and its footholds in the plan until those legs' next planned step."""
         new = retarget(self.planner, self._context(state), plan.steps[0], plan.swings, self.sim.t_s,
@@ -371,53 +354,21 @@ class Locomotion:
         plan.steps[0] = step
         gait = self.gait
         for leg, swing in swings.items():
-            start = gait.n_stance_pre + gait.n_swing
-            later = [j for j, s in enumerate(plan.steps[1:], 1) if leg in s.legs]
-            end = later[0] * gait.nodes_per_step + gait.n_stance_pre + gait.n_swing if later else len(plan.foot_pos)
-            plan.foot_pos[start:end, leg] = swing.end_world - np.array([0.0, 0.0, self.foot_radius_m])
-            plan.tops_z[start:end, leg] = swing.end_world[2] - self.foot_radius_m
+            plan.stand_on(leg, gait.n_stance_pre + gait.n_swing, swing.end_world - np.array([0.0, 0.0, self.foot_radius_m]),
+                          gait)
         self.swing_retargets += 1
 
-    def _brace_touchdown(self, state: SimState, plan: _Plan) -> None:
-        """Bracing's touchdown (``contactnet.planning.brace``): the first tick a push is estimated at the bracing
-        threshold during a step that bracing would have stood, the swinging feet come down within
-        ``BraceConfig.touchdown_s`` (``touchdown_point``), feet not yet lifted stay down, and the optimizer solves
-        again with them in stance."""
+    def _brace_touchdown(self, state: SimState, plan: ActivePlan) -> None:
+        """Bracing's touchdown (``contactnet.planning.brace.touch_down_now``): the first tick a push is estimated at
+        the bracing threshold during a step that bracing would have stood, the swinging feet come down, and the
+        optimizer solves again with them in stance."""
         config = self.config.brace
         if not (config.touch_down and braces(config, self.observer.active_force_xy(), plan.steps[0],
                                              self.robot.mass_kg)):
             return
         plan.braced_down = True  # once per step
-        gait, t_now = self.gait, self.sim.t_s
-        t_down_s = t_now + config.touchdown_s
-        node_now = int((t_now - plan.plan_t0_s + 1e-9) // gait.node_dt_s)
-        node_down = int(np.ceil((t_down_s - plan.plan_t0_s) / gait.node_dt_s - 1e-9))
-        changed = False
-        for leg, swing in list(plan.swings.items()):
-            if plan.touched[leg] or swing.t1_s - t_now < config.min_remaining_s:
-                continue
-            lifted = t_now >= swing.t0_s
-            base = swing
-            while not hasattr(base, "start_world"):  # a retargeted swing: the swing it displaces
-                base = base.base
-            start_xy = base.start_world
-            ground = touchdown_point(self.terrain, self.controller.last_foot_pos[leg] if lifted else start_xy, start_xy,
-                                     self.foot_radius_m)
-            if lifted:
-                plan.swings[leg] = SwingTrajectory(start_world=self.controller.last_foot_pos[leg].copy(),
-                                                   end_world=ground + np.array([0.0, 0.0, self.foot_radius_m]),
-                                                   t0_s=t_now, t1_s=t_down_s, height_m=0.0)
-            else:
-                plan.touched[leg] = True  # it has not left the ground: it stays
-            first = node_down if lifted else node_now
-            later = [j for j, s in enumerate(plan.steps[1:], 1) if leg in s.legs]
-            end = later[0] * gait.nodes_per_step + gait.n_stance_pre + gait.n_swing if later else len(plan.contact)
-            plan.contact[first:end, leg] = True
-            plan.foot_pos[first:end, leg] = ground
-            if plan.tops_z is not None:
-                plan.tops_z[first:end, leg] = ground[2]
-            changed = True
-        if changed:
+        if touch_down_now(plan, config, self.gait, self.sim.t_s, self.controller.last_foot_pos, self.terrain,
+                          self.foot_radius_m):
             self.brace_touchdowns += 1
             self._optimize(state, plan)
 
@@ -436,7 +387,7 @@ class Locomotion:
         self.records[-1].height_change_m = float(np.max(np.abs(now - liftoff)))
         self.records[-1].moved_m = float(np.max(np.hypot(*(now_xy - liftoff_xy).T)))
 
-    def _optimize(self, state: SimState, plan: _Plan, fallback: _Plan | None = None) -> None:
+    def _optimize(self, state: SimState, plan: ActivePlan, fallback: ActivePlan | None = None) -> None:
         """Solve the optimizer from the measured state over the plan's remaining nodes (padded with
         four-leg stance to the full horizon). On failure keep the previous solution."""
         t_now = self.sim.t_s
@@ -526,7 +477,7 @@ class Locomotion:
             external_force_world=external_world,
         )
 
-    def _adapt_to_contact(self, plan: _Plan, t_s: float, stance: np.ndarray, swing_pos: np.ndarray,
+    def _adapt_to_contact(self, plan: ActivePlan, t_s: float, stance: np.ndarray, swing_pos: np.ndarray,
                           swing_vel: np.ndarray) -> None:
         """Touchdown as sensed (in place on ``stance``, ``swing_pos``, ``swing_vel``): a swinging foot that
         touches the terrain in the last quarter of its swing, within ``early_touchdown_radius_m`` of its

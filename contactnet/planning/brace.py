@@ -26,8 +26,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from contactnet.motion.active_plan import ActivePlan, liftoff_point
+from contactnet.motion.controller import SwingTrajectory
 from contactnet.motion.gait import GaitSpec
 from contactnet.planning.ranking import PlannedStep
+from contactnet.terrain import Terrain
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,35 @@ def braces(config: BraceConfig | None, force_xy: tuple[float, float] | None, fir
             and math.hypot(*force_xy) >= config.threshold_m_s2 * mass_kg)
 
 
-def touchdown_point(terrain, foot_world: np.ndarray, liftoff_world: np.ndarray, margin_m: float) -> np.ndarray:
+def touch_down_now(plan: ActivePlan, config: BraceConfig, gait: GaitSpec, t_now_s: float, feet_world: np.ndarray,
+                   terrain: Terrain, foot_radius_m: float) -> bool:
+    """Bracing's touchdown on ``plan`` (edited in place) at ``t_now_s``: each swinging leg of the current step whose
+    swing lasts ``min_remaining_s`` more comes down within ``touchdown_s`` (``touchdown_point``) and stands there
+    until its next planned step; a leg that has not lifted off yet stays down. ``feet_world`` (4, 3): the foot
+    centres now. Returns whether anything changed (the optimizer must then solve again)."""
+    t_down_s = t_now_s + config.touchdown_s
+    node_down = int(np.ceil((t_down_s - plan.plan_t0_s) / gait.node_dt_s - 1e-9))
+    changed = False
+    for leg, swing in list(plan.swings.items()):
+        if plan.touched[leg] or swing.t1_s - t_now_s < config.min_remaining_s:
+            continue
+        liftoff = liftoff_point(swing)
+        if t_now_s >= swing.t0_s:  # in the air: a swing from here down onto the ground
+            ground = touchdown_point(terrain, feet_world[leg], liftoff, foot_radius_m)
+            plan.swings[leg] = SwingTrajectory(start_world=feet_world[leg].copy(),
+                                               end_world=ground + np.array([0.0, 0.0, foot_radius_m]),
+                                               t0_s=t_now_s, t1_s=t_down_s, height_m=0.0)
+            plan.stand_on(leg, node_down, ground, gait, in_contact=True)
+        else:  # it has not left the ground: it stays
+            plan.touched[leg] = True
+            ground = np.array([liftoff[0], liftoff[1], float(terrain.ground_z(liftoff[None, :2])[0])])
+            plan.stand_on(leg, plan.node_at(t_now_s, gait.node_dt_s), ground, gait, in_contact=True)
+        changed = True
+    return changed
+
+
+def touchdown_point(terrain: Terrain, foot_world: np.ndarray, liftoff_world: np.ndarray,
+                    margin_m: float) -> np.ndarray:
     """Where a swinging foot (centre ``foot_world``, lifted off at ``liftoff_world``) comes down when bracing cuts
     its swing short: the ground under it if that is ``margin_m`` inside safe ground, else its lift-off point (it
     stood there). Returns the contact point (3,): that x, y and the ground's height there."""
@@ -82,4 +113,4 @@ def standing_horizon(gait: GaitSpec, n_steps: int) -> list[PlannedStep]:
             for _ in range(n_steps)]
 
 
-__all__ = ["BraceConfig", "braces", "standing_horizon", "touchdown_point"]
+__all__ = ["BraceConfig", "braces", "standing_horizon", "touch_down_now", "touchdown_point"]
