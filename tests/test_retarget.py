@@ -43,7 +43,9 @@ def test_a_pushed_walk_retargets_its_swings_only_when_asked():
     robot = registry.load_robot("solo12")
     gait = registry.gait_by_name("walk")
     counts = {}
-    for name, config in (("off", LocomotionConfig()), ("on", LocomotionConfig(retarget=RetargetConfig()))):
+    # bracing off: a braced walk stands while pushed, so there is no swing to retarget
+    for name, config in (("off", LocomotionConfig(brace=None)),
+                         ("on", LocomotionConfig(brace=None, retarget=RetargetConfig()))):
         planner = registry.make_planner("contactnet", gait, robot)
         with Locomotion(robot, resolve("push_field"), gait, planner, SimConfig(), config=config,
                         vel_cmd_xy=(0.05, 0.0)) as loco:
