@@ -82,15 +82,15 @@ def touch_down_now(plan: ActivePlan, config: BraceConfig, gait: GaitSpec, t_now_
         if plan.touched[leg] or swing.t1_s - t_now_s < config.min_remaining_s:
             continue
         liftoff = liftoff_point(swing)
-        if t_now_s >= swing.t0_s:  # in the air: a swing from here down onto the ground
-            ground = touchdown_point(terrain, feet_world[leg], liftoff, foot_radius_m)
+        lifted = t_now_s >= swing.t0_s
+        ground = touchdown_point(terrain, feet_world[leg] if lifted else liftoff, liftoff, foot_radius_m)
+        if lifted:  # in the air: a swing from here down onto the ground
             plan.swings[leg] = SwingTrajectory(start_world=feet_world[leg].copy(),
                                                end_world=ground + np.array([0.0, 0.0, foot_radius_m]),
                                                t0_s=t_now_s, t1_s=t_down_s, height_m=0.0)
             plan.stand_on(leg, node_down, ground, gait, in_contact=True)
         else:  # it has not left the ground: it stays
             plan.touched[leg] = True
-            ground = np.array([liftoff[0], liftoff[1], float(terrain.ground_z(liftoff[None, :2])[0])])
             plan.stand_on(leg, plan.node_at(t_now_s, gait.node_dt_s), ground, gait, in_contact=True)
         changed = True
     return changed
