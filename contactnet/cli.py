@@ -27,6 +27,7 @@ USER_ERROR_CLASSES = (
     ("contactnet.planning.network", "ModelFileError"),
     ("contactnet.jobs.experiment", "ExperimentError"),
     ("contactnet.jobs.ray_engine", "EngineUnavailable"),
+    ("contactnet.extras", "MissingExtra"),
 )
 
 

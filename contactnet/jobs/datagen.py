@@ -333,9 +333,12 @@ def _shard_job(job: tuple[DatagenConfig, int]) -> dict:
 
 
 def _one_torch_thread() -> None:
-    """Worker processes: one torch thread each (the workers already use every core)."""
-    import torch
-
+    """Worker processes: one torch thread each (the workers already use every core); nothing without torch (the
+    extra ``train``)."""
+    try:
+        import torch
+    except ImportError:
+        return
     torch.set_num_threads(1)
 
 

@@ -308,9 +308,12 @@ def trial_inputs(trial: Trial) -> dict:
 
 
 def _one_torch_thread() -> None:
-    """Worker processes: one torch thread each (the workers already use every core)."""
-    import torch
-
+    """Worker processes: one torch thread each (the workers already use every core); nothing without torch (the
+    extra ``train``)."""
+    try:
+        import torch
+    except ImportError:
+        return
     torch.set_num_threads(1)
 
 

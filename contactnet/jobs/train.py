@@ -36,9 +36,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
 
 from contactnet import registry
+from contactnet.extras import import_torch
 from contactnet.jobs.runner import check_file
 from contactnet.planning.network import (
     INPUT_NAMES,
@@ -49,6 +49,8 @@ from contactnet.planning.network import (
     topk_accuracy,
 )
 from contactnet.planning.network_torch import ContactNet, save_model
+
+torch = import_torch()
 
 DATASET_FORMAT = "contactnet-dataset-v1"
 EXIT_INTERRUPTED = 130

@@ -14,15 +14,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import torch
-from torch import nn
 
 from contactnet.atomic import atomic_write_with
+from contactnet.extras import import_torch
 from contactnet.motion.gait import gait_by_name
 from contactnet.planning.model_file import MODEL_FORMAT, content_hash
 from contactnet.planning.network_input import N_INPUTS
 from contactnet.planning.normalizer import Normalizer
 from contactnet.robots import DEFAULT_ROBOT
+
+torch = import_torch()  # MissingExtra without the extra ``train``: one line saying how to get it
+nn = torch.nn
 
 HIDDEN = (128, 128, 128)
 

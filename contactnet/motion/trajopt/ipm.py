@@ -8,6 +8,7 @@ vectorized numpy over the batch.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,6 +16,16 @@ import numpy as np
 from contactnet.frames import skew
 from contactnet.motion.trajopt.condensed import CondensedQp
 from contactnet.motion.trajopt.model import N_LEGS, NU, NX, _foot_rows
+
+
+@functools.cache
+def _torch():
+    """torch if it is installed, else None (looked up once: a failed import is not cached by Python)."""
+    try:
+        import torch
+    except ImportError:
+        return None
+    return torch
 
 
 class _Cholesky:
@@ -34,9 +45,8 @@ class _Cholesky:
             factor, info = lapack.dpotrf(mats[0], lower=True, clean=False)
             self._single, self.ok[0] = factor, info == 0
             return
-        try:
-            import torch
-        except ImportError:  # pragma: no cover - torch is a project dependency
+        torch = _torch()
+        if torch is None:  # without the extra ``train`` (contactnet.extras)
             self._mats = mats
             self.ok = np.isfinite(mats).all(axis=(1, 2))
             return
