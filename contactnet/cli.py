@@ -11,6 +11,7 @@ from pathlib import Path
 
 from app.live.settings import VELOCITY_LIMIT_M_S
 from contactnet import registry
+from contactnet.sim.world import ENGINES as SIM_ENGINES
 
 EXIT_USER_ERROR = 2
 
@@ -176,7 +177,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     gait = registry.gait_by_name(args.gait)
     robot = registry.load_robot(args.robot)
     planner = make_planner(args.planner, gait, robot, model=args.model)
-    sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args))
+    sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args),
+                           engine=args.sim)
     with contextlib.ExitStack() as stack:
         recording = None
         if args.record:  # the scene over time, as the web tool draws it (app/recordings/recorder.py)
@@ -461,6 +463,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(sim)
+    sim.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
     sim.add_argument("--record", metavar="FILE.viser")
     sim.add_argument("--json", action="store_true")
     sim.set_defaults(func=cmd_simulate)

@@ -44,7 +44,8 @@ from contactnet.planning.planner import Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
 from contactnet.records import Snapshot, StepCounts, StepRecord, summary_stats
 from contactnet.robots.description import Robot
-from contactnet.sim.pybullet_world import Push, SimConfig, SimState, Simulator
+from contactnet.sim.engines import make_simulator
+from contactnet.sim.world import Push, SimConfig, SimState
 from contactnet.terrain import Terrain
 
 
@@ -95,17 +96,18 @@ class Locomotion:
         terrain: Terrain,
         gait: GaitSpec,
         planner: Planner,
-        sim_config: SimConfig = SimConfig(),
+        sim_config: SimConfig | None = None,
         gains: ControllerGains | None = None,
         config: LocomotionConfig = LocomotionConfig(),
         vel_cmd_xy: tuple[float, float] = (0.0, 0.0),
     ):
+        sim_config = SimConfig() if sim_config is None else sim_config
         self.robot = robot
         self.terrain = terrain
         self.gait = gait
         self.planner = planner
         self.config = config
-        self.sim = Simulator(robot, terrain, sim_config)
+        self.sim = make_simulator(robot, terrain, sim_config)
         self.controller = WholeBodyController(robot, gains)
         self.set_observer(config.observer)
         model = SrbdModel.for_robot(robot.description, gravity=sim_config.gravity, mu=config.mu)
@@ -578,6 +580,7 @@ class Locomotion:
             "max_height_change_m": max((r.height_change_m for r in self.records
                                         if not math.isnan(r.height_change_m)), default=0.0),
             "max_external_force_n": 0.0 if self.observer is None else float(self.observer.max_estimate_n),
+            "sim": self.sim.engine,
             "brace_steps": sum(r.braced for r in self.records),
             "brace_touchdowns": self.brace_touchdowns,
         }

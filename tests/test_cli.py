@@ -98,9 +98,12 @@ def test_bench_sim_json():
     from contactnet.registry import model_path
 
     shipped = [gait for gait in ("walk", "trot") if model_path("solo12", gait).exists()]
-    assert len(rows) == 5 + len(shipped)  # 3 standing, 2 heuristic whole-stack, 1 per shipped model
+    # 5 standing (3 PyBullet, 2 MuJoCo), 2 heuristic whole-stack cases and 1 per shipped model, each in both engines
+    assert len(rows) == 5 + 2 * (2 + len(shipped))
     for gait in shipped:
         assert f"solo12 whole stack: {gait} 0.05 m/s on stepping_stones, contactnet planner" in rows
+        assert rows[f"solo12 whole stack in MuJoCo: {gait} 0.05 m/s on stepping_stones, contactnet planner"][
+            "vs_pybullet"] > 0
     for row in rows.values():
         assert row["median_rtf"] > 0 and row["fell"] is False
 

@@ -13,137 +13,25 @@ from __future__ import annotations
 import collections
 import contextlib
 import functools
-import math
 import os
 import sys
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from contactnet.frames import quat_to_matrix, quat_to_rpy, yaw_to_quat
 from contactnet.robots.description import LEG_NAMES, Robot
-from contactnet.sim.mismatch import ModelMismatch
+from contactnet.sim.world import (  # the engine-neutral types, re-exported here where they were first defined
+    IMPULSE_DURATION_S,
+    BodyContact,
+    Push,
+    Referee,
+    SimConfig,
+    SimState,
+    StandingGains,
+    describe_body_contacts,
+    standing_torques,
+)
 from contactnet.terrain import Terrain
-
-
-@dataclass(frozen=True)
-class SimConfig:
-    """How the world is simulated, and what counts as a fall."""
-
-    dt_s: float = 0.001
-    gravity: float = 9.81
-    foot_friction: float = 0.9
-    joint_vel_noise_var: float = 0.0  # variance of the Gaussian noise on measured joint velocities
-    seed: int = 0
-    terrain_thickness_m: float = 0.4
-    fall_base_height_m: float | None = None  # base origin below the ground + this: fallen (None: the robot's)
-    fall_tilt_rad: float = 0.9  # |roll| or |pitch| above this: fallen
-    solver_iterations: int = 50
-    sphere_feet: bool = True  # False: the URDF's mesh feet (slower; for comparisons)
-    mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
-
-    def __post_init__(self) -> None:
-        if not 1e-4 <= self.dt_s <= 0.01:
-            raise ValueError(f"dt_s must be in [1e-4, 0.01] s, got {self.dt_s}")
-        if not (np.isfinite(self.joint_vel_noise_var) and 0.0 <= self.joint_vel_noise_var <= 10.0):
-            raise ValueError(f"joint_vel_noise_var must be in [0, 10] (rad/s)^2, got {self.joint_vel_noise_var}")
-
-
-#: An impulse (N s) is given as a force over this time: short against the robot's step and body dynamics.
-IMPULSE_DURATION_S = 0.1
-
-
-@dataclass(frozen=True)
-class Push:
-    """An external force on the base, in the world frame, from t0_s for duration_s."""
-
-    t0_s: float
-    duration_s: float
-    force_world: tuple[float, float, float]
-
-    def active(self, t_s: float) -> bool:
-        return self.t0_s <= t_s < self.t0_s + self.duration_s
-
-    @staticmethod
-    def at_angle(t0_s: float, angle_rad: float, force_n: float, duration_s: float) -> Push:
-        """A horizontal push of ``force_n`` at ``angle_rad`` (world: 0 along +x, pi / 2 along +y), forces to 0.1 mN."""
-        fx, fy = round(force_n * math.cos(angle_rad), 4) + 0.0, round(force_n * math.sin(angle_rad), 4) + 0.0
-        return Push(t0_s, duration_s, (fx, fy, 0.0))
-
-    @staticmethod
-    def impulse(t0_s: float, angle_rad: float, impulse_ns: float) -> Push:
-        """An impulse of ``impulse_ns`` newton-seconds at ``angle_rad``: its force over ``IMPULSE_DURATION_S``."""
-        return Push.at_angle(t0_s, angle_rad, impulse_ns / IMPULSE_DURATION_S, IMPULSE_DURATION_S)
-
-    @staticmethod
-    def parse(text: str) -> Push:
-        """Parse 'T0,DURATION,FX,FY' (seconds, seconds, newtons, newtons)."""
-        parts = text.split(",")
-        if len(parts) != 4:
-            raise ValueError(f"--push expects T0,DURATION,FX,FY (4 numbers), got {text!r}")
-        try:
-            t0, duration, fx, fy = (float(p) for p in parts)
-        except ValueError:
-            raise ValueError(f"--push expects numbers T0,DURATION,FX,FY, got {text!r}") from None
-        if not all(np.isfinite([t0, duration, fx, fy])):
-            raise ValueError(f"--push values must be finite, got {text!r}")
-        if t0 < 0 or not 0 < duration <= 60:
-            raise ValueError(f"--push needs T0 >= 0 and 0 < DURATION <= 60 s, got {text!r}")
-        if max(abs(fx), abs(fy)) > 100:
-            raise ValueError(f"--push force beyond +-100 N, got {text!r}")
-        return Push(t0, duration, (fx, fy, 0.0))
-
-
-@dataclass(frozen=True)
-class BodyContact:
-    """A robot link other than a foot touching the terrain (the referee's non-foot contact), world frame."""
-
-    link: str  # the link's name in the URDF, e.g. FR_LOWER_LEG or base_link
-    leg: str | None  # the leg the link belongs to (its foot's leg name), None for the body
-    point_world: tuple[float, float, float]  # contact point on the terrain, m
-    normal_world: tuple[float, float, float]  # contact normal, from the terrain toward the link
-    normal_force_n: float
-    foot_over_gap: bool  # the link's leg has its foot-ball centre over no steppable ground (a hole, off an edge)
-
-    @property
-    def on_edge(self) -> bool:
-        """The terrain touches the link with its side or a corner (normal more than ~25 deg off vertical)."""
-        return self.normal_world[2] < 0.9
-
-
-@dataclass
-class SimState:
-    """What the robot's sensors (and the referee) see at one instant. World frame unless named."""
-
-    t_s: float
-    base_pos_world: np.ndarray  # (3,) base-link origin
-    base_quat_world: np.ndarray  # (4,) x, y, z, w
-    base_lin_vel_world: np.ndarray  # (3,)
-    base_ang_vel_world: np.ndarray  # (3,)
-    joint_pos: np.ndarray  # (12,) rad, pinocchio order
-    joint_vel: np.ndarray  # (12,) rad/s as measured (with the configured noise)
-    joint_vel_true: np.ndarray  # (12,) rad/s without noise
-    foot_contact: np.ndarray  # (4,) bool, FL FR HL HR touching the terrain
-    foot_force_world: np.ndarray = field(repr=False)  # (4, 3) contact force on each foot
-    base_rot_world: np.ndarray | None = field(default=None, repr=False)  # (3, 3); None: from the quaternion
-    _rpy: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
-
-    @property
-    def rpy(self) -> np.ndarray:
-        """(3,) base roll, pitch, yaw (rad), computed at the first read (the same array after that: read only)."""
-        if self._rpy is None:
-            self._rpy = quat_to_rpy(self.base_quat_world)
-        return self._rpy
-
-    def q_pinocchio(self) -> np.ndarray:
-        """(19,) pinocchio configuration."""
-        return np.concatenate([self.base_pos_world, self.base_quat_world, self.joint_pos])
-
-    def v_pinocchio(self) -> np.ndarray:
-        """(18,) pinocchio velocity: base velocities in the base frame, then measured joint velocities."""
-        rot = quat_to_matrix(self.base_quat_world) if self.base_rot_world is None else self.base_rot_world
-        base_vel_world = np.array((self.base_lin_vel_world, self.base_ang_vel_world))  # (2, 3)
-        return np.concatenate((np.dot(base_vel_world, rot).ravel(), self.joint_vel))
 
 
 @contextlib.contextmanager
@@ -174,14 +62,17 @@ class _BoundClient:
         return functools.partial(attribute, physicsClientId=self.client_id) if callable(attribute) else attribute
 
 
-class Simulator:
+class Simulator(Referee):
     """A robot on a terrain in PyBullet (DIRECT mode, torque control, fixed time step).
 
     `step(tau)` applies joint torques (saturated to the motor limit) for one time step, with any
     active pushes. `state()` reads the sensors. `fallen()` and `reached_goal()` are the referee.
     """
 
-    def __init__(self, robot: Robot, terrain: Terrain, config: SimConfig = SimConfig()):
+    engine = "pybullet"
+
+    def __init__(self, robot: Robot, terrain: Terrain, config: SimConfig | None = None):
+        config = SimConfig() if config is None else config
         with _stdout_silenced():  # PyBullet prints a banner on the C stdout (it would spoil --json)
             import pybullet
 
@@ -495,45 +386,13 @@ class Simulator:
             ))
         return sorted(contacts, key=lambda contact: contact.link)
 
-    # ---- referee ---------------------------------------------------------------------------
-    def fall_reason(self, state: SimState | None = None) -> str | None:
-        """Why the robot counts as fallen now, or None: base too low, too tilted, or a shin/body contact."""
-        s = self._truth(state)
-        # The height above the highest ground anywhere bounds the height above the ground here from below: when it
-        # clears the limit, the terrain need not be asked (the check runs every few milliseconds).
-        terrain = self.terrain
-        if self._highest_ground is None or self._highest_ground[0] is not terrain:
-            self._highest_ground = (terrain, max(terrain.surface_z, *(z for z, _ in terrain.levels)))
-        if float(s.base_pos_world[2]) - self._highest_ground[1] < self.fall_base_height_m:
-            height = s.base_pos_world[2] - float(terrain.ground_z(s.base_pos_world[:2]))
-            if height < self.fall_base_height_m:
-                return f"base height {height:.3f} m below {self.fall_base_height_m} m"
-        roll, pitch, _ = s.rpy
-        if max(abs(roll), abs(pitch)) > self.config.fall_tilt_rad:
-            return f"base tilted (roll {roll:.2f}, pitch {pitch:.2f} rad)"
-        touching = self.body_contacts()
-        if touching:
-            return describe_body_contacts(touching)
-        return None
-
-    def _truth(self, state: SimState | None) -> SimState:
-        """``state`` for the referee: read now when not given, and read without noise when the base's sensors are
-        noisy (the referee sees the truth)."""
-        if not self._noisy_base:
-            return self.state() if state is None else state
+    # ---- referee (contactnet.sim.world.Referee) --------------------------------------------
+    def _true_base(self) -> tuple:
+        """The base's position, quaternion (x, y, z, w), linear and angular velocity (world) without sensor noise."""
         pb, cid = self._pb, self._cid
         pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
         lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
-        base = state or self.state(with_contacts=False)
-        return SimState(base.t_s, np.array(pos), np.array(quat), np.array(lin), np.array(ang), base.joint_pos,
-                        base.joint_vel, base.joint_vel_true, base.foot_contact, base.foot_force_world)
-
-    def fallen(self, state: SimState | None = None) -> bool:
-        return self.fall_reason(state) is not None
-
-    def reached_goal(self, state: SimState | None = None) -> bool:
-        s = self._truth(state)
-        return bool(s.base_pos_world[0] >= self.terrain.goal_x)
+        return pos, quat, lin, ang
 
     def close(self) -> None:
         if self.client is not None:
@@ -547,36 +406,8 @@ class Simulator:
         self.close()
 
 
-def describe_body_contacts(contacts: list[BodyContact]) -> str:
-    """The referee's sentence for a non-foot contact: which links touch where, and why when a foot stepped into
-    a gap, e.g. "non-foot contact: FR_LOWER_LEG on an edge at x 0.25, y -0.14 m (the FR foot stepped into a
-    gap)". Starts with "non-foot contact: " and the link names."""
-    places = []
-    for contact in contacts:
-        x, y, _ = contact.point_world
-        where = "on an edge" if contact.on_edge else "on top of the terrain"
-        places.append(f"{contact.link} {where} at x {x:.2f}, y {y:.2f} m")
-    gap_legs = sorted({c.leg for c in contacts if c.foot_over_gap and c.leg is not None})
-    why = ""
-    if gap_legs:
-        feet = " and ".join(gap_legs)
-        why = f" (the {feet} foot stepped into a gap)" if len(gap_legs) == 1 else f" (the {feet} feet stepped into gaps)"
-    return "non-foot contact: " + "; ".join(places) + why
-
-
-@dataclass(frozen=True)
-class StandingGains:
-    """Joint PD that holds the nominal stance (the simplest controller; the benchmark reference)."""
-
-    kp_nm_per_rad: float = 5.0
-    kd_nms_per_rad: float = 0.2
-
-
-def standing_torques(state: SimState, joint_target: np.ndarray, gains: StandingGains = StandingGains()) -> np.ndarray:
-    return gains.kp_nm_per_rad * (joint_target - state.joint_pos) - gains.kd_nms_per_rad * state.joint_vel
-
-
 __all__ = [
+    "IMPULSE_DURATION_S",
     "LEG_NAMES",
     "BodyContact",
     "Push",
