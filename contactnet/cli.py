@@ -11,6 +11,7 @@ from pathlib import Path
 
 from app.live.settings import VELOCITY_LIMIT_M_S
 from contactnet import registry
+from contactnet.cli_types import bounded_float, bounded_int, choices, number_list, positive_int
 from contactnet.sim.world import ENGINES as SIM_ENGINES
 
 EXIT_USER_ERROR = 2
@@ -37,65 +38,6 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     one, so this imports nothing (printing an error must not import e.g. the training modules, which pull in torch)."""
     found = [getattr(sys.modules[module], name) for module, name in USER_ERROR_CLASSES if module in sys.modules]
     return (UserError, *found)
-
-
-# ---- argument types ----------------------------------------------------------------------------
-def _bounded_float(name: str, low: float, high: float):
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (low <= value <= high):  # also rejects nan
-            raise argparse.ArgumentTypeError(f"{name} must be in [{low}, {high}], got {text}")
-        return value
-
-    return parse
-
-
-def _choices(name: str, allowed: tuple[str, ...]):
-    def parse(text: str) -> tuple[str, ...]:
-        items = tuple(t.strip() for t in text.split(",") if t.strip())
-        bad = [t for t in items if t not in allowed]
-        if bad or not items:
-            raise argparse.ArgumentTypeError(f"{name}: expected a comma-separated list of {', '.join(allowed)}, got {text!r}")
-        return items
-
-    return parse
-
-
-def _number_list(name: str, low: float, high: float, kind: type = float):
-    """Comma-separated numbers of ``kind`` (int: whole numbers), each in [low, high] (nan rejected)."""
-    what = "whole numbers" if kind is int else "numbers"
-    bounds = f"{low}..{high}" if kind is int else f"[{low:g}, {high:g}]"
-
-    def parse(text: str) -> tuple:
-        try:
-            items = tuple(kind(t) for t in text.split(",") if t.strip())
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: expected comma-separated {what}, got {text!r}") from None
-        if not items or any(not low <= v <= high for v in items):
-            raise argparse.ArgumentTypeError(f"{name}: every value must be in {bounds}, got {text!r}")
-        return items
-
-    return parse
-
-
-def _bounded_int(name: str, low: int, high: int):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a whole number, got {text!r}") from None
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"{name} must be in {low}..{high}, got {value}")
-        return value
-
-    return parse
-
-
-def _positive_int(name: str, high: int):
-    return _bounded_int(name, 1, high)
 
 
 # ---- subcommands -------------------------------------------------------------------------------
@@ -222,19 +164,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _port_number(name: str):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a whole number, got {text!r}") from None
-        if not 1 <= value <= 65535:
-            raise argparse.ArgumentTypeError(f"{name} must be in 1..65535, got {value}")
-        return value
-
-    return parse
-
-
 def cmd_serve(args: argparse.Namespace) -> int:
     from app.api.server import serve
     from app.live.settings import settings_from_args
@@ -264,7 +193,7 @@ def cmd_datagen(args: argparse.Namespace) -> int:
     _check_engine(args)
     config = DatagenConfig(gait=args.gait, robot=args.robot, episodes=args.episodes, seed=args.seed,
                            episodes_per_shard=args.episodes_per_shard,
-                           instances_per_episode=args.instances_per_episode)
+                           instances_per_episode=args.instances_per_episode, sim=args.sim)
     try:
         manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet,
                             engine=args.engine, address=args.address)
@@ -312,7 +241,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            height_m=DEFAULT_HEIGHT_M if args.height is None else args.height,
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
-                           retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch)
+                           retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch,
+                           sim=args.sim)
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
@@ -372,22 +302,22 @@ def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
 
     group = parser.add_argument_group(
         "model mismatch", "the simulated robot differs from the model; the planner and the controller do not know it")
-    group.add_argument("--mass-scale", type=_bounded_float("--mass-scale", *LIMITS["mass_scale"]), default=1.0,
+    group.add_argument("--mass-scale", type=bounded_float("--mass-scale", *LIMITS["mass_scale"]), default=1.0,
                        metavar="S", help="every link's mass and inertia times S")
     group.add_argument("--payload", metavar="KG[,DX,DY]",
                        help="a mass fixed to the base, DX, DY metres from the base origin (base frame)")
-    group.add_argument("--friction", type=_bounded_float("--friction", *LIMITS["friction"]), default=None,
+    group.add_argument("--friction", type=bounded_float("--friction", *LIMITS["friction"]), default=None,
                        metavar="MU", help="the foot-ground friction coefficient (default 0.81: 0.9 x 0.9)")
-    group.add_argument("--torque-scale", type=_bounded_float("--torque-scale", *LIMITS["torque_scale"]),
+    group.add_argument("--torque-scale", type=bounded_float("--torque-scale", *LIMITS["torque_scale"]),
                        default=1.0, metavar="S", help="the motors' torque limits times S")
-    group.add_argument("--orientation-noise", type=_bounded_float("--orientation-noise",
+    group.add_argument("--orientation-noise", type=bounded_float("--orientation-noise",
                                                                   *LIMITS["orientation_noise_rad"]),
                        default=0.0, metavar="RAD", help="std of the measured base orientation's error, per axis")
-    group.add_argument("--velocity-noise", type=_bounded_float("--velocity-noise", *LIMITS["lin_vel_noise_m_s"]),
+    group.add_argument("--velocity-noise", type=bounded_float("--velocity-noise", *LIMITS["lin_vel_noise_m_s"]),
                        default=0.0, metavar="M_S", help="std of the measured base linear velocity's error")
-    group.add_argument("--gyro-noise", type=_bounded_float("--gyro-noise", *LIMITS["ang_vel_noise_rad_s"]),
+    group.add_argument("--gyro-noise", type=bounded_float("--gyro-noise", *LIMITS["ang_vel_noise_rad_s"]),
                        default=0.0, metavar="RAD_S", help="std of the measured base angular velocity's error")
-    group.add_argument("--delay-ms", type=_bounded_float("--delay-ms", *LIMITS["delay_ms"]), default=0.0,
+    group.add_argument("--delay-ms", type=bounded_float("--delay-ms", *LIMITS["delay_ms"]), default=0.0,
                        metavar="MS", help="the torques act this long after they were computed")
 
 
@@ -419,15 +349,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     serve = sub.add_parser("serve", help="start the web tool (FastAPI + viser)")
     serve.add_argument("--host", default="127.0.0.1")
-    serve.add_argument("--port", type=_port_number("--port"), default=8000, help="web page and REST API")
-    serve.add_argument("--viser-port", type=_port_number("--viser-port"), default=8080,
+    serve.add_argument("--port", type=bounded_int("--port", 1, 65535), default=8000, help="web page and REST API")
+    serve.add_argument("--viser-port", type=bounded_int("--viser-port", 1, 65535), default=8080,
                        help="3D view (viser takes the next free port if busy)")
     serve.add_argument("--terrain", default="stepping_stones", help="terrain name or JSON path")
     serve.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
     serve.add_argument("--gait", choices=registry.gait_names(), default="walk")
+    serve.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
     serve.add_argument("--planner", choices=registry.planner_names(), default="contactnet",
                        help="falls back to heuristic when the planner's model is missing")
-    serve.add_argument("--vx", type=_bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
+    serve.add_argument("--vx", type=bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
                        help="m/s")
     serve.add_argument("--recordings", metavar="DIR",
                        help="folder of scene recordings (default: $CONTACTNET_DATA/recordings, else "
@@ -445,19 +376,19 @@ def build_parser() -> argparse.ArgumentParser:
     sim = sub.add_parser("simulate", help="run one simulation headless")
     sim.add_argument("--terrain", required=True, help="terrain name or JSON path ('random' with --removed)")
     sim.add_argument("--removed", type=int, default=None, help="squares removed from the random field")
-    sim.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
+    sim.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                      help=HEIGHT_HELP)
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--gait", choices=registry.gait_names(), required=True)
     sim.add_argument("--planner", choices=registry.planner_names(), required=True)
     sim.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
     sim.add_argument("--model", metavar="FILE.pt", help="model of contactnet/fixed (default: the shipped one)")
-    sim.add_argument("--vx", type=_bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
+    sim.add_argument("--vx", type=bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
                      help="m/s")
-    sim.add_argument("--vy", type=_bounded_float("--vy", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.0,
+    sim.add_argument("--vy", type=bounded_float("--vy", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.0,
                      help="m/s")
-    sim.add_argument("--duration", type=_bounded_float("--duration", 0.1, 3600), default=60.0, help="s")
-    sim.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
+    sim.add_argument("--duration", type=bounded_float("--duration", 0.1, 3600), default=60.0, help="s")
+    sim.add_argument("--noise", type=bounded_float("--noise", 0.0, 1.0), default=0.0,
                      help="variance of joint-velocity noise, (rad/s)^2")
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
@@ -471,12 +402,13 @@ def build_parser() -> argparse.ArgumentParser:
     datagen = sub.add_parser("datagen", help="generate a training dataset")
     datagen.add_argument("--gait", choices=registry.gait_names(), required=True)
     datagen.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
-    datagen.add_argument("--episodes", type=_positive_int("--episodes", 10**6), default=1500)
+    datagen.add_argument("--episodes", type=positive_int("--episodes", 10**6), default=1500)
     datagen.add_argument("--out", required=True)
-    datagen.add_argument("--workers", type=_positive_int("--workers", 256))
+    datagen.add_argument("--workers", type=positive_int("--workers", 256))
     datagen.add_argument("--seed", type=int, default=0)
-    datagen.add_argument("--episodes-per-shard", type=_positive_int("--episodes-per-shard", 1000), default=5)
-    datagen.add_argument("--instances-per-episode", type=_positive_int("--instances-per-episode", 1000), default=30,
+    datagen.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
+    datagen.add_argument("--episodes-per-shard", type=positive_int("--episodes-per-shard", 1000), default=5)
+    datagen.add_argument("--instances-per-episode", type=positive_int("--instances-per-episode", 1000), default=30,
                          help="the paper's 30; fewer for quick trials")
     datagen.add_argument("--quiet", action="store_true", help="no progress bar")
     _engine_arguments(datagen)
@@ -488,14 +420,14 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the robot the dataset must have been made with (default: the dataset's)")
     train.add_argument("--data", required=True)
     train.add_argument("--out", required=True)
-    train.add_argument("--epochs", type=_positive_int("--epochs", 10**6), default=1000)
-    train.add_argument("--batch-size", type=_positive_int("--batch-size", 10**5), default=100)
-    train.add_argument("--lr", type=_bounded_float("--lr", 1e-7, 1.0), default=1e-3)
+    train.add_argument("--epochs", type=positive_int("--epochs", 10**6), default=1000)
+    train.add_argument("--batch-size", type=positive_int("--batch-size", 10**5), default=100)
+    train.add_argument("--lr", type=bounded_float("--lr", 1e-7, 1.0), default=1e-3)
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--split", choices=["episode", "instance"], default="episode",
                        help="70/30 split by whole episodes (default) or by instances (the paper's)")
-    train.add_argument("--threads", type=_positive_int("--threads", 256), default=1)
-    train.add_argument("--max-minutes", type=_bounded_float("--max-minutes", 0.01, 10**5), default=None)
+    train.add_argument("--threads", type=positive_int("--threads", 256), default=1)
+    train.add_argument("--max-minutes", type=bounded_float("--max-minutes", 0.01, 10**5), default=None)
     train.add_argument("--save-partial", action="store_true", help="on Ctrl-C, save the model trained so far")
     train.add_argument("--quiet", action="store_true", help="no progress bar")
     train.set_defaults(func=cmd_train)
@@ -505,43 +437,44 @@ def build_parser() -> argparse.ArgumentParser:
                                              "raised_stones", "random_heights", "push", "robustness", "paper"],
                             help="paper: the paper's whole Sec. IV (every experiment, its numbers of trials) and "
                                  "a report in DIR")
-    experiment.add_argument("--scale", type=_bounded_float("--scale", 1e-6, 1.0), default=None,
+    experiment.add_argument("--scale", type=bounded_float("--scale", 1e-6, 1.0), default=None,
                             help="paper: run this share of every batch (at least 1 trial per cell; default 1)")
     experiment.add_argument("--report-only", action="store_true",
                             help="paper: write DIR's report from its stored trials, run nothing")
-    experiment.add_argument("--trials", type=_positive_int("--trials", 10**5),
+    experiment.add_argument("--trials", type=positive_int("--trials", 10**5),
                             help="seeds per setting (default: 20 on random and random_heights, 5 on raised_stones, "
                                  "1 on the others)")
-    experiment.add_argument("--workers", type=_positive_int("--workers", 256))
+    experiment.add_argument("--workers", type=positive_int("--workers", 256))
     experiment.add_argument("--out", required=True)
     experiment.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
-    experiment.add_argument("--gaits", type=_choices("--gaits", registry.gait_names()), default=None,
+    experiment.add_argument("--gaits", type=choices("--gaits", registry.gait_names()), default=None,
                             help="comma-separated (default: walk; walk,trot on random and the terrains with "
                                  "heights)")
-    experiment.add_argument("--planners", type=_choices("--planners", registry.planner_names()), default=None,
+    experiment.add_argument("--planners", type=choices("--planners", registry.planner_names()), default=None,
                             help="comma-separated (default: contactnet,fixed,heuristic; contactnet,fixed on the "
                                  "terrains with heights)")
-    experiment.add_argument("--removed", type=_number_list("--removed", 0, 300, int), default=(80,),
+    experiment.add_argument("--removed", type=number_list("--removed", 0, 300, int), default=(80,),
                             help="squares removed on random and random_heights, comma-separated (default 80)")
-    experiment.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
+    experiment.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                             help=HEIGHT_HELP)
-    experiment.add_argument("--force", type=_number_list("--force", 0.1, 100.0), default=None, metavar="N,...",
+    experiment.add_argument("--force", type=number_list("--force", 0.1, 100.0), default=None, metavar="N,...",
                             help="push: sustained pushes of N newtons for 1 s, comma-separated (default 5 unless "
                                  "--impulse); --trials pushes each, at random moments and directions")
-    experiment.add_argument("--impulse", type=_number_list("--impulse", 0.01, 10.0), default=None, metavar="NS,...",
+    experiment.add_argument("--impulse", type=number_list("--impulse", 0.01, 10.0), default=None, metavar="NS,...",
                             help="push: impulses of NS newton-seconds over 0.1 s, comma-separated")
-    experiment.add_argument("--push-seed", type=_bounded_int("--push-seed", 0, 2**31 - 1), default=0,
+    experiment.add_argument("--push-seed", type=bounded_int("--push-seed", 0, 2**31 - 1), default=0,
                             help="push: the seed of the push moments and directions (not the terrain's)")
-    experiment.add_argument("--noise", type=_bounded_float("--noise", 0.0, 1.0), default=0.0,
+    experiment.add_argument("--noise", type=bounded_float("--noise", 0.0, 1.0), default=0.0,
                             help="joint-velocity noise variance")
-    experiment.add_argument("--widths-cm", type=_number_list("--widths-cm", 1.0, 20.0), default=None,
+    experiment.add_argument("--widths-cm", type=number_list("--widths-cm", 1.0, 20.0), default=None,
                             help="narrow_map: bar widths, comma-separated (default 3,4,5,6,7)")
-    experiment.add_argument("--gaps-cm", type=_number_list("--gaps-cm", 0.0, 40.0), default=None,
+    experiment.add_argument("--gaps-cm", type=number_list("--gaps-cm", 0.0, 40.0), default=None,
                             help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(experiment)
+    experiment.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     _engine_arguments(experiment)
     experiment.set_defaults(func=cmd_experiment)
@@ -574,7 +507,7 @@ def build_parser() -> argparse.ArgumentParser:
         t = tsub.add_parser(action, help=text)
         t.add_argument("terrain", help="terrain name or JSON path ('random' with --removed)")
         t.add_argument("--removed", type=int, default=None)
-        t.add_argument("--height", type=_bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
+        t.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                        help=HEIGHT_HELP)
         t.add_argument("--seed", type=int, default=0)
         if action in ("render", "save"):

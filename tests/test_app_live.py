@@ -408,3 +408,22 @@ def test_every_command_has_its_handler():
     kinds = typing.get_args(commands.Command)
     assert len(kinds) == 20 and all(kind in handled for kind in kinds)
     assert set(handled) - set(kinds) == {object}
+
+
+def test_a_session_in_mujoco_walks(tmp_path_factory):
+    """``serve --sim mujoco``: the live session runs its robot in MuJoCo."""
+    live = LiveSession(
+        ServeSettings(planner="heuristic", vx_m_s=0.1, wait_for_viewer=False, sim="mujoco"),
+        flat(),
+        "flat",
+        planner_factory=partial(default_planner_factory, model_dir=tmp_path_factory.mktemp("no_models")),
+        robot_cache_dir=tmp_path_factory.mktemp("cache"),
+    ).start()
+    try:
+        view = live.wait_view(lambda v: v.snapshot.t_s > 2.5, timeout=20)
+        assert view.snapshot.q[0] > 0.1 and view.status.done is None
+        assert live._loco.sim.engine == "mujoco"
+    finally:
+        live.stop()
+    with pytest.raises(ValueError, match="sim must be one of pybullet, mujoco"):
+        ServeSettings(sim="bullet")

@@ -138,8 +138,11 @@ def test_3_trial_inputs_name_everything_that_determines_a_result(model_dirs):
     right, other = model_dirs
     base = Trial("random", "random", 80, 3, "walk", "contactnet", model_dir=str(right))
     inputs = trial_inputs(base)
-    assert set(inputs) == {"trial", "terrain", "gait", "model", "code"}
+    assert set(inputs) == {"trial", "terrain", "gait", "model", "code", "sim"}
     assert inputs["trial"]["seed"] == 3 and "model_dir" not in inputs["trial"]
+    assert inputs["sim"].startswith("pybullet ") and "sim" not in inputs["trial"]  # the engine and its version
+    mujoco = dataclasses.replace(base, sim="mujoco")
+    assert trial_inputs(mujoco)["sim"].startswith("mujoco ") and mujoco.key == base.key + "/mujoco"
     assert inputs["model"] == load_model(right / "walk.pt").identity
     assert inputs["code"] == code_identity() and len(inputs["code"]["sources"]) == 64
     assert trial_inputs(dataclasses.replace(base, model_dir=str(other)))["model"] != inputs["model"]

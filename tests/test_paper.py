@@ -277,3 +277,17 @@ def test_a_tiny_paper_run_end_to_end_resumes_and_reports(tmp_path, capsys):
     assert "`tiny run`" in md
     _assert_self_contained((out / "report.html").read_text())
     assert main(["experiment", "paper", "--out", str(out), "--report-only"]) == 0
+
+
+@pytest.mark.slow
+def test_a_tiny_paper_run_in_mujoco_says_so_and_keeps_to_its_folder(tmp_path):
+    out = tmp_path / "paper"
+    first = run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY[2:], command="tiny", sim="mujoco")
+    assert first["ran"] == 1
+    record = json.loads((out / "narrow_stones" / "trials.jsonl").read_text())
+    assert record["key"].endswith("/mujoco") and record["inputs"]["sim"].startswith("mujoco ")
+    header = json.loads((out / "paper.json").read_text())
+    assert header["sim"] == "mujoco" and header["sim_version"] == record["inputs"]["sim"].split()[1]
+    assert "run in MuJoCo" in (out / "report.md").read_text()
+    with pytest.raises(ExperimentError, match="holds a run in mujoco"):  # one engine per folder: no mixed report
+        run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY[2:], command="tiny")

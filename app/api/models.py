@@ -346,6 +346,7 @@ class State(StepCounters):
     recording: bool = Field(description="a scene recording is in progress")
     viser_port: int = Field(description="port of the 3D view's websocket (viser)")
     robot: str = Field(description="the robot's registry name")
+    sim: str = Field("pybullet", description="the physics engine (serve --sim): pybullet or mujoco")
     notices: list[NoticeModel] = Field(description="the last few notices, oldest first")
     compare: list[RunResult] | None = Field(description="compare mode: the other robots now; null when off")
     scenario: Scenario = Field(description="the query of a link that opens this scenario (see Scenario)")

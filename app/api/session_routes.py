@@ -64,6 +64,7 @@ def add_session_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: A
             viewer_url="/viewer/",
             version="0.1.0",
             robot=app.settings.robot,
+            sim=app.settings.sim,
         )
 
     @api.get("/api/state", response_model=State, tags=["session"], responses=responses(*everywhere, 503))

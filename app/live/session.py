@@ -182,6 +182,7 @@ class LiveSession:
             self._terrain_version = 0
             self._gait_name, self._planner_name = settings.gait, settings.planner
             self._noise = settings.noise
+            self._sim = settings.sim
             self._retarget = settings.retarget
             self._observer = settings.observer
             self._vel = (settings.vx_m_s, settings.vy_m_s)
@@ -220,7 +221,7 @@ class LiveSession:
         leaves publishing the new view to the caller (a command publishes once it is fully applied)."""
         gait = registry.gait_by_name(self._gait_name)
         planner, active, note = self._planner_factory(self._planner_name, gait, self._robot)
-        sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0)
+        sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0, engine=self._sim)
         config = loco_config(self._retarget, observer=self._observer)
         loco = Locomotion(self._robot, self._terrain, gait, planner, sim_config, config=config, vel_cmd_xy=self._vel)
         try:

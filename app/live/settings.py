@@ -62,6 +62,7 @@ class ServeSettings:
     retarget: bool = False  #: swing retargeting (`contactnet.planning.retarget`) at the start; off like the library's default
     observer: bool = True  #: the disturbance observer (`contactnet.planning.observer`) at the start; on like the library's
     sim_speed: float = 1.0  #: simulated seconds per wall-clock second at the start
+    sim: str = "pybullet"  #: the physics engine (`contactnet.sim.engines`): pybullet or mujoco
     #: the user's terrain files (saved from the page or PUT /api/terrains); None: <data dir>/terrains, the data
     #: dir being $CONTACTNET_DATA or ~/.local/share/contactnet. The shipped terrains are read from the package.
     terrains_dir: Path | None = None
@@ -77,6 +78,7 @@ class ServeSettings:
 
     def __post_init__(self) -> None:
         from contactnet import registry
+        from contactnet.sim.world import ENGINES
 
         def fail(field: str, expected: str) -> None:
             raise ValueError(f"{field} must be {expected}, got {getattr(self, field)!r}")
@@ -105,6 +107,7 @@ class ServeSettings:
             ("robot", registry.robot_names()),
             ("gait", registry.gait_names()),
             ("planner", registry.planner_names()),
+            ("sim", ENGINES),
         ):
             if getattr(self, field) not in names:
                 fail(field, f"one of {', '.join(names)}")
@@ -192,6 +195,7 @@ CLI_FIELDS = {
     "allow_host": "allowed_hosts",
     "wait": "wait_for_viewer",
     "loop": "loop",
+    "sim": "sim",
 }
 
 

@@ -40,6 +40,7 @@ from contactnet.motion.gait import GaitSpec
 from contactnet.planning.network_input import INPUT_NAMES, network_input_of_context
 from contactnet.planning.planner import PlanningContext
 from contactnet.registry import DEFAULT_ROBOT, gait_by_name, robot_names
+from contactnet.sim.engines import ENGINES, engine_version
 
 FORMAT = "contactnet-dataset-v1"
 
@@ -65,9 +66,12 @@ class DatagenConfig:
     # Steps of each 3-step plan chosen by V. Only step 1 is recorded and executed (the robot re-plans at
     # every touchdown); 1 makes generation 3x cheaper, the later steps continue the cyclic order.
     oracle_evaluated_steps: int = 1
+    sim: str = "pybullet"  # the physics engine the episodes run in (contactnet.sim.engines)
 
     def __post_init__(self) -> None:
         gait_by_name(self.gait)
+        if self.sim not in ENGINES:
+            raise ValueError(f"unknown physics engine {self.sim!r}: choose one of {', '.join(ENGINES)}")
         if self.robot not in robot_names():
             raise ValueError(f"unknown robot {self.robot!r}: choose one of {', '.join(robot_names())}")
         if not 1 <= self.episodes <= 10**6:
@@ -92,14 +96,16 @@ class DatagenConfig:
         return asdict(self)
 
     def matches(self, settings: object) -> bool:
-        """Whether a manifest's ``settings`` are these (a manifest written before ``robot`` existed is Solo12's)."""
+        """Whether a manifest's ``settings`` are these (a manifest written before ``robot`` existed is Solo12's, one
+        written before ``sim`` existed PyBullet's)."""
         if not isinstance(settings, dict):
             return False
-        return {"robot": DEFAULT_ROBOT, **settings} == self.settings()
+        return {"robot": DEFAULT_ROBOT, "sim": "pybullet", **settings} == self.settings()
 
     def inputs(self) -> dict:
-        """Besides the settings, what determines the data: the gait's spec and the code."""
-        return {"gait_spec": digest(repr(gait_by_name(self.gait))), "code": code_identity()}
+        """Besides the settings, what determines the data: the gait's spec, the code and the engine's version."""
+        return {"gait_spec": digest(repr(gait_by_name(self.gait))), "code": code_identity(),
+                "sim_version": engine_version(self.sim)}
 
 
 def shard_name(shard: int) -> str:
@@ -188,7 +194,7 @@ def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndar
     gait = gait_by_name(config.gait)
     recorder = RecordingPlanner(make_oracle(gait, robot, config.oracle_evaluated_steps))
     us, vs, eps, falls = [], [], [], 0
-    with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard)) as loco:
+    with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard, engine=config.sim)) as loco:
         for episode in config.shard_episodes(shard):
             result = run_episode(loco, recorder, config, episode)
             us.append(result["u"])
@@ -298,6 +304,9 @@ def _check_inputs(out: Path, manifest: dict, config: DatagenConfig) -> None:
         parts.append(f"another {config.gait!r} gait spec (grid, timing or cost weights)")
     if manifest["code"] != code_identity():
         parts.append(f"other code ({', '.join(differences(manifest['code'], code_identity()))} differ)")
+    version = config.inputs()["sim_version"]
+    if manifest.get("sim_version", version) != version:
+        parts.append(f"{config.sim} {manifest['sim_version']} (this is {version})")
     if parts:
         raise DatasetDirError(f"{out} holds a dataset made with {' and '.join(parts)}; use another --out, "
                               "or the same code to resume")

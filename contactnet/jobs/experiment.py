@@ -141,12 +141,13 @@ class Trial:
     observer: bool = True  # the disturbance observer on (contactnet.planning.observer; on by default)
     retarget: bool = False  # swing retargeting on (contactnet.planning.retarget; off by default)
     mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
+    sim: str = "pybullet"  # the physics engine (contactnet.sim.engines)
 
     @property
     def key(self) -> str:
         """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
         random_heights, a push's duration only when not 1 s, the observer only when off, retargeting only when on
-        and the mismatch only when there is one."""
+        and the mismatch only when there is one; the engine only when it is not PyBullet."""
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
@@ -156,7 +157,8 @@ class Trial:
             push += "" if self.push_duration_s == PUSH_DURATION_S else f"x{self.push_duration_s:g}s"
         mismatch = "" if self.mismatch.neutral else f"/{self.mismatch.label()}"
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
-                f"{robot}{'' if self.observer else '/no-observer'}{'/retarget' if self.retarget else ''}{mismatch}")
+                f"{robot}{'' if self.observer else '/no-observer'}{'/retarget' if self.retarget else ''}{mismatch}"
+                f"{'' if self.sim == 'pybullet' else '/' + self.sim}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -165,7 +167,8 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               widths_cm: tuple[float, ...] | None = None, gaps_cm: tuple[float, ...] | None = None,
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
               forces_n: tuple[float, ...] = (5.0,), observer: bool = True, impulses_ns: tuple[float, ...] = (),
-              push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False) -> list[Trial]:
+              push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False,
+              sim: str = "pybullet") -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
     ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 sampled pushes
@@ -212,6 +215,8 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                         for seed in range(n)]
     if mismatch is not None and name != "robustness":
         out = [replace(t, mismatch=mismatch) for t in out]
+    if sim != "pybullet":
+        out = [replace(t, sim=sim) for t in out]
     return [replace(t, observer=observer, retarget=retarget) for t in out] if not observer or retarget else out
 
 
@@ -231,7 +236,7 @@ def run_trial(trial: Trial) -> dict:
     planner = make_planner(trial.planner, gait, robot, model=model)
     distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
     limit_s = 1.5 * distance / max(abs(trial.vx), 1e-3) + 10.0
-    sim_config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed, mismatch=trial.mismatch)
+    sim_config = SimConfig(joint_vel_noise_var=trial.noise, seed=trial.seed, mismatch=trial.mismatch, engine=trial.sim)
     loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if trial.observer else None,
                                    retarget=RetargetConfig() if trial.retarget else None)
     with Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
@@ -283,6 +288,7 @@ def trial_inputs(trial: Trial) -> dict:
     """Everything that determines ``trial``'s result, as plain values (see the module docstring). Raises
     ModelFileError when the trial's planner needs a model file that is missing or bad."""
     from contactnet.registry import gait_by_name, model_path, planner_entry
+    from contactnet.sim.engines import engine_version
 
     model = None
     if planner_entry(trial.planner).needs_model:
@@ -301,10 +307,11 @@ def trial_inputs(trial: Trial) -> dict:
         del settings["retarget"]  # as before the part existed (older logs resume)
     if trial.mismatch.neutral:
         del settings["mismatch"]
+    del settings["sim"]  # named with its version below
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
                               trial.height_m)
     return {"trial": settings, "terrain": terrain, "gait": digest(repr(gait_by_name(trial.gait))),
-            "model": model, "code": code_identity()}
+            "model": model, "code": code_identity(), "sim": f"{trial.sim} {engine_version(trial.sim)}"}
 
 
 def _one_torch_thread() -> None:

@@ -34,10 +34,10 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
         duration = None if force is None else float(t.get("push_duration_s") or 1.0)
         group = (t["gait"], t["planner"], t.get("terrain"), t["removed"], t["noise"], t.get("bar_width_m"),
                  t.get("last_gap_m"), t.get("height_m"), None if force is None else round(math.hypot(*force), 3),
-                 duration, t.get("observer", False), _mismatch_label(r))
+                 duration, t.get("observer", False), _mismatch_label(r), t.get("sim", "pybullet"))
         groups.setdefault(group, []).append(r)
     rows = []
-    for (gait, planner, terrain, removed, noise, width_m, gap_m, height_m, push_n, duration, observer, mismatch), rs in \
+    for (gait, planner, terrain, removed, noise, width_m, gap_m, height_m, push_n, duration, observer, mismatch, sim), rs in \
             sorted(groups.items(), key=lambda kv: tuple(map(str, kv[0]))):
         ranks = [r["rank_chosen"]["mean"] for r in rs if r["steps"]]
         successes = sum(bool(r["success"]) for r in rs)
@@ -62,6 +62,7 @@ def summarize(name: str, records: list[dict], wall_s: float = 0.0) -> dict:
                 **push_columns(rs)} if push_n is not None else {}),
             "observer": bool(observer),
             **({"mismatch": mismatch} if mismatch else {}),
+            "sim": sim,
         })
     return {"experiment": name, "rows": rows, "wall_time_s": wall_s}
 
@@ -81,6 +82,7 @@ def plot_success(summary: dict, path: Path) -> None:
               + (f"\npush {r['push_n']:g} N" if r.get("push_n") is not None else "")
               + (f" x {r['push_duration_s']:g} s" if r.get("push_duration_s") not in (None, 1.0) else "")
               + (f"\n{r['mismatch']}" if r.get("mismatch") else "")
+              + (f"\n{r['sim']}" if r.get("sim", "pybullet") != "pybullet" else "")
               + ("" if r.get("observer", True) else "\nno observer") for r in rows]
     fig, ax = plt.subplots(figsize=(max(4.0, 1.2 * len(rows)), 3.6))
     bars = ax.bar(range(len(rows)), [100 * r["success_rate"] for r in rows], color="#3b7dd8")
@@ -132,6 +134,7 @@ def format_summary(summary: dict) -> str:
     scene += ("push_n", "push_duration_s", "push_ns", "push_dv_m_s") if any(
         r.get("push_n") is not None for r in rows) else ()
     scene += ("mismatch",) if any(r.get("mismatch") for r in rows) else ()
+    scene += ("sim",) if any(r.get("sim", "pybullet") != "pybullet" for r in rows) else ()
     keep = ("gait", "planner", *scene, "noise", "successes", "trials", "success_rate", "success_low", "falls",
             "planner_ms_median", "rank_chosen_mean", "rank_chosen_max", "unsafe_landings")
     keep += ("max_height_change_m",) if any(r.get("max_height_change_m") for r in rows) else ()

@@ -35,13 +35,14 @@ class Section:
     forces_n: tuple[float, ...] = (5.0,)
     height_m: float = DEFAULT_HEIGHT_M
 
-    def trials(self, scale: float = 1.0, model_dir: str | None = None) -> list[Trial]:
-        """The section's trials at ``scale`` (with the models of ``model_dir``, default the shipped ones)."""
+    def trials(self, scale: float = 1.0, model_dir: str | None = None, sim: str = "pybullet") -> list[Trial]:
+        """The section's trials at ``scale`` (with the models of ``model_dir``, default the shipped ones) in the
+        physics engine ``sim``."""
         n = scaled(self.per_cell, scale)
         out: list[Trial] = []
         for noise in self.noises:
             out += trials_of(self.experiment, n, self.gaits, self.planners, self.removed, noise,
-                             model_dir=model_dir, height_m=self.height_m, forces_n=self.forces_n)
+                             model_dir=model_dir, height_m=self.height_m, forces_n=self.forces_n, sim=sim)
         return out
 
 
@@ -75,9 +76,9 @@ def scaled(per_cell: int, scale: float) -> int:
 
 
 def plan_trials(sections: tuple[Section, ...] = PAPER_SECTIONS, scale: float = 1.0,
-                model_dir: str | None = None) -> dict[str, list[Trial]]:
-    """Every section's trials at ``scale``, by folder."""
+                model_dir: str | None = None, sim: str = "pybullet") -> dict[str, list[Trial]]:
+    """Every section's trials at ``scale`` in the engine ``sim``, by folder."""
     folders = [s.folder for s in sections]
     if len(set(folders)) != len(folders):
         raise ValueError("two sections have the same folder")
-    return {s.folder: s.trials(scale, model_dir) for s in sections}
+    return {s.folder: s.trials(scale, model_dir, sim) for s in sections}

@@ -102,6 +102,9 @@ class _Report:
 
 
 # ---- the parts ---------------------------------------------------------------------------------
+_ENGINE_NAMES = {"pybullet": "PyBullet", "mujoco": "MuJoCo"}
+
+
 def _intro(r: _Report) -> None:
     planned = sum(s.planned for s in r.sections.values())
     stored = sum(len(s.records) for s in r.sections.values())
@@ -109,7 +112,8 @@ def _intro(r: _Report) -> None:
     scale = r.header.get("scale", 1.0)
     r.add("# ContactNet: the paper's evaluation (Sec. IV), reproduced", "",
           "The experiments of Bratta et al., *ContactNet: Online Multi-Contact Planning for Acyclic Legged Robot "
-          "Locomotion*, Sec. IV, run in PyBullet by `contactnet experiment paper`, each result beside the paper's. "
+          f"Locomotion*, Sec. IV, run in {_ENGINE_NAMES.get(r.header.get('sim', 'pybullet'), 'PyBullet')} "
+          f"{r.header.get('sim_version', '')} by `contactnet experiment paper`, each result beside the paper's. "
           "A success rate reads *successes / trials (rate, 95 % Wilson score interval)*.", "")
     if scale < 1.0:
         r.add(f"**Scaled run**: scale {scale:g}, {planned} of the full plan's {full} trials (the paper's numbers of "

@@ -36,6 +36,7 @@ from contactnet.jobs.paper.layout import HEADER_FORMAT, HEADER_NAME, read_header
 from contactnet.jobs.paper.plan import PAPER_SECTIONS, Section, plan_trials
 from contactnet.jobs.paper.provenance import code_version, machine
 from contactnet.jobs.runner import ENGINES, Job, run_jobs
+from contactnet.sim.engines import engine_version
 
 
 def _cpu_s() -> float:
@@ -62,7 +63,8 @@ def _order(trial: Trial) -> tuple[int, float]:
 
 def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = None, engine: str = "local",
               progress: bool = True, model_dir: str | None = None, address: str | None = None,
-              sections: tuple[Section, ...] = PAPER_SECTIONS, command: str = "", report: bool = True) -> dict:
+              sections: tuple[Section, ...] = PAPER_SECTIONS, command: str = "", report: bool = True,
+              sim: str = "pybullet") -> dict:
     """Run (or resume) the ``sections`` at ``scale`` into ``out_dir`` with ``workers`` processes on ``engine``
     (Ray: on the cluster at ``address``, else a local one) and write the report; returns ``{"trials", "ran", "wall_s", "summaries": {folder: summary}}``. On Ctrl-C
     the finished trials stay logged, the run is recorded in paper.json and KeyboardInterrupt is re-raised."""
@@ -70,14 +72,16 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
         raise ExperimentError(f"unknown engine {engine!r}: choose one of {', '.join(ENGINES)}")
     out = Path(out_dir)
     header = read_header(out) or {"format": HEADER_FORMAT, "runs": []}
+    if header.get("sim", "pybullet") != sim and header["runs"]:
+        raise ExperimentError(f"{out} holds a run in {header.get('sim', 'pybullet')}: give the {sim} run another --out")
     try:
-        plan = plan_trials(sections, scale, model_dir)
+        plan = plan_trials(sections, scale, model_dir, sim)
     except ValueError as exc:
         raise ExperimentError(str(exc)) from None
     batches = {s.folder: open_batch(s.experiment, out / s.folder, plan[s.folder]) for s in sections}
-    header.update(scale=scale, model_dir=model_dir, sections=[
+    header.update(scale=scale, model_dir=model_dir, sim=sim, sim_version=engine_version(sim), sections=[
         {"folder": s.folder, "experiment": s.experiment, "title": s.title, "trials": len(plan[s.folder]),
-         "trials_full": len(s.trials(1.0, model_dir))} for s in sections])
+         "trials_full": len(s.trials(1.0, model_dir, sim))} for s in sections])
     atomic_write_text(out / HEADER_NAME, json.dumps(header, indent=1))
 
     jobs = sorted((Job((folder, t.key), t) for folder, batch in batches.items() for t in batch.trials),
@@ -128,14 +132,15 @@ _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed"
                       "force": None, "impulse": None, "push_seed": 0, "noise": 0.0, "widths_cm": None,
                       "gaps_cm": None, "robot": "solo12", "mass_scale": 1.0, "payload": None, "friction": None,
                       "torque_scale": 1.0, "orientation_noise": 0.0, "velocity_noise": 0.0, "gyro_noise": 0.0,
-                      "delay_ms": 0.0, "observer": True, "retarget": False}  # the plan runs the defaults
+                      "delay_ms": 0.0, "observer": True, "retarget": False}  # the plan runs the defaults (any --sim)
 
 
 def _command(args: argparse.Namespace, scale: float) -> str:
     words = ["contactnet", "experiment", "paper", "--out", str(args.out), "--scale", f"{scale:g}"]
-    for option in ("workers", "engine", "address", "model_dir"):
+    for option in ("workers", "engine", "address", "model_dir", "sim"):
         value = getattr(args, option, None)
-        if value is not None and not (option == "engine" and value == "local"):
+        if value is not None and not (option == "engine" and value == "local") and not (option == "sim" and
+                                                                                        value == "pybullet"):
             words += [f"--{option.replace('_', '-')}", str(value)]
     return " ".join(words)
 
@@ -157,7 +162,7 @@ def paper_command(args: argparse.Namespace) -> int:
     try:
         result = run_paper(out, scale, workers=args.workers, engine=engine, progress=not args.quiet,
                            model_dir=args.model_dir, command=_command(args, scale),
-                           address=getattr(args, "address", None))
+                           address=getattr(args, "address", None), sim=getattr(args, "sim", "pybullet"))
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished trials are kept in {out}: run the same command to resume "
               f"(contactnet report {out} writes the report of the trials so far)", file=sys.stderr)
