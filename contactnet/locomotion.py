@@ -29,7 +29,7 @@ from contactnet.motion.active_plan import ActivePlan
 from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
 from contactnet.motion.gait import GaitSpec
 from contactnet.motion.ground import body_pitch, front_to_hind_m
-from contactnet.motion.swing import EDGE_LIFTOFF_FRACTION, edge_liftoff_fraction, swing_over_terrain
+from contactnet.motion.swing import swing_over_terrain
 from contactnet.motion.trajopt import (
     SrbdModel,
     TrajectoryOptimizer,
@@ -54,8 +54,6 @@ class LocomotionConfig:
     """Settings of the loop (the gait, planner, world and controller have their own)."""
 
     swing_height_m: float = 0.05
-    # A foot near an edge lifts straight up for this share of its swing (motion.swing; 0: never, as in the paper)
-    edge_liftoff_fraction: float = EDGE_LIFTOFF_FRACTION
     # Re-solve the optimizer from the measured state every this many nodes between plans (2: every
     # 80 ms, 12.5 Hz); 0: only after each touchdown, as in the paper.
     reoptimize_every_nodes: int = 2
@@ -320,11 +318,8 @@ class Locomotion:
                 swings[leg] = swing_over_terrain(terrain, start, end, t0_s, t1_s, self.config.swing_height_m,
                                                  self.foot_radius_m, self.config.swing_clearance_m)
             else:
-                lift = self.config.edge_liftoff_fraction
-                if lift > 0.0:
-                    lift = edge_liftoff_fraction(terrain, start, self.foot_radius_m, lift)
                 swings[leg] = SwingTrajectory(start_world=start, end_world=end, t0_s=t0_s, t1_s=t1_s,
-                                              height_m=self.config.swing_height_m, liftoff_fraction=lift)
+                                              height_m=self.config.swing_height_m)
         self._liftoff_tops = (tuple(first.legs), tops[0, list(first.legs)].copy(),
                               ctx.foot_pos_world[list(first.legs), :2].copy())
         landing_safe = bool(terrain.is_safe(first.footholds_xy_world).all())

@@ -19,11 +19,6 @@ foot radius of it, as the ball is that wide):
   ``STEP_FRACTION``), one that steps down past a top higher than its landing comes down last (touchdown
   fraction at least ``STEP_FRACTION``). The lower leg slants up from the foot toward its knee and would
   sweep the edge next to the foot while the foot moves.
-
-On one level (flat tops, holes between them) ``edge_liftoff_fraction`` gives a foot that stands near an edge a
-vertical start too: a ball foot rolls forward under the body while it stands (its centre moves about the radius
-times the shin's rotation: a centimetre over a long stance), so a foothold chosen just inside an edge can end
-beyond it, the ball held by the edge; moving toward the landing at once then drags it over the edge into the hole.
 """
 
 from __future__ import annotations
@@ -43,18 +38,6 @@ LEVEL_TOLERANCE_M = 0.01
 #: (lift-off, touchdown) fractions in the order they are tried.
 _FRACTION_PAIRS = sorted(((a, b) for a in VERTICAL_FRACTIONS for b in VERTICAL_FRACTIONS),
                          key=lambda pair: (sum(pair), pair[1]))
-
-
-#: ``edge_liftoff_fraction``: the share of the swing a foot standing within a foot radius of an edge rises straight up.
-EDGE_LIFTOFF_FRACTION = 0.3
-
-
-def edge_liftoff_fraction(terrain: Terrain, foot_world: np.ndarray, foot_radius_m: float,
-                          fraction: float = EDGE_LIFTOFF_FRACTION) -> float:
-    """The lift-off fraction of a swing on one level from ``foot_world`` (the ball's centre): ``fraction`` if the
-    ball stands within its radius of an edge of the safe ground (or beyond it), else 0 (the paper's swing)."""
-    near_edge = not bool(terrain.is_safe(np.asarray(foot_world, dtype=float)[None, :2], foot_radius_m)[0])
-    return fraction if near_edge else 0.0
 
 
 def swing_over_terrain(
