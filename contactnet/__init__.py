@@ -60,8 +60,8 @@ _EXPORTS: dict[str, str] = {
     "TrajectoryOptimizer": "contactnet.motion.trajopt",
     "WholeBodyController": "contactnet.motion.controller",
     "Simulator": "contactnet.sim.pybullet_world",
-    "SimConfig": "contactnet.sim.pybullet_world",
-    "Push": "contactnet.sim.pybullet_world",
+    "SimConfig": "contactnet.sim.world",
+    "Push": "contactnet.sim.world",
     "Locomotion": "contactnet.locomotion",
     "LocomotionConfig": "contactnet.locomotion",
 }

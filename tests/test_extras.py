@@ -80,3 +80,25 @@ def test_batched_solves_without_torch_equal_those_with_it(monkeypatch) -> None:
         assert a.success and b.success
         assert math.isclose(a.cost, b.cost, rel_tol=1e-7)
         assert np.allclose(a.forces_world, b.forces_world, atol=1e-6)
+
+
+NO_PYBULLET = "import sys; sys.modules['pybullet'] = None\n"
+
+
+def test_without_pybullet_mujoco_is_the_engine_with_a_one_line_notice() -> None:
+    """Where pybullet is not installed (Python 3.12 and newer: no wheel, ``pyproject.toml`` leaves it out)."""
+    code = (NO_PYBULLET + "from contactnet.cli import main\n"
+            "sys.exit(main(['simulate', '--terrain', 'flat', '--gait', 'walk', '--planner', 'contactnet', '--vx', '0.1',"
+            " '--duration', '2', '--json']))\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=240)
+    assert run.returncode == 0, run.stderr[-2000:]
+    summary = json.loads(run.stdout)
+    assert summary["sim"] == "mujoco" and not summary["fell"] and summary["reached_x"] > 0.1, summary
+    notices = [line for line in run.stderr.splitlines() if "pybullet is not installed" in line]
+    assert len(notices) == 1 and "mujoco" in notices[0]
+    asked = (NO_PYBULLET + "from contactnet.cli import main\n"
+             "sys.exit(main(['simulate', '--terrain', 'flat', '--gait', 'walk', '--planner', 'heuristic', '--sim',"
+             " 'pybullet', '--duration', '1']))\n")
+    run = subprocess.run([sys.executable, "-c", asked], capture_output=True, text=True, timeout=240)
+    assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr[-2000:]
+    assert "pybullet is not installed here" in run.stderr and "--sim mujoco" in run.stderr

@@ -21,7 +21,7 @@ from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPE
 from app.live.view import LiveView, RunSummary, is_stand, status_line
 from contactnet import registry
 from contactnet.records import StepCounts
-from contactnet.sim.pybullet_world import IMPULSE_DURATION_S, Push
+from contactnet.sim.world import IMPULSE_DURATION_S, Push
 
 
 class _Strict(BaseModel):

@@ -38,7 +38,7 @@ from app.live.settings import (
     PUSH_FORCE_LIMIT_N,
     VELOCITY_LIMIT_M_S,
 )
-from contactnet.sim.pybullet_world import IMPULSE_DURATION_S
+from contactnet.sim.world import IMPULSE_DURATION_S
 
 #: How long a route waits for the session thread to apply a command.
 COMMAND_TIMEOUT_S = 60.0

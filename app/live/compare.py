@@ -16,7 +16,7 @@ from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.motion.gait import GaitSpec
 from contactnet.records import Snapshot
 from contactnet.robots import Robot
-from contactnet.sim.pybullet_world import Push, SimConfig
+from contactnet.sim.world import Push, SimConfig
 from contactnet.terrain import Terrain
 
 

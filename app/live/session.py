@@ -80,7 +80,7 @@ from app.live.view import LiveView, Notice, SessionStatus, ViewTracker
 from contactnet import registry
 from contactnet.locomotion import Locomotion
 from contactnet.robots import load_robot
-from contactnet.sim.pybullet_world import Push, SimConfig
+from contactnet.sim.world import Push, SimConfig
 from contactnet.terrain import Terrain
 
 log = logging.getLogger("contactnet.app.live")

@@ -10,11 +10,14 @@ planners and robots is only imported when settings are validated.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from contactnet.sim.world import default_engine
 
 #: Commanded base velocity, per axis (|vx|, |vy|), in m/s.
 VELOCITY_LIMIT_M_S = 0.3
@@ -62,7 +65,7 @@ class ServeSettings:
     retarget: bool = False  #: swing retargeting (`contactnet.planning.retarget`) at the start; off like the library's default
     observer: bool = True  #: the disturbance observer (`contactnet.planning.observer`) at the start; on like the library's
     sim_speed: float = 1.0  #: simulated seconds per wall-clock second at the start
-    sim: str = "pybullet"  #: the physics engine (`contactnet.sim.engines`): pybullet or mujoco
+    sim: str = dataclasses.field(default_factory=default_engine)  #: the physics engine: pybullet (mujoco where it is not installed)
     #: the user's terrain files (saved from the page or PUT /api/terrains); None: <data dir>/terrains, the data
     #: dir being $CONTACTNET_DATA or ~/.local/share/contactnet. The shipped terrains are read from the package.
     terrains_dir: Path | None = None

@@ -17,7 +17,7 @@ def run_case(case: dict) -> dict:
     from contactnet.locomotion import Locomotion
     from contactnet.planning.planner import HeuristicPlanner
     from contactnet.registry import gait_by_name, load_robot
-    from contactnet.sim.pybullet_world import Push, SimConfig
+    from contactnet.sim.world import Push, SimConfig
     from contactnet.terrain import flat
 
     gait = gait_by_name(case["gait"])

@@ -187,7 +187,7 @@ def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndar
     """Run one shard's episodes: its ``u``, ``V``, ``episode`` arrays and how many episodes fell."""
     from contactnet.locomotion import Locomotion
     from contactnet.robots import load_robot
-    from contactnet.sim.pybullet_world import SimConfig
+    from contactnet.sim.world import SimConfig
     from contactnet.terrain import flat
 
     robot = load_robot(config.robot)

@@ -141,7 +141,7 @@ class Trial:
     observer: bool = True  # the disturbance observer on (contactnet.planning.observer; on by default)
     retarget: bool = False  # swing retargeting on (contactnet.planning.retarget; off by default)
     mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
-    sim: str = "pybullet"  # the physics engine (contactnet.sim.engines)
+    sim: str = "pybullet"  # the physics engine (contactnet.sim.engines; the command line passes the installed one)
 
     @property
     def key(self) -> str:
@@ -226,7 +226,7 @@ def run_trial(trial: Trial) -> dict:
     from contactnet.planning.observer import DEFAULT_OBSERVER
     from contactnet.planning.retarget import RetargetConfig
     from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
-    from contactnet.sim.pybullet_world import SimConfig
+    from contactnet.sim.world import SimConfig
 
     t0 = time.perf_counter()
     terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m)
@@ -241,7 +241,7 @@ def run_trial(trial: Trial) -> dict:
                                    retarget=RetargetConfig() if trial.retarget else None)
     with Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config, vel_cmd_xy=(trial.vx, 0.0)) as loco:
         if trial.push_force_xy is not None:  # success: no fall until the push has settled
-            from contactnet.sim.pybullet_world import Push
+            from contactnet.sim.world import Push
 
             loco.push(Push(trial.push_t0_s, trial.push_duration_s, (*trial.push_force_xy, 0.0)))
             limit_s = trial.push_t0_s + trial.push_duration_s + PUSH_SETTLE_S

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from contactnet.sim.pybullet_world import IMPULSE_DURATION_S, Push
+from contactnet.sim.world import IMPULSE_DURATION_S, Push
 
 EARLIEST_S = 2.0
 FORCE_DURATION_S = 1.0

@@ -9,20 +9,23 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from contactnet.sim.world import ENGINES, SimConfig
+from contactnet.sim.world import ENGINE_PACKAGES, ENGINES, SimConfig, default_engine, engine_installed
 from contactnet.terrain import Terrain
 
 if TYPE_CHECKING:
     from contactnet.robots.description import Robot
 
 
+class EngineMissing(ImportError):
+    """The physics engine asked for is not installed here: one line saying what to do instead."""
+
+
 def engine_version(engine: str) -> str:
     """The installed version of ``engine``'s Python package (``pybullet``, ``mujoco-core``), or "not installed"."""
     from importlib import metadata
 
-    package = {"pybullet": "pybullet", "mujoco": "mujoco-core"}[engine]
     try:
-        return metadata.version(package)
+        return metadata.version(ENGINE_PACKAGES[engine])
     except metadata.PackageNotFoundError:
         return "not installed"
 
@@ -30,6 +33,11 @@ def engine_version(engine: str) -> str:
 def make_simulator(robot: Robot, terrain: Terrain, config: SimConfig | None = None):  # noqa: ANN201 - a backend
     """The simulator of ``config.engine`` with ``robot`` on ``terrain`` (``config`` None: the defaults, PyBullet)."""
     config = SimConfig() if config is None else config
+    if not engine_installed(config.engine):
+        other = next(e for e in ENGINES if e != config.engine)
+        raise EngineMissing(f"the physics engine {config.engine} is not installed here (pip install "
+                            f"{ENGINE_PACKAGES[config.engine]}; pybullet has wheels up to Python 3.11 only): "
+                            f"use --sim {other}")
     if config.engine == "mujoco":
         from contactnet.sim.mujoco_world import MujocoSimulator
 
@@ -39,4 +47,4 @@ def make_simulator(robot: Robot, terrain: Terrain, config: SimConfig | None = No
     return Simulator(robot, terrain, config)
 
 
-__all__ = ["ENGINES", "engine_version", "make_simulator"]
+__all__ = ["ENGINES", "EngineMissing", "default_engine", "engine_installed", "engine_version", "make_simulator"]

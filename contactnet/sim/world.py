@@ -20,6 +20,27 @@ from contactnet.terrain import Terrain
 #: The physics engines (``SimConfig.engine``, ``--sim``): PyBullet (the default; every result before issue 28) and
 #: MuJoCo (``contactnet.sim.mujoco_world``).
 ENGINES = ("pybullet", "mujoco")
+#: Each engine's Python module and package.
+ENGINE_MODULES = {"pybullet": "pybullet", "mujoco": "mujoco"}
+ENGINE_PACKAGES = {"pybullet": "pybullet", "mujoco": "mujoco-core"}
+
+
+def engine_installed(engine: str) -> bool:
+    """Whether ``engine``'s Python module can be imported here (found, not imported; a module set to None in
+    ``sys.modules``, Python's way to block an import, is not)."""
+    import importlib.util
+    import sys
+
+    module = ENGINE_MODULES[engine]
+    if module in sys.modules:
+        return sys.modules[module] is not None
+    return importlib.util.find_spec(module) is not None
+
+
+def default_engine() -> str:
+    """PyBullet where it is installed, else MuJoCo (pybullet has wheels up to Python 3.11 only: on a newer Python the
+    package does not install it, ``pyproject.toml``)."""
+    return "pybullet" if engine_installed("pybullet") else "mujoco"
 
 
 @dataclass(frozen=True)
@@ -37,7 +58,7 @@ class SimConfig:
     solver_iterations: int = 50
     sphere_feet: bool = True  # False: the URDF's mesh feet (slower; for comparisons)
     mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
-    engine: str = "pybullet"  # the physics engine (ENGINES): "pybullet" or "mujoco"
+    engine: str = field(default_factory=default_engine)  # the physics engine (ENGINES): "pybullet" or "mujoco"
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
@@ -225,5 +246,5 @@ class Referee:
         return bool(s.base_pos_world[0] >= self.terrain.goal_x)
 
 
-__all__ = ["ENGINES", "IMPULSE_DURATION_S", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
+__all__ = ["ENGINES", "ENGINE_MODULES", "ENGINE_PACKAGES", "IMPULSE_DURATION_S", "default_engine", "engine_installed", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
            "describe_body_contacts", "standing_torques"]

@@ -12,7 +12,7 @@ from app.live.session import LiveSession
 from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N
 from app.live.view import LiveView
 from app.viewer.panels.common import submit
-from contactnet.sim.pybullet_world import IMPULSE_DURATION_S, Push
+from contactnet.sim.world import IMPULSE_DURATION_S, Push
 
 #: Push button -> unit direction in the world's xy plane.
 DIRECTIONS = {"+x": (1, 0), "-x": (-1, 0), "+y": (0, 1), "-y": (0, -1)}

@@ -162,7 +162,7 @@ def paper_command(args: argparse.Namespace) -> int:
     try:
         result = run_paper(out, scale, workers=args.workers, engine=engine, progress=not args.quiet,
                            model_dir=args.model_dir, command=_command(args, scale),
-                           address=getattr(args, "address", None), sim=getattr(args, "sim", "pybullet"))
+                           address=getattr(args, "address", None), sim=getattr(args, "sim", None) or "pybullet")
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished trials are kept in {out}: run the same command to resume "
               f"(contactnet report {out} writes the report of the trials so far)", file=sys.stderr)

@@ -1,5 +1,5 @@
 """`contactnet ...`: the command line. Every subcommand of the design is here; user mistakes end in
-one line on stderr and exit code 2, never a traceback."""
+one line on stderr and exit code 2, never a traceback. ``types``: the argument types that check an option's value."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 from app.live.settings import VELOCITY_LIMIT_M_S
 from contactnet import registry
-from contactnet.cli_types import bounded_float, bounded_int, choices, number_list, positive_int
+from contactnet.cli.types import bounded_float, bounded_int, choices, number_list, positive_int
 from contactnet.sim.world import ENGINES as SIM_ENGINES
 
 EXIT_USER_ERROR = 2
@@ -30,6 +30,7 @@ USER_ERROR_CLASSES = (
     ("contactnet.jobs.experiment", "ExperimentError"),
     ("contactnet.jobs.ray_engine", "EngineUnavailable"),
     ("contactnet.extras", "MissingExtra"),
+    ("contactnet.sim.engines", "EngineMissing"),
 )
 
 
@@ -41,6 +42,17 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
 
 # ---- subcommands -------------------------------------------------------------------------------
+def _sim_of(args: argparse.Namespace) -> str:
+    """``--sim``, or the default engine (PyBullet; MuJoCo where pybullet is not installed, with a one-line notice)."""
+    from contactnet.sim.world import default_engine
+
+    if getattr(args, "sim", None) is None:
+        args.sim = default_engine()
+        if args.sim != "pybullet":
+            print(f"contactnet: pybullet is not installed here: simulating in {args.sim} (--sim)", file=sys.stderr)
+    return args.sim
+
+
 def cmd_terrain(args: argparse.Namespace) -> int:
     from contactnet.terrain import available, resolve
 
@@ -108,7 +120,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.planning.observer import DEFAULT_OBSERVER
     from contactnet.planning.retarget import RetargetConfig
-    from contactnet.sim.pybullet_world import Push, SimConfig
+    from contactnet.sim.world import Push, SimConfig
     from contactnet.terrain import resolve
 
     try:
@@ -120,7 +132,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     robot = registry.load_robot(args.robot)
     planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args),
-                           engine=args.sim)
+                           engine=_sim_of(args))
     with contextlib.ExitStack() as stack:
         recording = None
         if args.record:  # the scene over time, as the web tool draws it (app/recordings/recorder.py)
@@ -170,6 +182,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     from contactnet.terrain import resolve
 
     resolve(args.terrain)  # a bad terrain is a one-line user error before anything starts
+    _sim_of(args)
     try:
         settings = settings_from_args(args)
     except ValueError as exc:
@@ -193,7 +206,7 @@ def cmd_datagen(args: argparse.Namespace) -> int:
     _check_engine(args)
     config = DatagenConfig(gait=args.gait, robot=args.robot, episodes=args.episodes, seed=args.seed,
                            episodes_per_shard=args.episodes_per_shard,
-                           instances_per_episode=args.instances_per_episode, sim=args.sim)
+                           instances_per_episode=args.instances_per_episode, sim=_sim_of(args))
     try:
         manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet,
                             engine=args.engine, address=args.address)
@@ -228,6 +241,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     if args.name == "paper":
         from contactnet.jobs.paper.run import paper_command
 
+        _sim_of(args)
         return paper_command(args)
     if args.scale is not None or args.report_only:
         raise UserError("--scale and --report-only are options of experiment paper")
@@ -242,7 +256,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
                            retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch,
-                           sim=args.sim)
+                           sim=_sim_of(args))
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
@@ -322,6 +336,7 @@ def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 # ---- parser ------------------------------------------------------------------------------------
+SIM_HELP = "the physics engine (default pybullet; mujoco where pybullet is not installed)"
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean the capture step into it "
                  "(contactnet.planning.observer; on by default, --no-observer turns it off)")
@@ -355,7 +370,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--terrain", default="stepping_stones", help="terrain name or JSON path")
     serve.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
     serve.add_argument("--gait", choices=registry.gait_names(), default="walk")
-    serve.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
+    serve.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     serve.add_argument("--planner", choices=registry.planner_names(), default="contactnet",
                        help="falls back to heuristic when the planner's model is missing")
     serve.add_argument("--vx", type=bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
@@ -394,7 +409,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(sim)
-    sim.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
+    sim.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     sim.add_argument("--record", metavar="FILE.viser")
     sim.add_argument("--json", action="store_true")
     sim.set_defaults(func=cmd_simulate)
@@ -406,7 +421,7 @@ def build_parser() -> argparse.ArgumentParser:
     datagen.add_argument("--out", required=True)
     datagen.add_argument("--workers", type=positive_int("--workers", 256))
     datagen.add_argument("--seed", type=int, default=0)
-    datagen.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
+    datagen.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     datagen.add_argument("--episodes-per-shard", type=positive_int("--episodes-per-shard", 1000), default=5)
     datagen.add_argument("--instances-per-episode", type=positive_int("--instances-per-episode", 1000), default=30,
                          help="the paper's 30; fewer for quick trials")
@@ -474,7 +489,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(experiment)
-    experiment.add_argument("--sim", choices=SIM_ENGINES, default="pybullet", help="the physics engine (default pybullet)")
+    experiment.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     _engine_arguments(experiment)
     experiment.set_defaults(func=cmd_experiment)
