@@ -7,7 +7,7 @@ BIN    := $(VENV)/bin
 # Reinstall whenever pyproject.toml changes.
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: setup browser serve test test-fast bench docs clean
+.PHONY: setup browser serve test test-fast bench docs clean check-install
 
 # The browser tests drive Debian's chromium (no browser download): install it when it is missing.
 CHROMIUM ?= /usr/bin/chromium
@@ -49,3 +49,13 @@ docs: setup
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info site
+
+# A fresh install on another Python from wheels only (nothing compiled; no pybullet beyond 3.11, no torch), then the
+# stepping stones in MuJoCo: make check-install OTHER_PYTHON=python3.12 (with pyenv: PYENV_VERSION=3.12.1).
+OTHER_PYTHON ?= python3.12
+CHECK_VENV   ?= /tmp/contactnet-check-install
+check-install:
+	rm -rf $(CHECK_VENV) && $(OTHER_PYTHON) -m venv $(CHECK_VENV)
+	$(CHECK_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(CHECK_VENV)/bin/python -m pip install --quiet --only-binary=:all: -e .
+	$(CHECK_VENV)/bin/contactnet simulate --terrain stepping_stones --gait walk --planner contactnet --duration 40
