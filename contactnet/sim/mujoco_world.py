@@ -28,6 +28,8 @@ from contactnet.robots.description import Robot
 from contactnet.sim.world import BodyContact, Push, Referee, SimConfig, SimState
 from contactnet.terrain import Terrain
 
+_XYZW = [4, 5, 6, 3]  # the free joint's quaternion (w, x, y, z in qpos[3:7]) as x, y, z, w
+
 
 @dataclass(frozen=True)
 class MujocoConfig:
@@ -163,10 +165,12 @@ class MujocoSimulator(Referee):
         self._terrain_geom = np.zeros(model.ngeom, dtype=bool)
         self._terrain_geom[[mj.mj_name2id(model, mj.mjtObj.mjOBJ_GEOM, f"terrain_{k}")
                             for k in range(self._n_terrain_geoms)]] = True
-        self._foot_slot_of_geom = {}
+        self._foot_slot_of_geom = np.full(model.ngeom, -1)  # per geom: its foot's slot, -1 if not a foot's
         for g in range(model.ngeom):
             if model.geom_bodyid[g] in self.foot_bodies:
                 self._foot_slot_of_geom[g] = self.foot_bodies.index(model.geom_bodyid[g])
+        self._no_contacts = (np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros(0))
+        self._terrain_list, self._slot_list = self._terrain_geom.tolist(), self._foot_slot_of_geom.tolist()
         self._leg_of_body: dict[int, int] = {}
         for slot, foot in enumerate(self.foot_bodies):
             body = foot
@@ -251,9 +255,8 @@ class MujocoSimulator(Referee):
     # ---- sensing ---------------------------------------------------------------------------
     def _true_base(self) -> tuple:
         d = self.data
-        w, x, y, z = d.qpos[3:7]
-        rot = d.xmat[self.base_body].reshape(3, 3)
-        return d.qpos[0:3].copy(), np.array([x, y, z, w]), d.qvel[0:3].copy(), rot @ d.qvel[3:6]
+        qvel = d.qvel
+        return d.qpos[0:3].copy(), d.qpos[_XYZW], qvel[0:3].copy(), d.xmat[self.base_body].reshape(3, 3) @ qvel[3:6]
 
     def state(self, with_contacts: bool = True) -> SimState:
         """Read the sensors (``with_contacts=False``: contacts read as all False)."""
@@ -286,43 +289,50 @@ class MujocoSimulator(Referee):
             ang = ang + rng.normal(0.0, mismatch.ang_vel_noise_rad_s, size=3)
         return np.asarray(quat, dtype=float), np.asarray(rot, dtype=float), lin, ang
 
-    def _terrain_contacts(self):  # noqa: ANN202 - yields (contact index, robot geom, sign)
-        """The contacts between the robot and the terrain: (index, the robot's geom, +1 if the robot's geom is
-        geom2 (MuJoCo's contact force acts on geom2... see ``_force_on_robot``), else -1)."""
-        d, terrain = self.data, self._terrain_geom
-        for i in range(d.ncon):
-            contact = d.contact[i]
-            g1, g2 = contact.geom1, contact.geom2
-            if terrain[g1] and not terrain[g2]:
-                yield i, g2, 1.0
-            elif terrain[g2] and not terrain[g1]:
-                yield i, g1, -1.0
+    def _terrain_contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The contacts between the robot and the terrain now: their indices, the robot's geom of each and the sign
+        that turns MuJoCo's contact force into the force on the robot (see ``_force_on_robot``), as arrays."""
+        d = self.data
+        n = d.ncon
+        if n == 0:
+            return self._no_contacts
+        geoms = d.contact.geom[:n]  # (n, 2)
+        terrain = self._terrain_geom[geoms]  # (n, 2)
+        mixed = terrain[:, 0] != terrain[:, 1]
+        index = np.flatnonzero(mixed)
+        first_is_terrain = terrain[index, 0]
+        robot_geom = np.where(first_is_terrain, geoms[index, 1], geoms[index, 0])
+        return index, robot_geom, np.where(first_is_terrain, 1.0, -1.0)
 
     def _force_on_robot(self, i: int, sign: float) -> np.ndarray:
         """The world-frame force (3,) of contact ``i`` on the robot's geom. MuJoCo's contact force, in the contact
         frame whose first axis is the normal from geom1 to geom2, is the force geom1 exerts on geom2."""
-        self._mj.mj_contactForce(self.model, self.data, i, self._force6)
-        frame = self.data.contact[i].frame.reshape(3, 3)
+        self._mj.mj_contactForce(self.model, self.data, int(i), self._force6)
+        frame = self.data.contact.frame[i].reshape(3, 3)
         return sign * (frame.T @ self._force6[0:3])
 
     def _foot_contacts(self) -> tuple[np.ndarray, np.ndarray]:
         contact = np.zeros(4, dtype=bool)
         force = np.zeros((4, 3))
-        for i, geom, sign in self._terrain_contacts():
-            slot = self._foot_slot_of_geom.get(geom)
-            if slot is not None:
-                contact[slot] = True
-                force[slot] += self._force_on_robot(i, sign)
+        index, geoms, signs = self._terrain_contacts()
+        slots = self._foot_slot_of_geom[geoms]
+        for i, slot, sign in zip(index[slots >= 0], slots[slots >= 0], signs[slots >= 0], strict=True):
+            contact[slot] = True
+            force[slot] += self._force_on_robot(i, sign)
         return contact, force
 
     def foot_contact(self) -> np.ndarray:
-        """(4,) bool: which feet touch the terrain now."""
-        contact = np.zeros(4, dtype=bool)
-        for _, geom, _ in self._terrain_contacts():
-            slot = self._foot_slot_of_geom.get(geom)
-            if slot is not None:
-                contact[slot] = True
-        return contact
+        """(4,) bool: which feet touch the terrain now (read every tick: Python ints over the few contacts)."""
+        contact = [False, False, False, False]
+        n = self.data.ncon
+        if n:
+            terrain, slot_of = self._terrain_list, self._slot_list
+            for g1, g2 in self.data.contact.geom[:n].tolist():
+                if terrain[g1] != terrain[g2]:
+                    slot = slot_of[g2 if terrain[g1] else g1]
+                    if slot >= 0:
+                        contact[slot] = True
+        return np.array(contact)
 
     def foot_positions_world(self) -> np.ndarray:
         """(4, 3) true foot-ball centres."""
@@ -330,22 +340,22 @@ class MujocoSimulator(Referee):
 
     def non_foot_contacts(self) -> list[str]:
         """Names of robot links other than the feet that touch the terrain now."""
-        bodies = {self.model.geom_bodyid[g] for _, g, _ in self._terrain_contacts() if g not in self._foot_slot_of_geom}
+        geoms = self._terrain_contacts()[1]
+        bodies = set(self.model.geom_bodyid[geoms[self._foot_slot_of_geom[geoms] < 0]].tolist())
         return sorted(self.link_names[b] for b in bodies)
 
     def body_contacts(self) -> list[BodyContact]:
         """The non-foot contacts now, one per link (its point of largest normal force), sorted by link name."""
         strongest: dict[int, tuple[float, np.ndarray, np.ndarray]] = {}
-        for i, geom, sign in self._terrain_contacts():
-            if geom in self._foot_slot_of_geom:
+        for i, geom, sign in zip(*self._terrain_contacts(), strict=True):
+            if self._foot_slot_of_geom[geom] >= 0:
                 continue
             body = int(self.model.geom_bodyid[geom])
             force = self._force_on_robot(i, sign)
-            contact = self.data.contact[i]
-            normal = sign * contact.frame[0:3]  # from the terrain toward the robot
+            normal = sign * self.data.contact.frame[i][0:3]  # from the terrain toward the robot
             normal_force = float(force @ normal)
             if body not in strongest or normal_force > strongest[body][0]:
-                strongest[body] = (normal_force, contact.pos.copy(), normal.copy())
+                strongest[body] = (normal_force, self.data.contact.pos[i].copy(), normal.copy())
         if not strongest:
             return []
         over_gap = ~self.terrain.is_safe(self.foot_positions_world()[:, :2])
