@@ -158,6 +158,7 @@ def test_command_moves_the_robot(client):
         ("/api/settings", {"speed": 3.0}, "speed"),
         ("/api/settings", {"gait": "gallop"}, "gait"),
         ("/api/settings", {"planner": "teleport"}, "planner"),
+        ("/api/settings", {"sim": "bullet"}, "sim"),
         ("/api/session/terrain", {"name": "../etc/passwd"}, "name"),
         ("/api/session/terrain", {"name": "random", "removed": 301}, "removed"),
     ],
@@ -232,6 +233,20 @@ def test_pause_and_settings(client):
                                                "planner": "heuristic"}).json()
     assert (state["gait"], state["noise"], state["planner_note"]) == ("walk", False, None)
     assert client.post("/api/reset").json()["running"] is True
+
+
+def test_the_physics_engine_switch(client):
+    """POST /api/settings {"sim": ...} restarts the robot in that engine; the state and /api/info say which."""
+    assert client.get("/api/state").json()["sim"] == "pybullet" == client.get("/api/info").json()["sim"]
+    state = client.post("/api/settings", json={"sim": "mujoco"}).json()
+    assert state["sim"] == "mujoco" and "MuJoCo: the robot restarted" in state["notices"][-1]["text"]
+    t0 = state["t_s"]
+    client.post("/api/pause", json={"paused": False})
+    wait = time.monotonic() + 20
+    while (state := client.get("/api/state").json())["t_s"] < t0 + 1.0 and time.monotonic() < wait:
+        time.sleep(0.1)
+    assert state["t_s"] >= t0 + 1.0 and state["fall_reason"] is None  # it runs in MuJoCo
+    assert client.post("/api/settings", json={"sim": "pybullet"}).json()["sim"] == "pybullet"
 
 
 def test_terrain_round_trip(client, app):

@@ -23,7 +23,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 from app.api.server import ContactnetApp
-from app.live.commands import ApplyPush, SetObserver, SetPaused, SetRetarget
+from app.live.commands import ApplyPush, SetObserver, SetPaused, SetRetarget, SetSim
 from app.live.settings import ServeSettings
 from app.recordings.recorder import free_port
 from contactnet.terrain import Terrain, terrains_dir
@@ -210,6 +210,17 @@ def test_gait_planner_and_noise(app, browser):
     browser.set(panel.gait, "walk")
     wait_for(lambda: (state(app).gait, state(app).planner, state(app).noise) == ("walk", "heuristic", False),
              what="back to walk / heuristic / no noise")
+
+
+def test_the_physics_dropdown(app, browser):
+    """The "Physics" dropdown restarts the robot in MuJoCo and back; a change from elsewhere (REST) shows in it."""
+    panel = app.viewer.panel.gait_planner
+    assert panel.sim.value == "pybullet" and "mujoco" in panel.sim.options
+    browser.set(panel.sim, "mujoco")
+    wait_for(lambda: state(app).sim == "mujoco", what="the robot in MuJoCo")
+    assert app.session._loco.sim.engine == "mujoco"
+    app.session.call(SetSim("pybullet"))
+    wait_for(lambda: panel.sim.value == "pybullet", what="the dropdown to follow")
 
 
 def test_the_retarget_switch(app, browser):

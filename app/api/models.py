@@ -21,7 +21,7 @@ from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPE
 from app.live.view import LiveView, RunSummary, is_stand, status_line
 from contactnet import registry
 from contactnet.records import StepCounts
-from contactnet.sim.world import IMPULSE_DURATION_S, Push
+from contactnet.sim.world import ENGINES, IMPULSE_DURATION_S, Push
 
 
 class _Strict(BaseModel):
@@ -144,12 +144,17 @@ def settings_command_model() -> type[BaseModel]:
     return create_model(
         "SettingsCommand",
         __base__=_Strict,
-        __doc__="Any subset of the session settings. Gait, planner and noise restart the robot; retarget does not.",
+        __doc__="Any subset of the session settings. Gait, planner, noise and sim restart the robot; retarget does not.",
         gait=(Literal[registry.gait_names()] | None, None),  # type: ignore[valid-type]
         planner=(Literal[registry.planner_names()] | None, None),  # type: ignore[valid-type]
         noise=(
             bool | None,
             Field(None, description="Gaussian joint-velocity noise, variance 0.01 (rad/s)^2"),
+        ),
+        sim=(
+            Literal[ENGINES] | None,  # type: ignore[valid-type]
+            Field(None, description="the physics engine (pybullet or mujoco, if installed on the server): the robot "
+                  "restarts in it"),
         ),
         loop=(
             bool | None,
@@ -321,6 +326,7 @@ class State(StepCounters):
                                 "missing: see planner_note)")
     planner_note: str | None = Field(description="why the planner used is not the one asked for; else null")
     noise: bool = Field(description="the paper's joint-velocity noise (variance 0.01 (rad/s)^2) is on")
+    sim: str = Field("pybullet", description="the physics engine the robot runs in (pybullet or mujoco)")
     vel_cmd: Float2 = Field(description="m/s, commanded (forward, left) velocity in the robot's heading frame")
     base_position: Float3 = Field(description="m, base position (world)")
     com_position: Float3 = Field(description="m, centre of mass (world)")
@@ -346,7 +352,6 @@ class State(StepCounters):
     recording: bool = Field(description="a scene recording is in progress")
     viser_port: int = Field(description="port of the 3D view's websocket (viser)")
     robot: str = Field(description="the robot's registry name")
-    sim: str = Field("pybullet", description="the physics engine (serve --sim): pybullet or mujoco")
     notices: list[NoticeModel] = Field(description="the last few notices, oldest first")
     compare: list[RunResult] | None = Field(description="compare mode: the other robots now; null when off")
     scenario: Scenario = Field(description="the query of a link that opens this scenario (see Scenario)")
@@ -375,6 +380,7 @@ class Info(BaseModel):
     viewer_url: str = Field(description="the 3D view's page (give it ?websocket=ws://host:viser_port)")
     version: str = Field(description="contactnet's version")
     robot: str = Field(description="the robot's registry name")
+    sim: str = Field("pybullet", description="the physics engine the server started with (serve --sim)")
 
 
 def _result(r: Any) -> RunResult:
@@ -440,6 +446,7 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         planner_active=s.planner_active,
         planner_note=s.planner_note,
         noise=s.noise,
+        sim=s.sim,
         vel_cmd=snap.vel_cmd_xy,
         base_position=tuple(float(v) for v in q[:3]),
         com_position=tuple(float(v) for v in snap.com_pos),

@@ -30,6 +30,7 @@ from app.live.commands import (
     SetPaused,
     SetPlanner,
     SetRetarget,
+    SetSim,
     SetSpeed,
     SetVelocity,
 )
@@ -147,6 +148,8 @@ def add_session_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: A
             run(SetPlanner(body.planner))
         if body.noise is not None:
             run(SetNoise(body.noise))
+        if body.sim is not None:
+            run(SetSim(body.sim))
         if body.retarget is not None:
             run(SetRetarget(body.retarget))
         if body.observer is not None:

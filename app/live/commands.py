@@ -14,6 +14,7 @@ from typing import Any
 
 from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
 from contactnet import registry
+from contactnet.sim.world import ENGINES
 from contactnet.terrain import Terrain
 
 
@@ -76,6 +77,14 @@ class SetPlanner:
 @dataclass(frozen=True)
 class SetNoise:
     on: bool
+
+
+@dataclass(frozen=True)
+class SetSim:
+    """The physics engine (``contactnet.sim.engines``: pybullet or mujoco, one that is installed): the robot restarts
+    on the same terrain in it."""
+
+    engine: str
 
 
 @dataclass(frozen=True)
@@ -161,6 +170,7 @@ Command = (
     | SetGait
     | SetPlanner
     | SetNoise
+    | SetSim
     | SetRetarget
     | SetObserver
     | SetTerrain
@@ -217,6 +227,9 @@ def check_command(command: Command) -> None:
             raise ValueError(
                 f"unknown planner {command.planner!r}: choose one of {', '.join(registry.planner_names())}"
             )
+    elif isinstance(command, SetSim):
+        if command.engine not in ENGINES:
+            raise ValueError(f"unknown physics engine {command.engine!r}: choose one of {', '.join(ENGINES)}")
     elif isinstance(command, SetTerrain):
         if not isinstance(command.terrain, Terrain):
             raise ValueError("SetTerrain needs a validated Terrain")

@@ -60,6 +60,7 @@ from app.live.commands import (
     SetPaused,
     SetPlanner,
     SetRetarget,
+    SetSim,
     SetSpeed,
     SetTerrain,
     SetVelocity,
@@ -80,7 +81,7 @@ from app.live.view import LiveView, Notice, SessionStatus, ViewTracker
 from contactnet import registry
 from contactnet.locomotion import Locomotion
 from contactnet.robots import load_robot
-from contactnet.sim.world import Push, SimConfig
+from contactnet.sim.world import ENGINE_NAMES, Push, SimConfig, engine_installed
 from contactnet.terrain import Terrain
 
 log = logging.getLogger("contactnet.app.live")
@@ -485,6 +486,14 @@ class LiveSession:
                          " (no restart).")
 
     @_handle.register
+    def _on_sim(self, command: SetSim) -> None:
+        if command.engine != self._sim:
+            if not engine_installed(command.engine):
+                raise ValueError(f"the physics engine {command.engine} is not installed on this server")
+            self._rebuild(sim=command.engine)
+            self._notify(f"Physics engine {ENGINE_NAMES[command.engine]}: the robot restarted.")
+
+    @_handle.register
     def _on_noise(self, command: SetNoise) -> None:
         if bool(command.on) != self._noise:
             self._rebuild(noise=bool(command.on))
@@ -574,9 +583,10 @@ class LiveSession:
         planner: str | None = None,
         noise: bool | None = None,
         terrain: tuple[Terrain, str] | None = None,
+        sim: str | None = None,
     ) -> None:
         """New settings need a new Locomotion; on failure the old settings and world stay."""
-        old = (self._gait_name, self._planner_name, self._noise, self._terrain, self._terrain_label)
+        old = (self._gait_name, self._planner_name, self._noise, self._terrain, self._terrain_label, self._sim)
         if gait is not None:
             self._gait_name = gait
         if planner is not None:
@@ -585,10 +595,11 @@ class LiveSession:
             self._noise = noise
         if terrain is not None:
             self._terrain, self._terrain_label = terrain
+        self._sim = self._sim if sim is None else sim
         try:
             self._build(publish=False)  # the terrain's history changes after this: publish both at once
         except Exception:
-            self._gait_name, self._planner_name, self._noise, self._terrain, self._terrain_label = old
+            self._gait_name, self._planner_name, self._noise, self._terrain, self._terrain_label, self._sim = old
             raise
         if terrain is not None:
             self._terrain_version += 1
@@ -622,6 +633,7 @@ class LiveSession:
             robot=self._robot.name,
             retarget=self._retarget,
             observer=self._observer,
+            sim=self._sim,
         )
         self._seq += 1
         self._view = LiveView(

@@ -62,6 +62,7 @@ class SessionStatus:
     robot: str = ""  # the robot's registry name
     retarget: bool = False  # swing retargeting is on (`contactnet.planning.retarget`)
     observer: bool = False  # the disturbance observer is on (`contactnet.planning.observer`)
+    sim: str = "pybullet"  # the physics engine
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ ENGINES = ("pybullet", "mujoco")
 #: Each engine's Python module and package.
 ENGINE_MODULES = {"pybullet": "pybullet", "mujoco": "mujoco"}
 ENGINE_PACKAGES = {"pybullet": "pybullet", "mujoco": "mujoco-core"}
+ENGINE_NAMES = {"pybullet": "PyBullet", "mujoco": "MuJoCo"}  # as written in text
 
 
 def engine_installed(engine: str) -> bool:
@@ -246,5 +247,5 @@ class Referee:
         return bool(s.base_pos_world[0] >= self.terrain.goal_x)
 
 
-__all__ = ["ENGINES", "ENGINE_MODULES", "ENGINE_PACKAGES", "IMPULSE_DURATION_S", "default_engine", "engine_installed", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
+__all__ = ["ENGINES", "ENGINE_MODULES", "ENGINE_NAMES", "ENGINE_PACKAGES", "IMPULSE_DURATION_S", "default_engine", "engine_installed", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
            "describe_body_contacts", "standing_torques"]

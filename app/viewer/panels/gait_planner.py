@@ -1,4 +1,4 @@
-"""The "Robot and planner" folder: which robot runs, its gait, the contact planner, joint-velocity noise,
+"""The "Robot and planner" folder: which robot runs, its gait, the contact planner, the physics engine, joint-velocity noise,
 swing retargeting and the disturbance observer (on or off without a restart), and compare mode (a second robot with another planner on the same terrain, drawn as a ghost)."""
 
 from __future__ import annotations
@@ -7,11 +7,12 @@ import asyncio
 
 import viser
 
-from app.live.commands import SetCompare, SetGait, SetNoise, SetObserver, SetPlanner, SetRetarget
+from app.live.commands import SetCompare, SetGait, SetNoise, SetObserver, SetPlanner, SetRetarget, SetSim
 from app.live.session import LiveSession
 from app.live.view import LiveView
 from app.viewer.panels.common import ChangeTracker, SessionControls, submit
 from contactnet import registry
+from contactnet.sim.world import ENGINES, engine_installed
 
 RETARGET_HINT = (
     "During a swing, when a push throws the robot off its command, rank the swinging legs' landings again and "
@@ -21,6 +22,7 @@ OBSERVER_HINT = (
     "Estimate a push from the body's momentum: the feet push against it and the next step leans into it "
     "(the disturbance observer; no restart)."
 )
+SIM_HINT = "The physics engine the robot runs in (the same robot, terrain and controller; the robot restarts)"
 COMPARE_HINT = "A second robot with this planner walks the same terrain with the same command (a teal ghost)"
 
 
@@ -46,6 +48,8 @@ class GaitPlannerPanel:
             )
             self.gait = gui.add_dropdown("Gait", registry.gait_names(), initial_value=settings.gait)
             self.planner = gui.add_dropdown("Planner", registry.planner_names(), initial_value=settings.planner)
+            engines = tuple(e for e in ENGINES if engine_installed(e) or e == settings.sim)
+            self.sim = gui.add_dropdown("Physics", engines, initial_value=settings.sim, hint=SIM_HINT)
             self.noise = gui.add_checkbox(
                 "Joint-velocity noise", settings.noise, hint="Gaussian, variance 0.01 (rad/s)^2"
             )
@@ -61,10 +65,11 @@ class GaitPlannerPanel:
         self._comparing = False
 
         controls = self.controls
-        for key in ("gait", "planner", "noise", "retarget", "observer"):
+        for key in ("gait", "planner", "sim", "noise", "retarget", "observer"):
             controls.add(key, getattr(self, key))
         controls.on_change(("gait",), lambda: SetGait(self.gait.value), "Gait change failed")
         controls.on_change(("planner",), lambda: SetPlanner(self.planner.value), "Planner change failed")
+        controls.on_change(("sim",), lambda: SetSim(self.sim.value), "Engine change failed")
         controls.on_change(("noise",), lambda: SetNoise(bool(self.noise.value)))
         controls.on_change(("retarget",), lambda: SetRetarget(bool(self.retarget.value)))
         controls.on_change(("observer",), lambda: SetObserver(bool(self.observer.value)))
@@ -85,7 +90,7 @@ class GaitPlannerPanel:
 
     def refresh(self, view: LiveView) -> None:
         s = view.status
-        for key, value in (("gait", s.gait), ("planner", s.planner), ("noise", s.noise),
+        for key, value in (("gait", s.gait), ("planner", s.planner), ("sim", s.sim), ("noise", s.noise),
                            ("retarget", s.retarget), ("observer", s.observer)):
             self.controls.show(key, value, view.seq)
         others = self._others(s.planner)

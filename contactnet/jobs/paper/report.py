@@ -29,6 +29,7 @@ from contactnet.jobs.paper.results import (
     rate_of,
     samples,
 )
+from contactnet.sim.world import ENGINE_NAMES
 
 PLOTS = "report_plots"
 UNEVEN = ("stairs", "raised_stones", "random_heights")
@@ -102,9 +103,6 @@ class _Report:
 
 
 # ---- the parts ---------------------------------------------------------------------------------
-_ENGINE_NAMES = {"pybullet": "PyBullet", "mujoco": "MuJoCo"}
-
-
 def _intro(r: _Report) -> None:
     planned = sum(s.planned for s in r.sections.values())
     stored = sum(len(s.records) for s in r.sections.values())
@@ -112,7 +110,7 @@ def _intro(r: _Report) -> None:
     scale = r.header.get("scale", 1.0)
     r.add("# ContactNet: the paper's evaluation (Sec. IV), reproduced", "",
           "The experiments of Bratta et al., *ContactNet: Online Multi-Contact Planning for Acyclic Legged Robot "
-          f"Locomotion*, Sec. IV, run in {_ENGINE_NAMES.get(r.header.get('sim', 'pybullet'), 'PyBullet')} "
+          f"Locomotion*, Sec. IV, run in {ENGINE_NAMES.get(r.header.get('sim', 'pybullet'), 'PyBullet')} "
           f"{r.header.get('sim_version', '')} by `contactnet experiment paper`, each result beside the paper's. "
           "A success rate reads *successes / trials (rate, 95 % Wilson score interval)*.", "")
     if scale < 1.0:
