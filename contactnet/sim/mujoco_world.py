@@ -17,7 +17,6 @@ mu N); a contact time constant of ``solref_time_s`` with critical damping.
 
 from __future__ import annotations
 
-import collections
 import re
 from dataclasses import dataclass
 
@@ -25,7 +24,7 @@ import numpy as np
 
 from contactnet.frames import yaw_to_quat
 from contactnet.robots.description import Robot
-from contactnet.sim.world import BodyContact, Push, Referee, SimConfig, SimState
+from contactnet.sim.world import BodyContact, EngineBase, SimConfig, SimState
 from contactnet.terrain import Terrain
 
 _XYZW = [4, 5, 6, 3]  # the free joint's quaternion (w, x, y, z in qpos[3:7]) as x, y, z, w
@@ -79,7 +78,7 @@ def terrain_prisms(terrain: Terrain, thickness_m: float) -> list[np.ndarray]:
     return prisms
 
 
-class MujocoSimulator(Referee):
+class MujocoSimulator(EngineBase):
     """A robot on a terrain in MuJoCo: the same interface and referee as the PyBullet ``Simulator``."""
 
     engine = "mujoco"
@@ -89,23 +88,9 @@ class MujocoSimulator(Referee):
         import mujoco
 
         self._mj = mujoco
-        self.robot = robot
-        self.terrain = terrain
-        self.config = config = SimConfig() if config is None else config
+        config = SimConfig() if config is None else config
+        self._init_common(robot, terrain, config)
         self.mujoco_config = MujocoConfig() if mujoco_config is None else mujoco_config
-        description = robot.description
-        self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float) * config.mismatch.torque_scale
-        self._neg_torque_limit_nm = -self.torque_limit_nm
-        self.fall_base_height_m = (description.fall_base_height_m if config.fall_base_height_m is None
-                                   else float(config.fall_base_height_m))
-        self._rng = np.random.default_rng(config.seed)
-        self.pushes: list[Push] = []
-        self.t_s = 0.0
-        self.steps = 0
-        self._highest_ground: tuple[Terrain, float] | None = None
-        self._delay_steps = round(config.mismatch.delay_ms / (1e3 * config.dt_s))
-        self._noisy_base = config.mismatch.sensor_noise
-        self._pending_tau: collections.deque = collections.deque()
         self._build()
         self.reset()
 
@@ -211,8 +196,7 @@ class MujocoSimulator(Referee):
         v_joint = np.zeros(12) if joint_vel is None else np.asarray(joint_vel, float)
         xy = self.terrain.start_xy if base_xy is None else np.asarray(base_xy, float)
         if base_height_m is None:
-            q = np.concatenate([[0, 0, 0], yaw_to_quat(0.0), q_joint])
-            base_height_m = -self.robot.foot_positions_world(q)[:, 2].min() + self.robot.description.foot_radius_m + 1e-3
+            base_height_m = self._standing_height(q_joint)
         d = self.data
         d.qpos[:], d.qvel[:] = 0.0, 0.0
         x, y, z, w = yaw_to_quat(base_yaw_rad)
@@ -221,25 +205,14 @@ class MujocoSimulator(Referee):
         d.qfrc_applied[:], d.xfrc_applied[:] = 0.0, 0.0
         d.time = 0.0
         self._mj.mj_forward(self.model, d)
-        self.pushes = []
-        self.t_s = 0.0
-        self.steps = 0
-        self._rng = np.random.default_rng(self.config.seed)
-        self._pending_tau.clear()
+        self._restart_clock()
         return self.state()
 
     # ---- stepping --------------------------------------------------------------------------
-    def add_push(self, push: Push) -> None:
-        self.pushes.append(push)
-
     def step(self, tau: np.ndarray) -> None:
         """Apply joint torques (N m, pinocchio order; clipped to the motor limit) for one time step."""
         d = self.data
-        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), self._neg_torque_limit_nm), self.torque_limit_nm)
-        if self._delay_steps:
-            pending = self._pending_tau
-            pending.append(tau)
-            tau = pending[0] if len(pending) <= self._delay_steps else pending.popleft()
+        tau = self._motor_torque(tau)
         d.qfrc_applied[self._vadr] = tau
         wrench = d.xfrc_applied[self.base_body]
         wrench[:] = 0.0
@@ -274,20 +247,6 @@ class MujocoSimulator(Referee):
         if self._noisy_base:
             quat, rot, lin, ang = self._measured_base(quat, rot, lin, ang)
         return SimState(self.t_s, pos, quat, lin, ang, d.qpos[self._qadr].copy(), v, v_true, contact, force, rot)
-
-    def _measured_base(self, quat, rot: np.ndarray, lin: np.ndarray, ang: np.ndarray) -> tuple:  # noqa: ANN001
-        from scipy.spatial.transform import Rotation
-
-        mismatch, rng = self.config.mismatch, self._rng
-        if mismatch.orientation_noise_rad:
-            error = Rotation.from_rotvec(rng.normal(0.0, mismatch.orientation_noise_rad, size=3))
-            measured = Rotation.from_quat(quat) * error
-            quat, rot = measured.as_quat(), measured.as_matrix()
-        if mismatch.lin_vel_noise_m_s:
-            lin = lin + rng.normal(0.0, mismatch.lin_vel_noise_m_s, size=3)
-        if mismatch.ang_vel_noise_rad_s:
-            ang = ang + rng.normal(0.0, mismatch.ang_vel_noise_rad_s, size=3)
-        return np.asarray(quat, dtype=float), np.asarray(rot, dtype=float), lin, ang
 
     def _terrain_contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The contacts between the robot and the terrain now: their indices, the robot's geom of each and the sign

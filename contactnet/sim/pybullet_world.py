@@ -10,7 +10,6 @@ The terrain is one static body, a concave triangle mesh of the steppable regions
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import functools
 import os
@@ -23,8 +22,8 @@ from contactnet.robots.description import LEG_NAMES, Robot
 from contactnet.sim.world import (  # the engine-neutral types, re-exported here where they were first defined
     IMPULSE_DURATION_S,
     BodyContact,
+    EngineBase,
     Push,
-    Referee,
     SimConfig,
     SimState,
     StandingGains,
@@ -62,7 +61,7 @@ class _BoundClient:
         return functools.partial(attribute, physicsClientId=self.client_id) if callable(attribute) else attribute
 
 
-class Simulator(Referee):
+class Simulator(EngineBase):
     """A robot on a terrain in PyBullet (DIRECT mode, torque control, fixed time step).
 
     `step(tau)` applies joint torques (saturated to the motor limit) for one time step, with any
@@ -77,25 +76,13 @@ class Simulator(Referee):
             import pybullet
 
             client = _BoundClient(pybullet, pybullet.connect(pybullet.DIRECT))
-        self.robot = robot
-        self.terrain = terrain
-        self.config = config
-        description = robot.description
-        self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float) * config.mismatch.torque_scale
-        self._neg_torque_limit_nm = -self.torque_limit_nm
-        self.fall_base_height_m = (description.fall_base_height_m if config.fall_base_height_m is None
-                                   else float(config.fall_base_height_m))
+        self._init_common(robot, terrain, config)
         self._pb = pybullet
         self.client = client
         self._cid = client.client_id  # hot-path calls go to pybullet directly (the bound client wraps each call)
         self.client.setTimeStep(config.dt_s)
         self.client.setGravity(0.0, 0.0, -config.gravity)
         self.client.setPhysicsEngineParameter(numSolverIterations=config.solver_iterations)
-        self._rng = np.random.default_rng(config.seed)
-        self.pushes: list[Push] = []
-        self.t_s = 0.0
-        self.steps = 0
-        self._highest_ground: tuple[Terrain, float] | None = None  # (terrain, its highest ground z), for fall_reason
 
         self.terrain_id = self._load_terrain()
         self.robot_id = self.client.loadURDF(
@@ -107,9 +94,6 @@ class Simulator(Referee):
         self.payload_id: int | None = None
         self._payload_frame_base = np.zeros(3)
         self._apply_mismatch()
-        self._delay_steps = round(config.mismatch.delay_ms / (1e3 * config.dt_s))
-        self._noisy_base = config.mismatch.sensor_noise  # read at 1 kHz (state) and every tick (the referee)
-        self._pending_tau: collections.deque = collections.deque()
         self.reset()
 
     # ---- set-up ----------------------------------------------------------------------------
@@ -250,33 +234,21 @@ class Simulator(Referee):
         v_joint = np.zeros(12) if joint_vel is None else np.asarray(joint_vel, float)
         xy = self.terrain.start_xy if base_xy is None else np.asarray(base_xy, float)
         if base_height_m is None:
-            q = np.concatenate([[0, 0, 0], yaw_to_quat(0.0), q_joint])
-            base_height_m = -self.robot.foot_positions_world(q)[:, 2].min() + self.robot.description.foot_radius_m + 1e-3
+            base_height_m = self._standing_height(q_joint)
         pos = [float(xy[0]), float(xy[1]), float(self.terrain.ground_z(xy)) + base_height_m]
         c.resetBasePositionAndOrientation(self.robot_id, pos, list(yaw_to_quat(base_yaw_rad)))
         c.resetBaseVelocity(self.robot_id, [0, 0, 0], [0, 0, 0])
         for jid, qj, vj in zip(self.joint_ids, q_joint, v_joint, strict=True):
             c.resetJointState(self.robot_id, jid, float(qj), float(vj))
         self._place_payload()
-        self.pushes = []
-        self.t_s = 0.0
-        self.steps = 0
-        self._rng = np.random.default_rng(self.config.seed)
-        self._pending_tau.clear()
+        self._restart_clock()
         return self.state()
 
     # ---- stepping --------------------------------------------------------------------------
-    def add_push(self, push: Push) -> None:
-        self.pushes.append(push)
-
     def step(self, tau: np.ndarray) -> None:
         """Apply joint torques (N m, pinocchio order; clipped to the motor limit) for one time step."""
         pb, cid = self._pb, self._cid
-        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), self._neg_torque_limit_nm), self.torque_limit_nm)
-        if self._delay_steps:  # the torques computed delay_steps ago act now (the first ones until then)
-            pending = self._pending_tau
-            pending.append(tau)
-            tau = pending[0] if len(pending) <= self._delay_steps else pending.popleft()
+        tau = self._motor_torque(tau)
         pb.setJointMotorControlArray(
             self.robot_id, self.joint_ids, pb.TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=cid
         )
@@ -309,21 +281,6 @@ class Simulator(Referee):
             quat, rot, lin, ang = self._measured_base(quat, rot, lin, ang)
         return SimState(self.t_s, np.array(pos), np.array(quat), lin, ang, np.array(q_tuple), v, v_true, contact, force,
                         rot)
-
-    def _measured_base(self, quat, rot: np.ndarray, lin: np.ndarray, ang: np.ndarray) -> tuple:  # noqa: ANN001
-        """The base's orientation and velocities as the noisy sensors measure them."""
-        from scipy.spatial.transform import Rotation
-
-        mismatch, rng = self.config.mismatch, self._rng
-        if mismatch.orientation_noise_rad:
-            error = Rotation.from_rotvec(rng.normal(0.0, mismatch.orientation_noise_rad, size=3))
-            measured = Rotation.from_quat(quat) * error
-            quat, rot = measured.as_quat(), measured.as_matrix()
-        if mismatch.lin_vel_noise_m_s:
-            lin = lin + rng.normal(0.0, mismatch.lin_vel_noise_m_s, size=3)
-        if mismatch.ang_vel_noise_rad_s:
-            ang = ang + rng.normal(0.0, mismatch.ang_vel_noise_rad_s, size=3)
-        return np.asarray(quat, dtype=float), np.asarray(rot, dtype=float), lin, ang
 
     def _contact_points(self) -> tuple:
         return self._pb.getContactPoints(bodyA=self.robot_id, bodyB=self.terrain_id, physicsClientId=self._cid)

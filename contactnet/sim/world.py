@@ -8,12 +8,13 @@ locomotion loop drives: ``step(tau)`` at ``config.dt_s``, ``state()``, ``foot_co
 
 from __future__ import annotations
 
+import collections
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from contactnet.frames import quat_to_matrix, quat_to_rpy
+from contactnet.frames import quat_to_matrix, quat_to_rpy, yaw_to_quat
 from contactnet.sim.mismatch import ModelMismatch
 from contactnet.terrain import Terrain
 
@@ -247,5 +248,70 @@ class Referee:
         return bool(s.base_pos_world[0] >= self.terrain.goal_x)
 
 
-__all__ = ["ENGINES", "ENGINE_MODULES", "ENGINE_NAMES", "ENGINE_PACKAGES", "IMPULSE_DURATION_S", "default_engine", "engine_installed", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
+class EngineBase(Referee):
+    """What both backends do alike around their engine: the motor limits and the control delay, the sensor noise of
+    the base, the standing height at a reset, pushes and the clock (``_init_common`` first in ``__init__``,
+    ``_restart_clock`` at every reset)."""
+
+    def _init_common(self, robot, terrain: Terrain, config: SimConfig) -> None:  # noqa: ANN001 - a Robot
+        self.robot = robot
+        self.terrain = terrain
+        self.config = config
+        description = robot.description
+        self.torque_limit_nm = np.asarray(description.torque_limit_nm, dtype=float) * config.mismatch.torque_scale
+        self._neg_torque_limit_nm = -self.torque_limit_nm
+        self.fall_base_height_m = (description.fall_base_height_m if config.fall_base_height_m is None
+                                   else float(config.fall_base_height_m))
+        self._rng = np.random.default_rng(config.seed)
+        self.pushes: list[Push] = []
+        self.t_s = 0.0
+        self.steps = 0
+        self._highest_ground: tuple[Terrain, float] | None = None  # (terrain, its highest ground z), for fall_reason
+        self._delay_steps = round(config.mismatch.delay_ms / (1e3 * config.dt_s))
+        self._noisy_base = config.mismatch.sensor_noise  # read at 1 kHz (state) and every tick (the referee)
+        self._pending_tau: collections.deque = collections.deque()
+
+    def _restart_clock(self) -> None:
+        """A reset: no pushes, time 0, the noise's seed again, no delayed torques."""
+        self.pushes = []
+        self.t_s = 0.0
+        self.steps = 0
+        self._rng = np.random.default_rng(self.config.seed)
+        self._pending_tau.clear()
+
+    def add_push(self, push: Push) -> None:
+        self.pushes.append(push)
+
+    def _motor_torque(self, tau: np.ndarray) -> np.ndarray:
+        """The torques (12,) that act this step: ``tau`` saturated to the motor limit, and with a control delay the
+        ones computed ``delay_ms`` ago (the first ones until then)."""
+        tau = np.minimum(np.maximum(np.asarray(tau, dtype=float), self._neg_torque_limit_nm), self.torque_limit_nm)
+        if self._delay_steps:
+            pending = self._pending_tau
+            pending.append(tau)
+            tau = pending[0] if len(pending) <= self._delay_steps else pending.popleft()
+        return tau
+
+    def _standing_height(self, q_joint: np.ndarray) -> float:
+        """The base height (m) at which the lowest foot of the pose ``q_joint`` just touches flat ground."""
+        q = np.concatenate([[0, 0, 0], yaw_to_quat(0.0), q_joint])
+        return -self.robot.foot_positions_world(q)[:, 2].min() + self.robot.description.foot_radius_m + 1e-3
+
+    def _measured_base(self, quat, rot: np.ndarray, lin: np.ndarray, ang: np.ndarray) -> tuple:  # noqa: ANN001
+        """The base's orientation and velocities as the noisy sensors measure them."""
+        from scipy.spatial.transform import Rotation
+
+        mismatch, rng = self.config.mismatch, self._rng
+        if mismatch.orientation_noise_rad:
+            error = Rotation.from_rotvec(rng.normal(0.0, mismatch.orientation_noise_rad, size=3))
+            measured = Rotation.from_quat(quat) * error
+            quat, rot = measured.as_quat(), measured.as_matrix()
+        if mismatch.lin_vel_noise_m_s:
+            lin = lin + rng.normal(0.0, mismatch.lin_vel_noise_m_s, size=3)
+        if mismatch.ang_vel_noise_rad_s:
+            ang = ang + rng.normal(0.0, mismatch.ang_vel_noise_rad_s, size=3)
+        return np.asarray(quat, dtype=float), np.asarray(rot, dtype=float), lin, ang
+
+
+__all__ = ["ENGINES", "ENGINE_MODULES", "ENGINE_NAMES", "ENGINE_PACKAGES", "IMPULSE_DURATION_S", "EngineBase", "default_engine", "engine_installed", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
            "describe_body_contacts", "standing_torques"]
