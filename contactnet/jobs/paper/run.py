@@ -137,10 +137,10 @@ _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed"
 
 def _command(args: argparse.Namespace, scale: float) -> str:
     words = ["contactnet", "experiment", "paper", "--out", str(args.out), "--scale", f"{scale:g}"]
+    defaults = {"engine": "local", "sim": "pybullet"}  # not written when they are these
     for option in ("workers", "engine", "address", "model_dir", "sim"):
         value = getattr(args, option, None)
-        if value is not None and not (option == "engine" and value == "local") and not (option == "sim" and
-                                                                                        value == "pybullet"):
+        if value is not None and value != defaults.get(option):
             words += [f"--{option.replace('_', '-')}", str(value)]
     return " ".join(words)
 
