@@ -79,6 +79,7 @@ def test_terrain_save_refuses_to_overwrite(tmp_path, capsys):
         ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "nan"],
         ["simulate", "--terrain", "flat", "--gait", "gallop", "--planner", "heuristic"],
         ["bench", "everything"],
+        ["experiment", "random", "--sim", "pybullet,bullet"],
     ],
 )
 def test_bad_options_exit_2(args, capsys):
@@ -86,6 +87,12 @@ def test_bad_options_exit_2(args, capsys):
         main(args)
     assert exc.value.code == EXIT_USER_ERROR
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_the_paper_runs_in_one_engine(tmp_path, capsys):
+    out = tmp_path / "paper"
+    assert main(["experiment", "paper", "--sim", "pybullet,mujoco", "--out", str(out)]) == EXIT_USER_ERROR
+    assert "one engine" in capsys.readouterr().err and not out.exists()
 
 
 @pytest.mark.slow

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -55,6 +56,22 @@ def test_the_stacks_parts_are_in_the_key_and_the_inputs_only_when_on():
     assert "retarget" not in trial_inputs(plain)["trial"] and "observer" not in trial_inputs(plain)["trial"]
     assert trial_inputs(retarget)["trial"]["retarget"] is True
     assert trial_inputs(no_observer)["trial"]["observer"] is False
+
+
+def test_each_engine_runs_the_same_trials_and_the_summary_puts_them_side_by_side():
+    both = trials_of("random", trials=2, gaits=("walk",), planners=("contactnet",), sims=("pybullet", "mujoco"))
+    pybullet = [t for t in both if t.sim == "pybullet"]
+    mujoco = [t for t in both if t.sim == "mujoco"]
+    assert len(pybullet) == len(mujoco) == 2 and len({t.key for t in both}) == 4
+    assert [dataclasses.replace(t, sim="pybullet") for t in mujoco] == pybullet  # same seeds, terrains, everything
+    assert all(t.key.endswith("/mujoco") for t in mujoco) and not any("mujoco" in t.key for t in pybullet)
+    with pytest.raises(ValueError, match="unknown physics engine"):
+        trials_of("random", sims=("bullet",))
+    records = [{**record("walk", "contactnet", t.seed, t.sim == "pybullet" or t.seed == 0), "key": t.key,
+                "trial": {**record("walk", "contactnet", t.seed, True)["trial"], "sim": t.sim}} for t in both]
+    rows = summarize("random", records)["rows"]
+    assert sorted((r["sim"], r["successes"]) for r in rows) == [("mujoco", 1), ("pybullet", 2)]
+    assert "mujoco" in format_summary(summarize("random", records))
 
 
 def test_the_terrains_with_heights_have_their_experiments():

@@ -53,6 +53,20 @@ def _sim_of(args: argparse.Namespace) -> str:
     return args.sim
 
 
+def _sims_of(args: argparse.Namespace) -> tuple[str, ...]:
+    """``experiment --sim``: the engines to run every trial in (default: the default engine, as `_sim_of`), each
+    installed (else one line now, not one per trial in the workers)."""
+    from contactnet.sim.world import default_engine, engine_installed
+
+    if args.sim is None:
+        _sim_of(args)
+    sims = (args.sim,) if isinstance(args.sim, str) else tuple(dict.fromkeys(args.sim))
+    missing = [sim for sim in sims if not engine_installed(sim)]
+    if missing:
+        raise UserError(f"--sim {','.join(missing)}: not installed here (the installed default is {default_engine()})")
+    return sims
+
+
 def cmd_terrain(args: argparse.Namespace) -> int:
     from contactnet.terrain import available, resolve
 
@@ -238,10 +252,13 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     from contactnet.jobs.summary import format_summary
 
     _check_engine(args)
+    sims = _sims_of(args)
     if args.name == "paper":
         from contactnet.jobs.paper.run import paper_command
 
-        _sim_of(args)
+        if len(sims) > 1:
+            raise UserError("experiment paper runs in one engine: give each --sim its own --out")
+        args.sim = sims[0]
         return paper_command(args)
     if args.scale is not None or args.report_only:
         raise UserError("--scale and --report-only are options of experiment paper")
@@ -256,7 +273,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
                            retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch,
-                           sim=_sim_of(args))
+                           sims=sims)
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
@@ -489,7 +506,9 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     _mismatch_arguments(experiment)
-    experiment.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
+    experiment.add_argument("--sim", type=choices("--sim", SIM_ENGINES), metavar="|".join(SIM_ENGINES),
+                            help=SIM_HELP + "; comma-separated: every trial in each engine, on the same seeds "
+                                 "(not with paper)")
     experiment.add_argument("--quiet", action="store_true", help="no progress bar")
     _engine_arguments(experiment)
     experiment.set_defaults(func=cmd_experiment)

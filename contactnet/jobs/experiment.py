@@ -75,6 +75,7 @@ from contactnet.jobs.runner import Job, code_identity, differences, digest, run_
 from contactnet.jobs.summary import plot_success, summarize
 from contactnet.robots import DEFAULT_ROBOT
 from contactnet.sim.mismatch import ModelMismatch
+from contactnet.sim.world import ENGINES as SIM_ENGINES
 
 HEADER_FORMAT = "contactnet-experiment-v1"
 EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights",
@@ -168,14 +169,15 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
               forces_n: tuple[float, ...] = (5.0,), observer: bool = True, impulses_ns: tuple[float, ...] = (),
               push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False,
-              sim: str = "pybullet") -> list[Trial]:
+              sims: tuple[str, ...] = ("pybullet",)) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
     ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 sampled pushes
     (``push_seed``) per force of ``forces_n`` and impulse of ``impulses_ns``; on ``robustness``, 20 seeds of the
     random field and the stepping stones per case of ``ROBUSTNESS_CASES``). Every trial's robot differs from the
     model by ``mismatch`` (neutral by default; on ``robustness``: the cases', unless given); ``observer`` and
-    ``retarget`` turn those parts of the stack on in every trial."""
+    ``retarget`` turn those parts of the stack on in every trial; every trial runs in each engine of ``sims``
+    (same seeds, terrains and pushes)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
@@ -215,8 +217,9 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
                         for seed in range(n)]
     if mismatch is not None and name != "robustness":
         out = [replace(t, mismatch=mismatch) for t in out]
-    if sim != "pybullet":
-        out = [replace(t, sim=sim) for t in out]
+    if not sims or any(sim not in SIM_ENGINES for sim in sims):
+        raise ValueError(f"unknown physics engine in {sims!r}: choose among {', '.join(SIM_ENGINES)}")
+    out = [replace(t, sim=sim) for sim in dict.fromkeys(sims) for t in out]
     return [replace(t, observer=observer, retarget=retarget) for t in out] if not observer or retarget else out
 
 

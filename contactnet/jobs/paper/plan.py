@@ -42,7 +42,7 @@ class Section:
         out: list[Trial] = []
         for noise in self.noises:
             out += trials_of(self.experiment, n, self.gaits, self.planners, self.removed, noise,
-                             model_dir=model_dir, height_m=self.height_m, forces_n=self.forces_n, sim=sim)
+                             model_dir=model_dir, height_m=self.height_m, forces_n=self.forces_n, sims=(sim,))
         return out
 
 
