@@ -17,7 +17,8 @@ from contactnet.motion.controller import (
     clip_to_friction_pyramid,
 )
 from contactnet.robots import Robot
-from contactnet.sim.pybullet_world import Push, Simulator
+from contactnet.sim.engines import make_simulator
+from contactnet.sim.world import ENGINES, Push, SimConfig
 from contactnet.terrain import flat
 
 
@@ -109,9 +110,10 @@ def test_stance_forces_balance_gravity_at_rest(robot):
     np.testing.assert_allclose(controller.last_forces.sum(axis=0), [0, 0, robot.mass_kg * 9.81], atol=1e-6)
 
 
-def test_holds_the_robot_up_and_recovers_from_a_push(robot):
+@pytest.mark.parametrize("engine", ENGINES)
+def test_holds_the_robot_up_and_recovers_from_a_push(robot, engine):
     controller = WholeBodyController(robot)
-    with Simulator(robot, flat()) as sim:
+    with make_simulator(robot, flat(), SimConfig(engine=engine)) as sim:
         state = sim.state(with_contacts=False)
         target = standing_target(controller, state.q_pinocchio(), state.v_pinocchio(), robot.mass_kg)
         sim.add_push(Push(0.5, 0.5, (5.0, 0.0, 0.0)))
@@ -409,16 +411,18 @@ def test_the_delivered_forces_are_the_plain_formulas(robot, seed):
     assert stretched >= 10  # every straight knee's leg: singular to within 5 mm
 
 
-def test_the_delivered_forces_are_what_the_ground_gives_in_pybullet(robot):
+@pytest.mark.parametrize("engine", ENGINES)
+def test_the_delivered_forces_are_what_the_ground_gives(robot, engine):
     """Walking 2 s on flat ground, each foot on the ground: the forces ``delivered_forces`` reads from the applied
-    torques (with the legs' weight) are nearer PyBullet's contact forces than the commanded ones (``last_forces``,
-    which leave the legs' weight out): median errors measured 0.03 against 0.36 N along x, 0.29 against 0.69 N
-    along z."""
+    torques (with the legs' weight) are nearer the engine's contact forces than the commanded ones (``last_forces``,
+    which leave the legs' weight out): in PyBullet median errors measured 0.03 against 0.36 N along x, 0.29 against
+    0.69 N along z."""
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
     from contactnet.planning.planner import HeuristicPlanner
 
-    with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), vel_cmd_xy=(0.1, 0.0)) as loco:
+    with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), SimConfig(engine=engine),
+                    vel_cmd_xy=(0.1, 0.0)) as loco:
         loco.run(1.0)
         delivered_err, commanded_err = [], []
         for _ in range(2000):
