@@ -88,6 +88,14 @@ def make_planner(name: str, gait: GaitSpec, robot: Robot | RobotDescription | No
         from contactnet.planning.network import load_model
 
         path = model_path(description.name, gait.name) if model is None else Path(model)
+        if model is None and not path.exists():  # no shipped model: say what to do instead
+            from contactnet.planning.network import ModelFileError
+
+            others = ", ".join(f"--planner {n}" for n, e in _PLANNERS.items() if not e.needs_model)
+            raise ModelFileError(
+                f"no {name} model for {description.name} {gait.name} ({path} does not exist): use {others}, or "
+                f"--model FILE.pt, or make one with contactnet datagen --robot {description.name} --gait {gait.name} "
+                f"--out DIR and contactnet train --robot {description.name} --gait {gait.name} --data DIR --out FILE.pt")
         loaded = load_model(path, expect_gait=gait.name, expect_robot=description.name, dtype="float32")
     return entry.build(gait, description, loaded)
 

@@ -197,6 +197,12 @@ def test_candidate_view_ranks_every_cell(robot, models, gait):
 def test_model_errors_are_clear(robot, models, tmp_path):
     with pytest.raises(ModelFileError, match="no such file"):
         make_planner("contactnet", WALK, robot, model=tmp_path / "missing.pt")
+    from contactnet.registry import load_robot
+
+    # A robot with no shipped model: the error names what to do instead.
+    with pytest.raises(ModelFileError, match=r"no contactnet model for go2 walk .*--planner heuristic.*--model FILE"
+                                             r".*datagen --robot go2 --gait walk.*train --robot go2"):
+        make_planner("contactnet", WALK, load_robot("go2"))
     broken = tmp_path / "broken.pt"
     broken.write_bytes(b"not a model")
     with pytest.raises(ModelFileError, match="broken.pt"):

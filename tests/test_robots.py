@@ -102,6 +102,60 @@ def test_a_cached_urdf_whose_meshes_are_gone_is_written_again(tmp_path):
     assert write_pybullet_urdf(go2.spec, elsewhere, tmp_path) != path
 
 
+def _a1_spec():  # noqa: ANN202 - a RobotSpec, written as a contributor adding Unitree A1 would
+    from contactnet.robots.description import RobotSpec
+
+    return RobotSpec(name="a1", description_dir="a1_description", urdf="urdf/a1.urdf", srdf="srdf/a1.srdf",
+                     standing_pose="standing", leg_prefixes=("FL", "FR", "RL", "RR"),
+                     joint_suffixes=("hip_joint", "thigh_joint", "calf_joint"), foot_suffix="foot",
+                     foot_radius_m=0.02, fz_max_n=120.0, kin_threshold_m=0.15, fall_base_height_m=0.12)
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+def test_a_urdf_link_without_inertia_is_simulated_as_the_model_and_nothing_reaches_stdout(engine, tmp_path, capfd):
+    """A1's root link has no <inertial> block: pinocchio gives it no mass, PyBullet would give it 1 kg (and print a
+    warning on stdout, spoiling --json). The simulated URDF gives it a negligible mass, so every engine simulates the
+    model's mass, and the engine's own output goes to stderr."""
+    from contactnet.robots.description import NEGLIGIBLE_MASS_KG, Robot, links_without_inertia
+    from contactnet.sim.engines import make_simulator
+    from contactnet.sim.world import SimConfig
+    from contactnet.terrain import flat
+
+    a1 = Robot.load(_a1_spec(), cache_dir=tmp_path)
+    assert links_without_inertia(ET.parse(a1.files.urdf).getroot()) == ["base"]
+    assert links_without_inertia(ET.parse(a1.pybullet_urdf()).getroot()) == []
+    capfd.readouterr()
+    with make_simulator(a1, flat(), SimConfig(engine=engine)) as sim:
+        assert sim.robot.mass_kg == pytest.approx(a1.mass_kg)
+    assert capfd.readouterr().out == ""
+    assert NEGLIGIBLE_MASS_KG < 1e-4 * a1.mass_kg
+
+
+def test_an_engine_that_simulates_another_mass_is_refused(robot):
+    from contactnet.sim.engines import make_simulator
+    from contactnet.terrain import flat
+
+    with make_simulator(robot, flat()) as sim:
+        sim._check_mass(robot.mass_kg * 1.004)  # within 0.5 %
+        with pytest.raises(RobotDataError, match=r"simulates solo12 at 3\.500 kg .* weighs 2\.500 kg"):
+            sim._check_mass(robot.mass_kg + 1.0)
+
+
+def test_the_cached_urdf_is_keyed_on_the_code_that_writes_it(tmp_path):
+    from dataclasses import replace
+
+    from contactnet.robots.description import write_pybullet_urdf
+
+    solo = load_robot("solo12", cache_dir=tmp_path)
+    path = write_pybullet_urdf(solo.spec, solo.files, tmp_path)
+
+    def another_recipe(link_name: str):  # noqa: ANN202 - the same shapes, another writer
+        return solo.spec.collision_recipe(link_name)
+
+    other = write_pybullet_urdf(replace(solo.spec, collision_recipe=another_recipe), solo.files, tmp_path)
+    assert other != path and other.read_text() == path.read_text()
+
+
 def test_go2_is_described_from_its_own_files(tmp_path):
     go2 = load_robot("go2", cache_dir=tmp_path)
     description = go2.description

@@ -198,11 +198,17 @@ def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | No
     half as fast). The file name carries a hash of the source, of the recipe's version and of the folder the mesh
     paths point into, so a new example-robot-data version, a new recipe or another installation (another virtual
     environment sharing the cache) makes a new file; a cached file whose meshes are gone (its environment was
-    deleted) is written again; writes are atomic.
+    deleted) is written again; writes are atomic. The hash also covers the code that writes the file (this
+    function, its helpers and the recipe's source), so a changed writer never reuses an old file.
+
+    A link without an ``<inertial>`` block (pinocchio: no mass) gets a negligible one (`NEGLIGIBLE_MASS_KG`): left
+    out, PyBullet would give it 1 kg and MuJoCo a mass from its geometry, and the simulated robot would not be the
+    model.
     """
     source = files.urdf.read_bytes()
     recipe = f"{spec.name}-{'sphere' if sphere_feet else 'mesh'}-feet-{spec.recipe_version}".encode()
-    digest = hashlib.sha256(source + recipe + str(files.package_root.resolve()).encode()).hexdigest()[:12]
+    digest = hashlib.sha256(source + recipe + str(files.package_root.resolve()).encode()
+                            + _writer_source(spec)).hexdigest()[:12]
     kind = "spherefeet" if sphere_feet else "meshfeet"
     out = (cache_dir or default_cache_dir()) / "urdf" / f"{spec.name}_{kind}_{digest}.urdf"
     if out.is_file() and _meshes_exist(out):
@@ -212,6 +218,7 @@ def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | No
         filename = mesh.get("filename", "")
         if filename.startswith("package://"):
             mesh.set("filename", str(files.package_root / filename[len("package://"):]))
+    _add_missing_inertia(root)
     if sphere_feet and spec.collision_recipe is not None:
         for link in root.iter("link"):
             replacement = spec.collision_recipe(link.get("name", ""))
@@ -223,6 +230,41 @@ def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | No
             _set_collision(collision, *replacement)
     atomic_write_bytes(out, ET.tostring(root, xml_declaration=True, encoding="utf-8"))
     return out
+
+
+#: The mass given to a URDF link that has none (pinocchio's zero), kg; its inertia is that of a 1 cm ball of it.
+NEGLIGIBLE_MASS_KG = 1e-6
+
+
+def links_without_inertia(root: ET.Element) -> list[str]:
+    """The names of the URDF links (``root``: the ``<robot>`` element) that have no ``<inertial>`` block."""
+    return [link.get("name", "?") for link in root.iter("link") if link.find("inertial") is None]
+
+
+def _add_missing_inertia(root: ET.Element) -> None:
+    inertia = f"{0.4 * NEGLIGIBLE_MASS_KG * 0.01 ** 2:.3g}"
+    for link in root.iter("link"):
+        if link.find("inertial") is None:
+            inertial = ET.SubElement(link, "inertial")
+            ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
+            ET.SubElement(inertial, "mass", value=f"{NEGLIGIBLE_MASS_KG:g}")
+            ET.SubElement(inertial, "inertia", ixx=inertia, ixy="0", ixz="0", iyy=inertia, iyz="0", izz=inertia)
+
+
+def _writer_source(spec: RobotSpec) -> bytes:
+    """The source of the code that writes a robot's simulated URDF (part of the cached file's key)."""
+    import inspect
+
+    parts = [write_pybullet_urdf, _add_missing_inertia, _set_collision]
+    if spec.collision_recipe is not None:
+        parts.append(spec.collision_recipe)
+    text = []
+    for part in parts:
+        try:
+            text.append(inspect.getsource(part))
+        except (OSError, TypeError):  # no source (e.g. built in a REPL): its qualified name
+            text.append(getattr(part, "__qualname__", repr(part)))
+    return "\n".join(text).encode()
 
 
 def _meshes_exist(urdf: Path) -> bool:

@@ -135,6 +135,7 @@ class MujocoSimulator(EngineBase):
         self._add_terrain(spec, friction, solref)
         self.spec = spec
         self.model = model = spec.compile()
+        self._check_mass(float(model.body_mass.sum()))
         self.data = mj.MjData(model)
         name = lambda kind, i: mj.mj_id2name(model, kind, i)  # noqa: E731
         joints = {name(mj.mjtObj.mjOBJ_JOINT, j): j for j in range(model.njnt)}

@@ -34,13 +34,18 @@ from contactnet.terrain import Terrain
 
 
 @contextlib.contextmanager
-def _stdout_silenced():
-    """Send the process's C-level stdout (fd 1) to /dev/null for the duration."""
+def _stdout_silenced(to_stderr: bool = False):
+    """Send the process's C-level stdout (fd 1) to /dev/null (``to_stderr``: to stderr) for the duration: what
+    PyBullet prints (its banner, a URDF's warnings) never reaches stdout, where ``--json`` writes."""
     sys.stdout.flush()
     saved = os.dup(1)
     try:
-        with open(os.devnull, "wb") as devnull:
-            os.dup2(devnull.fileno(), 1)
+        if to_stderr:
+            sys.stderr.flush()
+            os.dup2(2, 1)
+        else:
+            with open(os.devnull, "wb") as devnull:
+                os.dup2(devnull.fileno(), 1)
         yield
     finally:
         os.dup2(saved, 1)
@@ -85,15 +90,19 @@ class Simulator(EngineBase):
         self.client.setPhysicsEngineParameter(numSolverIterations=config.solver_iterations)
 
         self.terrain_id = self._load_terrain()
-        self.robot_id = self.client.loadURDF(
-            str(robot.pybullet_urdf(config.sphere_feet)),
-            basePosition=[0, 0, 1],
-            flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
-        )
+        with _stdout_silenced(to_stderr=True):  # a URDF's warnings: on stderr
+            self.robot_id = self.client.loadURDF(
+                str(robot.pybullet_urdf(config.sphere_feet)),
+                basePosition=[0, 0, 1],
+                flags=pybullet.URDF_USE_INERTIA_FROM_FILE,
+            )
         self._index_robot()
         self.payload_id: int | None = None
         self._payload_frame_base = np.zeros(3)
         self._apply_mismatch()
+        self._check_mass(sum(self.client.getDynamicsInfo(body, link)[0]
+                             for body in (self.robot_id, self.payload_id) if body is not None
+                             for link in range(-1, self.client.getNumJoints(body))))
         self.reset()
 
     # ---- set-up ----------------------------------------------------------------------------

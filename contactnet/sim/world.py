@@ -271,6 +271,18 @@ class EngineBase(Referee):
         self._noisy_base = config.mismatch.sensor_noise  # read at 1 kHz (state) and every tick (the referee)
         self._pending_tau: collections.deque = collections.deque()
 
+    def _check_mass(self, simulated_kg: float) -> None:
+        """The robot the engine loaded (``simulated_kg``, with the mismatch's mass scale and payload) weighs what the
+        model says within 0.5 %; else one line naming both (e.g. a URDF link the engine read another mass for)."""
+        mismatch = self.config.mismatch
+        expected_kg = self.robot.mass_kg * mismatch.mass_scale + mismatch.payload_kg
+        if abs(simulated_kg - expected_kg) > 0.005 * expected_kg:
+            from contactnet.robots.description import RobotDataError
+
+            raise RobotDataError(f"{self.engine} simulates {self.robot.description.name} at {simulated_kg:.3f} kg but its "
+                                 f"model (pinocchio) weighs {expected_kg:.3f} kg: check the <inertial> blocks of "
+                                 f"{self.robot.files.urdf.name}")
+
     def _restart_clock(self) -> None:
         """A reset: no pushes, time 0, the noise's seed again, no delayed torques."""
         self.pushes = []
