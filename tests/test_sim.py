@@ -54,6 +54,25 @@ def test_pinocchio_and_the_engine_agree_on_the_feet(robot, flat_sim):
         np.testing.assert_allclose(state.joint_pos, joints, atol=1e-12)
 
 
+@pytest.mark.parametrize("robot_name", ["solo12", "go2"])
+def test_the_engine_simulates_the_models_mass_com_and_inertia(robot_name, engine, tmp_path):
+    """What the engine simulates (summed over its own links) is the model pinocchio plans with: the mass, the CoM
+    seen from the base link's origin and the composite inertia, in the standing pose. Go2's base link has its CoM
+    2 cm ahead of its origin: an engine that took one for the other would put the CoM 2 cm back."""
+    from contactnet.robots import load_robot
+
+    model = load_robot(robot_name, cache_dir=tmp_path)
+    with Simulator(model, flat(), engine=engine) as sim:
+        state = sim.state(with_contacts=False)
+        simulated = sim.mass_properties()
+    description = model.description
+    assert simulated.mass_kg == pytest.approx(description.mass_kg, rel=1e-6)
+    np.testing.assert_allclose(state.base_rot_world.T @ (simulated.com_world - state.base_pos_world),
+                               description.com_base_standing, atol=2e-4)
+    np.testing.assert_allclose(simulated.inertia_com_world, description.inertia_com_standing,
+                               atol=2e-3 * np.abs(description.inertia_com_standing).max())
+
+
 def test_stands_two_seconds_on_flat(flat_sim):
     stand(flat_sim, 2.0)
     state = flat_sim.state()

@@ -24,7 +24,7 @@ import numpy as np
 
 from contactnet.frames import yaw_to_quat
 from contactnet.robots.description import Robot
-from contactnet.sim.world import BodyContact, EngineBase, SimConfig, SimState
+from contactnet.sim.world import BodyContact, EngineBase, MassProperties, SimConfig, SimState, composite_of
 from contactnet.terrain import Terrain
 
 _XYZW = [4, 5, 6, 3]  # the free joint's quaternion (w, x, y, z in qpos[3:7]) as x, y, z, w
@@ -175,6 +175,13 @@ class MujocoSimulator(EngineBase):
                                     contype=0, conaffinity=1, friction=[friction, 0.005, 0.0001], solref=solref,
                                     condim=3)
         self._n_terrain_geoms = len(prisms)
+
+    def mass_properties(self) -> MassProperties:
+        """The simulated robot's mass, CoM and composite inertia now, from MuJoCo's bodies (payload included)."""
+        m, d = self.model, self.data
+        bodies = np.arange(1, m.nbody)  # not the world
+        return composite_of(m.body_mass[bodies], d.xipos[bodies], d.ximat[bodies].reshape(-1, 3, 3),
+                            m.body_inertia[bodies])
 
     def replace_terrain(self, terrain: Terrain) -> None:
         """Swap the terrain for ``terrain``'s while the robot stays where it is (its state is carried over)."""

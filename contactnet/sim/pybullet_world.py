@@ -23,10 +23,12 @@ from contactnet.sim.world import (  # the engine-neutral types, re-exported here
     IMPULSE_DURATION_S,
     BodyContact,
     EngineBase,
+    MassProperties,
     Push,
     SimConfig,
     SimState,
     StandingGains,
+    composite_of,
     describe_body_contacts,
     standing_torques,
 )
@@ -100,9 +102,7 @@ class Simulator(EngineBase):
         self.payload_id: int | None = None
         self._payload_frame_base = np.zeros(3)
         self._apply_mismatch()
-        self._check_mass(sum(self.client.getDynamicsInfo(body, link)[0]
-                             for body in (self.robot_id, self.payload_id) if body is not None
-                             for link in range(-1, self.client.getNumJoints(body))))
+        self._check_mass(self.mass_properties().mass_kg)
         self.reset()
 
     # ---- set-up ----------------------------------------------------------------------------
@@ -174,6 +174,14 @@ class Simulator(EngineBase):
         self.joint_ids = [joints[n] for n in description.joint_names]
         self.foot_links = [links[f] for f in description.foot_frames]
         self._foot_slot = {link: i for i, link in enumerate(self.foot_links)}
+        # PyBullet's base pose and velocity are its centre of mass frame's; the base link's frame is that frame
+        # moved back by the URDF's <inertial><origin> (None: they coincide, as Solo12's nearly do).
+        info = c.getDynamicsInfo(self.robot_id, -1)
+        inertial_pos, inertial_quat = tuple(info[3]), tuple(info[4])
+        self._com_in_base: tuple[tuple, tuple] | None = None
+        if max(map(abs, inertial_pos)) > 1e-9 or max(map(abs, inertial_quat[:3])) > 1e-9:
+            self._com_in_base = inertial_pos, inertial_quat
+            self._base_in_com = c.invertTransform(inertial_pos, inertial_quat)
         base_name = c.getBodyInfo(self.robot_id)[0].decode()
         self.link_names = {i: name for name, i in links.items()} | {-1: base_name}
         # Each link on the chain from the base to a foot belongs to that foot's leg (the base to none).
@@ -216,11 +224,47 @@ class Simulator(EngineBase):
                                             (self._payload_frame_base - com_base).tolist(), [0, 0, 0])
             c.changeConstraint(constraint, maxForce=1e4)
 
+    def mass_properties(self) -> MassProperties:
+        """The simulated robot's mass, CoM and composite inertia now, from PyBullet's own links (payload included)."""
+        c = self.client
+        masses, coms, rotations, moments = [], [], [], []
+        for body in (self.robot_id, self.payload_id):
+            if body is None:
+                continue
+            for link in range(-1, c.getNumJoints(body)):
+                info = c.getDynamicsInfo(body, link)
+                pos, quat = c.getBasePositionAndOrientation(body) if link < 0 else c.getLinkState(body, link)[:2]
+                masses.append(info[0])
+                moments.append(info[2])
+                coms.append(pos)
+                rotations.append(np.array(c.getMatrixFromQuaternion(quat)).reshape(3, 3))
+        return composite_of(np.array(masses), np.array(coms), np.array(rotations), np.array(moments))
+
+    def _base_pose(self) -> tuple:
+        """The base link's position and quaternion (x, y, z, w) in the world (PyBullet reports its CoM frame's)."""
+        pb, cid = self._pb, self._cid
+        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+        if self._com_in_base is None:
+            return pos, quat
+        return pb.multiplyTransforms(pos, quat, *self._base_in_com, physicsClientId=cid)
+
+    def _base_pose_and_velocity(self) -> tuple:
+        """The base link's position, quaternion, linear velocity of its origin and angular velocity (world)."""
+        pb, cid = self._pb, self._cid
+        lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
+        if self._com_in_base is None:
+            pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+            return pos, quat, lin, ang
+        com_pos, _ = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+        pos, quat = self._base_pose()
+        lin = np.asarray(lin) - np.cross(ang, np.asarray(com_pos) - np.asarray(pos))  # the origin's, not the CoM's
+        return pos, quat, tuple(lin.tolist()), ang
+
     def _place_payload(self) -> None:
         if self.payload_id is None:
             return
         c = self.client
-        pos, quat = c.getBasePositionAndOrientation(self.robot_id)
+        pos, quat = self._base_pose()
         rot = np.array(c.getMatrixFromQuaternion(quat)).reshape(3, 3)
         c.resetBasePositionAndOrientation(self.payload_id, (np.asarray(pos) + rot @ self._payload_frame_base).tolist(),
                                           quat)
@@ -245,7 +289,10 @@ class Simulator(EngineBase):
         if base_height_m is None:
             base_height_m = self._standing_height(q_joint)
         pos = [float(xy[0]), float(xy[1]), float(self.terrain.ground_z(xy)) + base_height_m]
-        c.resetBasePositionAndOrientation(self.robot_id, pos, list(yaw_to_quat(base_yaw_rad)))
+        quat = list(yaw_to_quat(base_yaw_rad))
+        if self._com_in_base is not None:  # PyBullet places the CoM frame
+            pos, quat = c.multiplyTransforms(pos, quat, *self._com_in_base)
+        c.resetBasePositionAndOrientation(self.robot_id, pos, quat)
         c.resetBaseVelocity(self.robot_id, [0, 0, 0], [0, 0, 0])
         for jid, qj, vj in zip(self.joint_ids, q_joint, v_joint, strict=True):
             c.resetJointState(self.robot_id, jid, float(qj), float(vj))
@@ -263,7 +310,7 @@ class Simulator(EngineBase):
         )
         for push in self.pushes:
             if push.active(self.t_s):
-                pos, _ = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+                pos = self._base_pose()[0]  # at the base's origin
                 pb.applyExternalForce(self.robot_id, -1, push.force_world, pos, pb.WORLD_FRAME, physicsClientId=cid)
         pb.stepSimulation(physicsClientId=cid)
         self.steps += 1
@@ -274,8 +321,7 @@ class Simulator(EngineBase):
         """Read the sensors. `with_contacts=False` skips the foot-contact query (about 15 us) for
         loops that do not need it; contacts then read as all False."""
         pb, cid, robot = self._pb, self._cid, self.robot_id
-        pos, quat = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
-        lin, ang = pb.getBaseVelocity(robot, physicsClientId=cid)
+        pos, quat, lin, ang = self._base_pose_and_velocity()
         q_tuple, v_tuple, _, _ = zip(*pb.getJointStates(robot, self.joint_ids, physicsClientId=cid), strict=True)
         v_true = np.array(v_tuple)
         v = v_true
@@ -355,10 +401,7 @@ class Simulator(EngineBase):
     # ---- referee (contactnet.sim.world.Referee) --------------------------------------------
     def _true_base(self) -> tuple:
         """The base's position, quaternion (x, y, z, w), linear and angular velocity (world) without sensor noise."""
-        pb, cid = self._pb, self._cid
-        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
-        lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
-        return pos, quat, lin, ang
+        return self._base_pose_and_velocity()
 
     def close(self) -> None:
         if self.client is not None:

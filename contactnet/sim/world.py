@@ -169,6 +169,29 @@ class SimState:
 
 
 
+@dataclass(frozen=True)
+class MassProperties:
+    """What an engine simulates of a robot's mass, now: total mass (kg), CoM (world, m) and the composite rotational
+    inertia about that CoM (world axes, kg m^2), summed over its links (``composite_of``)."""
+
+    mass_kg: float
+    com_world: np.ndarray
+    inertia_com_world: np.ndarray
+
+
+def composite_of(masses_kg: np.ndarray, coms_world: np.ndarray, rotations_world: np.ndarray,
+                 principal_inertias: np.ndarray) -> MassProperties:
+    """The links' (N) masses, CoMs (N, 3), inertial frames (N, 3, 3) and principal moments (N, 3) as one body."""
+    masses_kg = np.asarray(masses_kg, dtype=float)
+    total = float(masses_kg.sum())
+    com = (masses_kg[:, None] * coms_world).sum(axis=0) / total
+    inertia = np.zeros((3, 3))
+    for m, c, rot, moments in zip(masses_kg, coms_world, rotations_world, principal_inertias, strict=True):
+        r = c - com
+        inertia += rot @ np.diag(moments) @ rot.T + m * (float(r @ r) * np.eye(3) - np.outer(r, r))
+    return MassProperties(total, com, inertia)
+
+
 def describe_body_contacts(contacts: list[BodyContact]) -> str:
     """The referee's sentence for a non-foot contact: which links touch where, and why when a foot stepped into
     a gap, e.g. "non-foot contact: FR_LOWER_LEG on an edge at x 0.25, y -0.14 m (the FR foot stepped into a
@@ -325,5 +348,6 @@ class EngineBase(Referee):
         return np.asarray(quat, dtype=float), np.asarray(rot, dtype=float), lin, ang
 
 
-__all__ = ["ENGINES", "ENGINE_MODULES", "ENGINE_NAMES", "ENGINE_PACKAGES", "IMPULSE_DURATION_S", "EngineBase", "default_engine", "engine_installed", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
+__all__ = ["ENGINES", "ENGINE_MODULES", "ENGINE_NAMES", "ENGINE_PACKAGES", "IMPULSE_DURATION_S", "EngineBase", "MassProperties",
+           "composite_of", "default_engine", "engine_installed", "BodyContact", "Push", "Referee", "SimConfig", "SimState", "StandingGains",
            "describe_body_contacts", "standing_torques"]
