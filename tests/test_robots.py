@@ -156,6 +156,38 @@ def test_the_cached_urdf_is_keyed_on_the_code_that_writes_it(tmp_path):
     assert other != path and other.read_text() == path.read_text()
 
 
+def test_robot_check_says_what_is_wrong_with_a_stance_and_what_to_tune(tmp_path):
+    from dataclasses import replace
+
+    from contactnet.jobs.robot_check import model_checks, verdict
+    from contactnet.robots.description import Robot
+
+    good = {c.name: c for c in model_checks(Robot.load(_a1_spec(), cache_dir=tmp_path), "pybullet")}
+    assert all(c.passed for c in good.values()), good
+    assert "1 link(s) without <inertial> (base)" in good["links with a mass"].measured
+    straight = Robot.load(replace(_a1_spec(), standing_leg_joints_rad=(0.0, 0.0, 0.0)), cache_dir=tmp_path)
+    checks = {c.name: c for c in model_checks(straight, "pybullet")}
+    assert not checks["legs bent, not straight"].passed and checks["feet under the hips"].passed
+    leaning = Robot.load(replace(_a1_spec(), standing_leg_joints_rad=(0.0, 1.2, -1.6)), cache_dir=tmp_path)
+    checks = model_checks(leaning, "pybullet")
+    assert [c.name for c in checks if not c.passed] == ["feet under the hips"]
+    assert "not ready: feet under the hips: tune standing_leg_joints_rad" in verdict("a1", checks)
+
+
+@pytest.mark.slow
+def test_robot_check_on_the_command_line(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    result = subprocess.run([sys.executable, "-m", "contactnet", "robot", "check", "solo12", "--json"],
+                            capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["ready"] and report["robot"] == "solo12" and len(report["checks"]) == 7
+    assert report["verdict"].startswith("solo12: ready")
+
+
 def test_go2_is_described_from_its_own_files(tmp_path):
     go2 = load_robot("go2", cache_dir=tmp_path)
     description = go2.description

@@ -98,6 +98,19 @@ def cmd_terrain(args: argparse.Namespace) -> int:
     raise AssertionError(args.terrain_cmd)
 
 
+def cmd_robot(args: argparse.Namespace) -> int:
+    """``robot check``: exit 0 when the robot is ready, 1 when a check failed (the table says which)."""
+    from contactnet.jobs.robot_check import check_robot, checks_as_json, format_checks
+
+    engine = _sim_of(args)
+    checks = check_robot(registry.load_robot(args.robot), engine)
+    if args.json:
+        print(json.dumps(checks_as_json(args.robot, engine, checks), indent=1))
+    else:
+        print(format_checks(args.robot, checks))
+    return 0 if all(c.passed for c in checks) else 1
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from contactnet.bench import format_table, run
 
@@ -549,6 +562,15 @@ def build_parser() -> argparse.ArgumentParser:
         if action == "save":
             t.add_argument("--force", action="store_true")
     terrain.set_defaults(func=cmd_terrain)
+
+    robot = sub.add_parser("robot", help="check that a robot is ready to walk here")
+    rsub = robot.add_subparsers(dest="robot_cmd", metavar="ACTION", required=True)
+    check = rsub.add_parser("check", help="model against simulator, stance, stand 10 s, walk and trot 20 s; a verdict")
+    check.add_argument("robot", choices=registry.robot_names(), metavar="ROBOT",
+                       help=f"the robot ({', '.join(registry.robot_names())})")
+    check.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
+    check.add_argument("--json", action="store_true")
+    robot.set_defaults(func=cmd_robot)
     return parser
 
 
