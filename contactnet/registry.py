@@ -28,6 +28,7 @@ from contactnet.planning.planner import (
     HeuristicPlanner,
     Planner,
 )
+from contactnet.plugins import load_plugins
 from contactnet.robots import (
     DEFAULT_ROBOT,
     Robot,
@@ -121,6 +122,9 @@ register_planner("heuristic", lambda gait, robot, model: HeuristicPlanner(gait),
                  summary="fixed cyclic gait with Raibert footholds, blind to holes")
 register_planner("oracle", lambda gait, robot, model: OraclePlanner(gait, robot),
                  summary="evaluates the ranking cost of every candidate online (exact, slow)")
+
+# Robots, gaits, planners and terrains of installed plugins (contactnet.plugins): registered before any name is read.
+load_plugins()
 
 __all__ = [
     "DEFAULT_ROBOT",

@@ -3,8 +3,9 @@
     python examples/05_custom_gait.py [--duration 10]
 
 A gait is one `GaitSpec`: which legs swing together, the candidate grid, the step timing, the fixed
-cyclic order and the ranking cost's weights. Registered, it is offered everywhere gaits are; the
-heuristic planner walks it at once, and `contactnet datagen/train --gait pace` would give it a network.
+cyclic order and the ranking cost's weights. Registered in this process, the heuristic planner walks it at
+once. For `contactnet datagen/train --gait pace` (and `serve`, and the worker processes) to know it, register it
+from an installed package's entry point (group `contactnet.gaits`, see examples/plugin and docs/robots.md).
 """
 
 from __future__ import annotations

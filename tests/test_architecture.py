@@ -16,7 +16,7 @@ MAX_LINES = 600
 #: each package is a layer of its own.
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("contactnet", "contactnet.frames", "contactnet.atomic", "contactnet.paths", "contactnet.strict_json",
-     "contactnet.interrupt"),                                    # foundations
+     "contactnet.interrupt", "contactnet.plugins"),              # foundations
     ("contactnet.terrain",),
     ("contactnet.robots",),
     ("contactnet.motion",),                                      # gaits, trajectory optimizer, controller

@@ -68,11 +68,13 @@ def _sims_of(args: argparse.Namespace) -> tuple[str, ...]:
 
 
 def cmd_terrain(args: argparse.Namespace) -> int:
-    from contactnet.terrain import available, resolve
+    from contactnet.terrain import available, registered_terrains, resolve
 
     if args.terrain_cmd == "list":
         for name in available():
             print(name)
+        for name in registered_terrains():
+            print(f"{name}  (registered by a plugin)")
         print("random  (generated: --removed N --seed S)")
         print("random_heights  (generated: --removed N --seed S --height H)")
         return 0

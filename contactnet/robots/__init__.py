@@ -32,10 +32,15 @@ def register_robot(spec: RobotSpec) -> RobotSpec:
 
 
 def robot_names() -> tuple[str, ...]:
+    from contactnet.plugins import load_plugins
+
+    load_plugins()
     return tuple(_ROBOTS)
 
 
 def robot_spec(name: str) -> RobotSpec:
+    if name not in _ROBOTS:
+        robot_names()  # a plugin's robot
     try:
         return _ROBOTS[name]
     except KeyError:

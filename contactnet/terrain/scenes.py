@@ -294,7 +294,25 @@ _GENERATORS: Mapping[str, Callable[..., Terrain]] = MappingProxyType({
     "flat": flat, "narrow_stones": narrow_stones, "push_field": push_field, "raised_stones": raised_stones,
     "stairs": stairs, "stepping_stones": stepping_stones,
 })
+#: Terrains registered by name from outside the package (``register_terrain``; plugins: ``contactnet.plugins``).
+_REGISTERED: dict[str, Callable[[], Terrain]] = {}
 _SEEDED = ("push_field", "raised_stones")  # generators that take a seed (0 is the shipped file)
+
+
+def register_terrain(name: str, generate: Callable[[], Terrain]) -> None:
+    """Make a terrain known by ``name`` (``--terrain NAME`` on every command, the browser's list): ``generate()``
+    builds it. A shipped or generated terrain's name cannot be taken."""
+    if name in _GENERATORS or name in _FIELDS or name in available() or name in _REGISTERED:
+        raise ValueError(f"a terrain named {name!r} already exists")
+    _REGISTERED[name] = generate
+
+
+def registered_terrains() -> tuple[str, ...]:
+    """The names of the terrains registered with ``register_terrain`` (plugins included)."""
+    from contactnet.plugins import load_plugins
+
+    load_plugins()
+    return tuple(_REGISTERED)
 _FIELDS = ("random", "random_heights")  # generators that need ``removed``
 
 
@@ -348,7 +366,9 @@ def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, se
         return Terrain.load(shipped)
     if text in _GENERATORS:
         return by_name(text, seed=seed)
-    names = sorted({*available(), *_GENERATORS, *_FIELDS})
+    if text in registered_terrains():
+        return _REGISTERED[text]()
+    names = sorted({*available(), *_GENERATORS, *_FIELDS, *_REGISTERED})
     raise TerrainError(f"unknown terrain {show(text)}: expected a .json path or one of: {', '.join(names)}")
 
 
