@@ -11,14 +11,22 @@ from pathlib import Path
 
 from app.live.settings import VELOCITY_LIMIT_M_S
 from contactnet import registry
-from contactnet.cli.types import bounded_float, bounded_int, choices, number_list, positive_int
+from contactnet.cli.robot import add_robot_parser
+from contactnet.cli.types import (
+    ROBOT_METAVAR,
+    SIM_HELP,
+    UserError,
+    bounded_float,
+    bounded_int,
+    choices,
+    number_list,
+    positive_int,
+    robot_argument,
+    sim_of,
+)
 from contactnet.sim.world import ENGINES as SIM_ENGINES
 
 EXIT_USER_ERROR = 2
-
-
-class UserError(Exception):
-    """A mistake in what the user asked for: printed as one line, exit code 2."""
 
 
 USER_ERROR_CLASSES = (
@@ -42,24 +50,13 @@ def _user_errors() -> tuple[type[BaseException], ...]:
 
 
 # ---- subcommands -------------------------------------------------------------------------------
-def _sim_of(args: argparse.Namespace) -> str:
-    """``--sim``, or the default engine (PyBullet; MuJoCo where pybullet is not installed, with a one-line notice)."""
-    from contactnet.sim.world import default_engine
-
-    if getattr(args, "sim", None) is None:
-        args.sim = default_engine()
-        if args.sim != "pybullet":
-            print(f"contactnet: pybullet is not installed here: simulating in {args.sim} (--sim)", file=sys.stderr)
-    return args.sim
-
-
 def _sims_of(args: argparse.Namespace) -> tuple[str, ...]:
-    """``experiment --sim``: the engines to run every trial in (default: the default engine, as `_sim_of`), each
+    """``experiment --sim``: the engines to run every trial in (default: the default engine, as `sim_of`), each
     installed (else one line now, not one per trial in the workers)."""
     from contactnet.sim.world import default_engine, engine_installed
 
     if args.sim is None:
-        _sim_of(args)
+        sim_of(args)
     sims = (args.sim,) if isinstance(args.sim, str) else tuple(dict.fromkeys(args.sim))
     missing = [sim for sim in sims if not engine_installed(sim)]
     if missing:
@@ -98,19 +95,6 @@ def cmd_terrain(args: argparse.Namespace) -> int:
         print(f"wrote {out}")
         return 0
     raise AssertionError(args.terrain_cmd)
-
-
-def cmd_robot(args: argparse.Namespace) -> int:
-    """``robot check``: exit 0 when the robot is ready, 1 when a check failed (the table says which)."""
-    from contactnet.jobs.robot_check import check_robot, checks_as_json, format_checks
-
-    engine = _sim_of(args)
-    checks = check_robot(registry.load_robot(args.robot), engine)
-    if args.json:
-        print(json.dumps(checks_as_json(args.robot, engine, checks), indent=1))
-    else:
-        print(format_checks(args.robot, checks))
-    return 0 if all(c.passed for c in checks) else 1
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -161,7 +145,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     robot = registry.load_robot(args.robot)
     planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args),
-                           engine=_sim_of(args))
+                           engine=sim_of(args))
     with contextlib.ExitStack() as stack:
         recording = None
         if args.record:  # the scene over time, as the web tool draws it (app/recordings/recorder.py)
@@ -211,7 +195,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     from contactnet.terrain import resolve
 
     resolve(args.terrain)  # a bad terrain is a one-line user error before anything starts
-    _sim_of(args)
+    sim_of(args)
     try:
         settings = settings_from_args(args)
     except ValueError as exc:
@@ -235,7 +219,7 @@ def cmd_datagen(args: argparse.Namespace) -> int:
     _check_engine(args)
     config = DatagenConfig(gait=args.gait, robot=args.robot, episodes=args.episodes, seed=args.seed,
                            episodes_per_shard=args.episodes_per_shard,
-                           instances_per_episode=args.instances_per_episode, sim=_sim_of(args))
+                           instances_per_episode=args.instances_per_episode, sim=sim_of(args))
     try:
         manifest = generate(args.out, config, workers=args.workers, progress=not args.quiet,
                             engine=args.engine, address=args.address)
@@ -368,7 +352,6 @@ def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 # ---- parser ------------------------------------------------------------------------------------
-SIM_HELP = "the physics engine (default pybullet; mujoco where pybullet is not installed)"
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean the capture step into it "
                  "(contactnet.planning.observer; on by default, --no-observer turns it off)")
@@ -400,7 +383,7 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--viser-port", type=bounded_int("--viser-port", 1, 65535), default=8080,
                        help="3D view (viser takes the next free port if busy)")
     serve.add_argument("--terrain", default="stepping_stones", help="terrain name or JSON path")
-    serve.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
+    serve.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT)
     serve.add_argument("--gait", choices=registry.gait_names(), default="walk")
     serve.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     serve.add_argument("--planner", choices=registry.planner_names(), default="contactnet",
@@ -428,7 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--gait", choices=registry.gait_names(), required=True)
     sim.add_argument("--planner", choices=registry.planner_names(), required=True)
-    sim.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
+    sim.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT)
     sim.add_argument("--model", metavar="FILE.pt", help="model of contactnet/fixed (default: the shipped one)")
     sim.add_argument("--vx", type=bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
                      help="m/s")
@@ -448,7 +431,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     datagen = sub.add_parser("datagen", help="generate a training dataset")
     datagen.add_argument("--gait", choices=registry.gait_names(), required=True)
-    datagen.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
+    datagen.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT)
     datagen.add_argument("--episodes", type=positive_int("--episodes", 10**6), default=1500)
     datagen.add_argument("--out", required=True)
     datagen.add_argument("--workers", type=positive_int("--workers", 256))
@@ -463,7 +446,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     train = sub.add_parser("train", help="train a ContactNet model")
     train.add_argument("--gait", choices=registry.gait_names(), required=True)
-    train.add_argument("--robot", choices=registry.robot_names(), default=None,
+    train.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=None,
                        help="the robot the dataset must have been made with (default: the dataset's)")
     train.add_argument("--data", required=True)
     train.add_argument("--out", required=True)
@@ -493,7 +476,7 @@ def build_parser() -> argparse.ArgumentParser:
                                  "1 on the others)")
     experiment.add_argument("--workers", type=positive_int("--workers", 256))
     experiment.add_argument("--out", required=True)
-    experiment.add_argument("--robot", choices=registry.robot_names(), default=registry.DEFAULT_ROBOT)
+    experiment.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT)
     experiment.add_argument("--gaits", type=choices("--gaits", registry.gait_names()), default=None,
                             help="comma-separated (default: walk; walk,trot on random and the terrains with "
                                  "heights)")
@@ -540,7 +523,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")
     bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion", "live", "upload"])
-    bench.add_argument("--robot", choices=registry.robot_names(), default=None,
+    bench.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=None,
                        help="the robot of the benchmarks that run one (default solo12)")
     bench.add_argument("--json", action="store_true")
     bench.set_defaults(func=cmd_bench)
@@ -565,14 +548,7 @@ def build_parser() -> argparse.ArgumentParser:
             t.add_argument("--force", action="store_true")
     terrain.set_defaults(func=cmd_terrain)
 
-    robot = sub.add_parser("robot", help="check that a robot is ready to walk here")
-    rsub = robot.add_subparsers(dest="robot_cmd", metavar="ACTION", required=True)
-    check = rsub.add_parser("check", help="model against simulator, stance, stand 10 s, walk and trot 20 s; a verdict")
-    check.add_argument("robot", choices=registry.robot_names(), metavar="ROBOT",
-                       help=f"the robot ({', '.join(registry.robot_names())})")
-    check.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
-    check.add_argument("--json", action="store_true")
-    robot.set_defaults(func=cmd_robot)
+    add_robot_parser(sub)
     return parser
 
 

@@ -1,9 +1,29 @@
 """The command line's argument types: each parses one option's text and says in one line, naming the option, what
-was wrong (argparse prints it and exits 2)."""
+was wrong (argparse prints it and exits 2); `UserError`, a mistake found after parsing (one line, exit code 2); and
+`sim_of`, the engine an option chose."""
 
 from __future__ import annotations
 
 import argparse
+import sys
+
+SIM_HELP = "the physics engine (default pybullet; mujoco where pybullet is not installed)"
+ROBOT_METAVAR = "NAME|FILE.toml"
+
+
+class UserError(Exception):
+    """A mistake in what the user asked for: printed as one line, exit code 2."""
+
+
+def sim_of(args: argparse.Namespace) -> str:
+    """``--sim``, or the default engine (PyBullet; MuJoCo where pybullet is not installed, with a one-line notice)."""
+    from contactnet.sim.world import default_engine
+
+    if getattr(args, "sim", None) is None:
+        args.sim = default_engine()
+        if args.sim != "pybullet":
+            print(f"contactnet: pybullet is not installed here: simulating in {args.sim} (--sim)", file=sys.stderr)
+    return args.sim
 
 
 def bounded_float(name: str, low: float, high: float):
@@ -60,8 +80,25 @@ def bounded_int(name: str, low: int, high: int):
     return parse
 
 
+def robot_argument(text: str) -> str:
+    """``--robot NAME|FILE.toml``: a registered robot's name, or a robot file's (registered here and, through the
+    environment, in the processes this one starts); returns the robot's name."""
+    from contactnet.robots import RobotDataError, robot_names, use_robot_file
+    from contactnet.robots.robot_file import is_robot_file
+
+    if is_robot_file(text):
+        try:
+            return use_robot_file(text)
+        except RobotDataError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    if text not in robot_names():
+        raise argparse.ArgumentTypeError(f"unknown robot {text!r}: choose one of {', '.join(robot_names())} or a "
+                                         "robot file (FILE.toml)")
+    return text
+
+
 def positive_int(name: str, high: int):
     return bounded_int(name, 1, high)
 
 
-__all__ = ["bounded_float", "bounded_int", "choices", "number_list", "positive_int"]
+__all__ = ["ROBOT_METAVAR", "SIM_HELP", "UserError", "sim_of", "bounded_float", "bounded_int", "choices", "number_list", "positive_int", "robot_argument"]

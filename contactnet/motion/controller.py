@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -61,8 +61,15 @@ class ControllerGains:
 
     @classmethod
     def for_robot(cls, robot: RobotDescription) -> ControllerGains:
-        """The defaults with the robot's force cap and the gains its module sets differently."""
-        return replace(cls(fz_max_n=robot.fz_max_n), **dict(robot.controller_gains))
+        """The defaults with the robot's force cap and the gains its module (or file) sets differently."""
+        gains = dict(robot.controller_gains)
+        unknown = sorted(set(gains) - {f.name for f in fields(cls)})
+        if unknown:
+            from contactnet.robots import RobotDataError
+
+            raise RobotDataError(f"robot {robot.name}: unknown controller gain {unknown[0]!r} (gains: "
+                                 f"{', '.join(f.name for f in fields(cls))})")
+        return replace(cls(fz_max_n=robot.fz_max_n), **gains)
 
 
 @dataclass(frozen=True)

@@ -90,12 +90,22 @@ class RobotFiles:
     """Where a robot's description lives inside the installed example-robot-data wheel."""
 
     urdf: Path
-    srdf: Path
+    srdf: Path | None  #: None: the stance is the spec's standing_leg_joints_rad
     package_root: Path  #: the folder that ``package://example-robot-data/...`` resolves against
 
     @staticmethod
     def locate(spec: RobotSpec) -> RobotFiles:
-        """Find the files through the installed distribution's file list (no hard-coded site-packages)."""
+        """Find the files through the installed distribution's file list (no hard-coded site-packages), or in the
+        folder ``spec.description_dir`` names when it is an absolute path (a robot file's own description: its
+        ``package://NAME/...`` mesh paths resolve against the folder's parent)."""
+        if Path(spec.description_dir).is_absolute():
+            description = Path(spec.description_dir)
+            files = RobotFiles(urdf=description / spec.urdf, srdf=description / spec.srdf if spec.srdf else None,
+                               package_root=description.parent)
+            for path in (files.urdf, files.srdf):
+                if path is not None and not path.is_file():
+                    raise RobotDataError(f"missing robot file {path}")
+            return files
         try:
             dist = metadata.distribution("example-robot-data")
         except metadata.PackageNotFoundError as exc:
@@ -110,9 +120,10 @@ class RobotFiles:
         else:
             raise RobotDataError(f"example-robot-data {dist.version} does not ship {suffix}")
         description = urdf.parents[len(Path(spec.urdf).parts) - 1]
-        files = RobotFiles(urdf=urdf, srdf=description / spec.srdf, package_root=description.parent.parent.parent)
+        files = RobotFiles(urdf=urdf, srdf=description / spec.srdf if spec.srdf else None,
+                           package_root=description.parent.parent.parent)
         for path in (files.urdf, files.srdf):
-            if not path.is_file():
+            if path is not None and not path.is_file():
                 raise RobotDataError(f"missing robot file {path}")
         return files
 
@@ -218,6 +229,10 @@ def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | No
         filename = mesh.get("filename", "")
         if filename.startswith("package://"):
             mesh.set("filename", str(files.package_root / filename[len("package://"):]))
+        elif filename.startswith("file://"):
+            mesh.set("filename", filename[len("file://"):])
+        elif filename and not Path(filename).is_absolute():  # relative to the URDF: absolute in the cached copy
+            mesh.set("filename", str(files.urdf.parent / filename))
     _add_missing_inertia(root)
     if sphere_feet and spec.collision_recipe is not None:
         for link in root.iter("link"):
@@ -256,9 +271,10 @@ def _writer_source(spec: RobotSpec) -> bytes:
     import inspect
 
     parts = [write_pybullet_urdf, _add_missing_inertia, _set_collision]
-    if spec.collision_recipe is not None:
-        parts.append(spec.collision_recipe)
-    text = []
+    recipe = spec.collision_recipe
+    if recipe is not None:  # a function, or an object whose class says what it does and whose repr its numbers
+        parts += [recipe] if inspect.isfunction(recipe) else [type(recipe)]
+    text = [] if recipe is None or inspect.isfunction(recipe) else [repr(recipe)]
     for part in parts:
         try:
             text.append(inspect.getsource(part))
@@ -378,7 +394,8 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
 
     data = model.createData()
     q = pin.neutral(model)
-    q[7:] = standing_joint_positions(files.srdf, spec.joint_names, spec.standing_pose)
+    if files.srdf is not None:
+        q[7:] = standing_joint_positions(files.srdf, spec.joint_names, spec.standing_pose)
     if spec.standing_leg_joints_rad is not None:
         q[7:] = np.tile(spec.standing_leg_joints_rad, 4)
 

@@ -1,0 +1,187 @@
+"""A robot as a file: a `RobotSpec` written in TOML (``--robot FILE.toml`` on every command).
+
+A robot file names where the robot's URDF (+ SRDF) lies and states what the files do not say; everything else is
+read from them, as for the robots in modules::
+
+    name = "a1"
+    description = "Unitree A1"
+    description_dir = "a1_description"     # a folder of example-robot-data, or a path (relative to this file)
+    urdf = "urdf/a1.urdf"                  # inside description_dir
+    srdf = "srdf/a1.srdf"                  # optional when standing_leg_joints_rad is given
+    standing_pose = "standing"             # the SRDF's group_state of the stance
+    leg_prefixes = ["FL", "FR", "RL", "RR"]            # the robot's names of front-left, front-right, hind-left, hind-right
+    joint_suffixes = ["hip_joint", "thigh_joint", "calf_joint"]   # abduction, hip flexion, knee
+    foot_suffix = "foot"
+    foot_radius_m = 0.02
+    fz_max_n = 120.0                       # the controller's cap on one foot's normal force
+    kin_threshold_m = 0.15                 # the ranking cost's reach of a stance foot from its hip
+    fall_base_height_m = 0.12
+    # optional: torque_limit_nm (else the URDF's), standing_leg_joints_rad = [abduction, flexion, knee],
+    # feet = "sphere" (default: each foot a ball of foot_radius_m in the simulators) or "mesh" (the URDF's),
+    # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains)
+
+`contactnet robot init` drafts one from a description folder or a URDF; `contactnet robot check FILE.toml` says
+whether it is ready (``docs/robots.md``). A file named on the command line is registered in this process and listed
+in ``CONTACTNET_ROBOT_FILES`` so that worker processes register it too (``contactnet.plugins``).
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from contactnet.robots.description import RobotDataError, RobotSpec
+
+#: The environment variable listing robot files (os.pathsep-separated) that every process registers.
+ROBOT_FILES_ENV = "CONTACTNET_ROBOT_FILES"
+
+_REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes", "foot_suffix", "foot_radius_m",
+             "fz_max_n", "kin_threshold_m", "fall_base_height_m")
+_OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
+             "controller_gains")
+_POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm")
+
+
+@dataclass(frozen=True)
+class SphereFeet:
+    """The collision recipe of a robot file: each foot link a ball of ``radius_m``; the other links keep the URDF's."""
+
+    radius_m: float
+    foot_links: tuple[str, ...]
+
+    def __call__(self, link_name: str) -> tuple[ET.Element, str] | None:
+        if link_name in self.foot_links:
+            return ET.Element("sphere", radius=f"{self.radius_m}"), "0 0 0"
+        return None
+
+
+def is_robot_file(text: str) -> bool:
+    """Whether a ``--robot`` value names a robot file rather than a registered robot."""
+    return text.endswith(".toml")
+
+
+def load_robot_file(path: str | os.PathLike[str]) -> RobotSpec:
+    """The `RobotSpec` a robot file states; a missing file, bad TOML or a bad field is one line naming it."""
+    path = Path(path)
+    try:
+        values = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise RobotDataError(f"robot file {path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RobotDataError(f"robot file {path}: unreadable ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise RobotDataError(f"robot file {path}: not TOML ({exc})") from None
+    return spec_from_values(values, path)
+
+
+def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
+    """A `RobotSpec` from a robot file's parsed ``values`` (``path`` for messages and relative folders)."""
+    def bad(field: str, why: str) -> RobotDataError:
+        return RobotDataError(f"robot file {path}: {field}: {why}")
+
+    unknown = sorted(set(values) - set(_REQUIRED) - set(_OPTIONAL))
+    if unknown:
+        raise bad(unknown[0], f"unknown field (fields: {', '.join(_REQUIRED + _OPTIONAL)})")
+    missing = [field for field in _REQUIRED if field not in values]
+    if missing:
+        raise bad(missing[0], "missing")
+    for field in ("name", "description_dir", "urdf", "foot_suffix", "description", "srdf", "standing_pose"):
+        if field in values and not (isinstance(values[field], str) and (values[field] or field in ("srdf",))):
+            raise bad(field, f"expected a text, got {values[field]!r}")
+    for field in ("leg_prefixes", "joint_suffixes"):
+        wanted = 4 if field == "leg_prefixes" else 3
+        value = values[field]
+        if not (isinstance(value, list) and len(value) == wanted and all(isinstance(v, str) and v for v in value)):
+            raise bad(field, f"expected {wanted} names, got {value!r}")
+    for field in _POSITIVE:
+        if field in values:
+            value = values[field]
+            if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < 1e6:
+                raise bad(field, f"expected a positive number, got {value!r}")
+    stance = values.get("standing_leg_joints_rad")
+    if stance is not None and not (isinstance(stance, list) and len(stance) == 3
+                                   and all(isinstance(v, int | float) and not isinstance(v, bool) for v in stance)):
+        raise bad("standing_leg_joints_rad", f"expected 3 angles (abduction, hip flexion, knee), got {stance!r}")
+    if not values.get("srdf") and stance is None:
+        raise bad("srdf", "missing: a stance needs the SRDF's pose or standing_leg_joints_rad")
+    feet = values.get("feet", "sphere")
+    if feet not in ("sphere", "mesh"):
+        raise bad("feet", f"expected 'sphere' or 'mesh', got {feet!r}")
+    gains = values.get("controller_gains", {})
+    if not isinstance(gains, dict):
+        raise bad("controller_gains", "expected a table")
+    for name, value in gains.items():  # the names are checked by the controller (ControllerGains.for_robot)
+        numbers = value if isinstance(value, list) else [value]
+        if not numbers or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in numbers):
+            raise bad(f"controller_gains.{name}", f"expected a number or numbers, got {value!r}")
+    description_dir = values["description_dir"]
+    if description_dir.startswith((".", "/", "~")):  # a path, not an example-robot-data folder
+        folder = Path(description_dir).expanduser()
+        description_dir = str((path.parent / folder).resolve() if not folder.is_absolute() else folder)
+    prefixes, foot_suffix = tuple(values["leg_prefixes"]), values["foot_suffix"]
+    recipe = SphereFeet(float(values["foot_radius_m"]), tuple(f"{p}_{foot_suffix}" for p in prefixes)) \
+        if feet == "sphere" else None
+    return RobotSpec(
+        name=values["name"], description_dir=description_dir, urdf=values["urdf"], srdf=values.get("srdf", ""),
+        standing_pose=values.get("standing_pose", ""), leg_prefixes=prefixes,
+        joint_suffixes=tuple(values["joint_suffixes"]), foot_suffix=foot_suffix,
+        foot_radius_m=float(values["foot_radius_m"]), fz_max_n=float(values["fz_max_n"]),
+        kin_threshold_m=float(values["kin_threshold_m"]), fall_base_height_m=float(values["fall_base_height_m"]),
+        torque_limit_nm=None if "torque_limit_nm" not in values else float(values["torque_limit_nm"]),
+        standing_leg_joints_rad=None if stance is None else tuple(float(v) for v in stance),
+        description=values.get("description", ""),
+        controller_gains=tuple((name, tuple(float(v) for v in value) if isinstance(value, list) else float(value))
+                               for name, value in gains.items()),
+        collision_recipe=recipe, recipe_version=f"file-{feet}-feet-v1",
+    )
+
+
+def spec_values(spec: RobotSpec) -> dict[str, Any]:
+    """A spec as a robot file's values (the inverse of `spec_from_values`, for `write_robot_file`)."""
+    values: dict[str, Any] = {}
+    for field in fields(RobotSpec):
+        value = getattr(spec, field.name)
+        if field.name in ("collision_recipe", "recipe_version") or value is None or value == "" or value == ():
+            continue
+        values[field.name] = list(value) if isinstance(value, tuple) and field.name != "controller_gains" else value
+    values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"
+    if spec.controller_gains:
+        values["controller_gains"] = {name: list(v) if isinstance(v, tuple) else v for name, v in spec.controller_gains}
+    return values
+
+
+def to_toml(values: dict[str, Any], comments: dict[str, str] | None = None) -> str:
+    """The robot file's TOML text of ``values`` (scalars and lists first, then the tables), each field with its
+    comment from ``comments``."""
+    comments = comments or {}
+
+    def text(value: Any) -> str:
+        if isinstance(value, str):
+            return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(value, bool):
+            return "true" if value else "false"
+        if isinstance(value, list | tuple):
+            return "[" + ", ".join(text(v) for v in value) + "]"
+        return repr(float(value)) if isinstance(value, float) else str(value)
+
+    lines = []
+    for key, value in values.items():
+        if not isinstance(value, dict):
+            lines.append(f"{key} = {text(value)}" + (f"  # {comments[key]}" if key in comments else ""))
+    for key, value in values.items():
+        if isinstance(value, dict):
+            lines += ["", f"[{key}]"] + [f"{k} = {text(v)}" for k, v in value.items()]
+    return "\n".join(lines) + "\n"
+
+
+def registered_files() -> tuple[str, ...]:
+    """The robot files listed in ``CONTACTNET_ROBOT_FILES``."""
+    return tuple(p for p in os.environ.get(ROBOT_FILES_ENV, "").split(os.pathsep) if p)
+
+
+__all__ = ["ROBOT_FILES_ENV", "SphereFeet", "is_robot_file", "load_robot_file", "registered_files",
+           "spec_from_values", "spec_values", "to_toml"]

@@ -1,0 +1,123 @@
+"""Robots as files: a robot file reads into the same `RobotSpec` a module writes, bad files are one line naming the
+field, `robot init` drafts one from example-robot-data, and ``--robot FILE.toml`` reaches the workers."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from contactnet.robots import RobotDataError, load_robot, robot_spec
+from contactnet.robots.robot_file import load_robot_file, spec_values, to_toml
+from contactnet.robots.robot_init import draft
+
+ROOT = Path(__file__).resolve().parents[1]
+
+A1 = """\
+name = "a1_file"
+description_dir = "a1_description"
+urdf = "urdf/a1.urdf"
+srdf = "srdf/a1.srdf"
+standing_pose = "standing"
+leg_prefixes = ["FL", "FR", "RL", "RR"]
+joint_suffixes = ["hip_joint", "thigh_joint", "calf_joint"]
+foot_suffix = "foot"
+foot_radius_m = 0.02
+fz_max_n = 120.0
+kin_threshold_m = 0.15
+fall_base_height_m = 0.12
+
+[controller_gains]
+kd_joint = 0.1
+kp_swing = [400.0, 400.0, 400.0]
+"""
+
+
+def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
+    path = tmp_path / "a1.toml"
+    path.write_text(A1)
+    spec = load_robot_file(path)
+    assert spec.name == "a1_file" and spec.leg_prefixes == ("FL", "FR", "RL", "RR")
+    assert spec.controller_gains == (("kd_joint", 0.1), ("kp_swing", (400.0, 400.0, 400.0)))
+    assert spec.collision_recipe("FL_foot")[0].get("radius") == "0.02" and spec.collision_recipe("FL_calf") is None
+    robot = load_robot(str(path), cache_dir=tmp_path)
+    assert robot.name == "a1_file" and 13.0 < robot.mass_kg < 14.5
+    assert robot_spec("a1_file") == spec  # registered by name once read
+    again = tmp_path / "again.toml"
+    again.write_text(to_toml(spec_values(spec)))
+    assert load_robot_file(again) == spec  # what to_toml writes reads back as the same robot
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda t: t.replace('foot_radius_m = 0.02\n', ''), "foot_radius_m: missing"),
+    (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nwheels = 4\n'),
+     "wheels: unknown field"),
+    (lambda t: t.replace('fz_max_n = 120.0', 'fz_max_n = -1'), "fz_max_n: expected a positive number"),
+    (lambda t: t.replace('["FL", "FR", "RL", "RR"]', '["FL", "FR"]'), "leg_prefixes: expected 4 names"),
+    (lambda t: t.replace('srdf = "srdf/a1.srdf"\n', ''), "srdf: missing: a stance needs"),
+    (lambda t: t.replace('name = "a1_file"', 'name = "a1_file'), "not TOML"),
+    (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nfeet = "wheels"\n'),
+     "feet: expected 'sphere' or 'mesh'"),
+])
+def test_a_bad_robot_file_is_one_line_naming_the_field(tmp_path, change, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(change(A1))
+    with pytest.raises(RobotDataError, match=message) as error:
+        load_robot_file(path)
+    assert str(path) in str(error.value) and "\n" not in str(error.value)
+
+
+def test_an_unknown_controller_gain_is_named_when_the_controller_is_built(tmp_path):
+    from contactnet.motion.controller import ControllerGains
+
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace("kd_joint = 0.1", "kd_joints = 0.1").replace('"a1_file"', '"a1_gains"'))
+    robot = load_robot(str(path), cache_dir=tmp_path)
+    with pytest.raises(RobotDataError, match="unknown controller gain 'kd_joints'"):
+        ControllerGains.for_robot(robot.description)
+
+
+def test_robot_init_finds_legs_names_stance_and_says_what_it_guessed():
+    go1 = draft("go1_description")
+    assert go1.values["leg_prefixes"] == ["FL", "FR", "RL", "RR"]
+    assert go1.values["joint_suffixes"] == ["hip_joint", "thigh_joint", "calf_joint"]
+    assert go1.values["standing_pose"] == "standing" and "standing_leg_joints_rad" not in go1.values
+    assert go1.values["kin_threshold_m"] == pytest.approx(0.12 / 0.32 * 0.426, abs=0.005)  # scaled by the leg
+    laikago = draft("laikago_description")  # no SRDF: the stance is searched
+    assert "srdf" not in laikago.values and len(laikago.values["standing_leg_joints_rad"]) == 3
+    assert any("computed standing_leg_joints_rad" in line for line in laikago.problems)
+    a1 = draft("a1_description")
+    assert any("links without <inertial> (base)" in line for line in a1.problems)
+    with pytest.raises(RobotDataError, match="not leg by leg"):  # ANYmal's URDF lists LF, LH, RF, RH
+        draft("anymal_c_simple_description")
+    with pytest.raises(RobotDataError, match="four legs of a 12-joint quadruped"):  # solo.urdf: 8 joints
+        draft("solo_description")
+
+
+@pytest.mark.slow
+def test_a_drafted_robot_file_walks_through_the_command_line_and_the_workers(tmp_path):
+    """The issue's target for robots we do not ship: `robot init` then `--robot FILE.toml`, no edit of the package;
+    an experiment's trials in two worker processes read the file too."""
+    def cli(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "contactnet", *args], capture_output=True, text=True, cwd=ROOT,
+                              timeout=900)
+
+    robot_file = tmp_path / "laikago.toml"
+    made = cli("robot", "init", "laikago_description", "--out", str(robot_file))
+    assert made.returncode == 0, made.stderr
+    assert "guessed: computed standing_leg_joints_rad" in made.stdout
+    assert cli("robot", "init", "laikago_description", "--out", str(robot_file)).returncode == 2  # exists
+    walked = cli("simulate", "--robot", str(robot_file), "--terrain", "flat", "--gait", "trot", "--planner",
+                 "heuristic", "--vx", "0.1", "--duration", "20", "--json")
+    assert walked.returncode == 0, walked.stderr
+    result = json.loads(walked.stdout)
+    assert not result["fell"] and result["mean_velocity_xy"][0] > 0.075
+    out = tmp_path / "runs"
+    experiment = cli("experiment", "stepping_stones", "--robot", str(robot_file), "--planners", "heuristic",
+                     "--gaits", "walk,trot", "--workers", "2", "--quiet", "--out", str(out))
+    assert experiment.returncode == 0, experiment.stderr
+    records = [json.loads(line) for line in (out / "trials.jsonl").read_text().splitlines()]
+    assert len(records) == 2 and all(r["trial"]["robot"] == "laikago" for r in records)
