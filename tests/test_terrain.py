@@ -630,3 +630,20 @@ def test_replace_revalidates_and_push_field_seed_resolves() -> None:
     assert T.resolve("push_field", seed=3) == T.push_field(3)
 
 
+
+
+def test_stone_grid_has_esfal_s_stones_under_the_feet():
+    from contactnet.robots import load_robot
+
+    terrain = T.resolve("stone_grid")
+    stones = [r for r in terrain.regions if tuple(r["size"]) == (0.11, 0.11)]
+    assert len(stones) == 40
+    xs = sorted({round(r["center"][0], 6) for r in stones})
+    ys = sorted({round(r["center"][1], 6) for r in stones})
+    assert np.allclose(np.diff(xs), 0.19) and np.allclose(np.diff(ys), 0.147)
+    for name in ("solo12", "go2"):  # a row of stones under each side's feet, a foot radius inside the stone
+        feet_y = load_robot(name).description.foot_nominal_base[:, 1]
+        assert all(min(abs(y - row) for row in ys) < 0.055 - load_robot(name).description.foot_radius_m
+                   for y in feet_y)
+    with pytest.raises(T.TerrainError, match="do not fit"):
+        T.stone_grid(side_m=0.2)

@@ -81,9 +81,7 @@ def cmd_terrain(args: argparse.Namespace) -> int:
         return 0
     if args.terrain_cmd == "render":
         out = Path(args.out or f"{terrain.name}.png")
-        from contactnet.robots import load_robot
-
-        feet_xy_base = load_robot("solo12").description.foot_nominal_base[:, :2]
+        feet_xy_base = registry.load_robot(args.robot).description.foot_nominal_base[:, :2]
         terrain.render_png(out, feet_xy_start=terrain.start_xy + feet_xy_base)
         print(f"wrote {out}")
         return 0
@@ -544,6 +542,9 @@ def build_parser() -> argparse.ArgumentParser:
         t.add_argument("--seed", type=int, default=0)
         if action in ("render", "save"):
             t.add_argument("--out", required=action == "save")
+        if action == "render":
+            t.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT,
+                           help="whose nominal feet are drawn at the start (default solo12)")
         if action == "save":
             t.add_argument("--force", action="store_true")
     terrain.set_defaults(func=cmd_terrain)

@@ -79,7 +79,7 @@ from contactnet.sim.world import ENGINES as SIM_ENGINES
 
 HEADER_FORMAT = "contactnet-experiment-v1"
 EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights",
-               "push", "robustness")
+               "push", "robustness", "stone_grid")
 DEFAULT_PLANNERS = {
     "stepping_stones": ("contactnet", "fixed", "heuristic"),
     "narrow_stones": ("contactnet", "fixed", "heuristic"),
@@ -90,11 +90,12 @@ DEFAULT_PLANNERS = {
     "random_heights": ("contactnet", "fixed"),
     "push": ("contactnet",),
     "robustness": ("contactnet",),
+    "stone_grid": ("contactnet", "fixed", "heuristic"),
 }
 DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "narrow_map": ("walk",),
                  "random": ("walk", "trot"), "stairs": ("walk", "trot"), "raised_stones": ("walk", "trot"),
                  "random_heights": ("walk", "trot"), "push": ("walk", "trot"),
-                 "robustness": ("walk", "trot")}
+                 "robustness": ("walk", "trot"), "stone_grid": ("walk", "trot")}
 DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5, "push": 10, "robustness": 20}  # 1 elsewhere
 FIELDS = ("random", "random_heights")  # one generated terrain per (removed, seed)
 DEFAULT_HEIGHT_M = 0.03  # random_heights: each top within +-3 cm

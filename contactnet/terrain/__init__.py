@@ -36,6 +36,7 @@ from contactnet.terrain.scenes import (
     resolve,
     stairs,
     stepping_stones,
+    stone_grid,
     terrains_dir,
 )
 from contactnet.terrain.schema import TerrainError
@@ -59,6 +60,7 @@ __all__ = [
     "resolve",
     "stairs",
     "stepping_stones",
+    "stone_grid",
     "terrains_dir",
     "validate_terrain_bytes",
 ]

@@ -290,9 +290,36 @@ def push_field(seed: int = 0) -> Terrain:
                    description=f"4 x 2 m ground with {n_holes} random 10 x 10 cm holes (seed {int(seed)})")
 
 
+#: The smallest stepping stones an open Go2 contact planner is shown on (esfal: square stones of about 11 cm at a
+#: pitch of 19 cm along x and 14.7 cm across), m.
+STONE_GRID_SIDE_M = 0.11
+STONE_GRID_PITCH_XY_M = (0.19, 0.147)
+
+
+def stone_grid(side_m: float = STONE_GRID_SIDE_M, pitch_xy_m: Sequence[float] = STONE_GRID_PITCH_XY_M,
+               columns: int = 8, rows: int = 5) -> Terrain:
+    """A grid of square stones between a start and an end square: ``columns`` x ``rows`` stones of ``side_m``, their
+    centres ``pitch_xy_m`` apart, the rows centred on y = 0 (with 5 rows at 0, +-14.7 and +-29.4 cm, under the
+    feet of Go2 and Solo12, about 14 cm to each side). Gaps of 8 cm along x and 3.7 cm across at the defaults."""
+    pitch_x, pitch_y = (float(v) for v in pitch_xy_m)
+    if not (0.0 < side_m <= min(pitch_x, pitch_y)) or columns < 1 or rows < 1:
+        raise TerrainError(f"stone_grid: stones of {show(side_m)} m at a pitch of {show(list(pitch_xy_m))} m do not "
+                           "fit (0 < side <= pitch, at least one column and row)")
+    start_half = 0.25
+    first_x = start_half + pitch_x - side_m / 2
+    stones = [_rect((first_x + i * pitch_x, (j - (rows - 1) / 2) * pitch_y), (side_m, side_m))
+              for i in range(columns) for j in range(rows)]
+    end_x = first_x + (columns - 1) * pitch_x + pitch_x - side_m / 2 + start_half
+    width = rows * pitch_y
+    regions = [_rect((0.0, 0.0), (2 * start_half, width)), *stones, _rect((end_x, 0.0), (2 * start_half, width))]
+    return Terrain(name="stone_grid", start_xy=(0.0, 0.0), goal_x=end_x - start_half + 0.15, regions=regions,
+                   description=f"{columns} x {rows} square stones of {100 * side_m:g} cm at a pitch of "
+                               f"{100 * pitch_x:g} x {100 * pitch_y:g} cm (esfal's Go2 stepping stones)")
+
+
 _GENERATORS: Mapping[str, Callable[..., Terrain]] = MappingProxyType({
     "flat": flat, "narrow_stones": narrow_stones, "push_field": push_field, "raised_stones": raised_stones,
-    "stairs": stairs, "stepping_stones": stepping_stones,
+    "stairs": stairs, "stepping_stones": stepping_stones, "stone_grid": stone_grid,
 })
 #: Terrains registered by name from outside the package (``register_terrain``; plugins: ``contactnet.plugins``).
 _REGISTERED: dict[str, Callable[[], Terrain]] = {}
