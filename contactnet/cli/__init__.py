@@ -12,7 +12,9 @@ from pathlib import Path
 from app.live.settings import VELOCITY_LIMIT_M_S
 from contactnet import registry
 from contactnet.cli.robot import add_robot_parser
+from contactnet.cli.terrain import add_terrain_parser
 from contactnet.cli.types import (
+    HEIGHT_HELP,
     ROBOT_METAVAR,
     SIM_HELP,
     UserError,
@@ -62,37 +64,6 @@ def _sims_of(args: argparse.Namespace) -> tuple[str, ...]:
     if missing:
         raise UserError(f"--sim {','.join(missing)}: not installed here (the installed default is {default_engine()})")
     return sims
-
-
-def cmd_terrain(args: argparse.Namespace) -> int:
-    from contactnet.terrain import available, registered_terrains, resolve
-
-    if args.terrain_cmd == "list":
-        for name in available():
-            print(name)
-        for name in registered_terrains():
-            print(f"{name}  (registered by a plugin)")
-        print("random  (generated: --removed N --seed S)")
-        print("random_heights  (generated: --removed N --seed S --height H)")
-        return 0
-    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed, height_m=args.height)
-    if args.terrain_cmd == "check":
-        print(terrain.summary())
-        return 0
-    if args.terrain_cmd == "render":
-        out = Path(args.out or f"{terrain.name}.png")
-        feet_xy_base = registry.load_robot(args.robot).description.foot_nominal_base[:, :2]
-        terrain.render_png(out, feet_xy_start=terrain.start_xy + feet_xy_base)
-        print(f"wrote {out}")
-        return 0
-    if args.terrain_cmd == "save":
-        out = Path(args.out)
-        if out.exists() and not args.force:
-            raise UserError(f"{out} exists; pass --force to overwrite it")
-        terrain.save(out)
-        print(f"wrote {out}")
-        return 0
-    raise AssertionError(args.terrain_cmd)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -350,7 +321,6 @@ def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 # ---- parser ------------------------------------------------------------------------------------
-HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean the capture step into it "
                  "(contactnet.planning.observer; on by default, --no-observer turns it off)")
 RETARGET_HELP = ("rank a swinging leg's landing again when the measured velocity leaves the command "
@@ -526,28 +496,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", action="store_true")
     bench.set_defaults(func=cmd_bench)
 
-    terrain = sub.add_parser("terrain", help="check, render, list and save terrains")
-    tsub = terrain.add_subparsers(dest="terrain_cmd", metavar="ACTION", required=True)
-    tsub.add_parser("list", help="names of the shipped terrains")
-    for action, text in (
-        ("check", "validate a terrain and print its summary"),
-        ("render", "draw a top view to PNG"),
-        ("save", "write a (generated) terrain to a JSON file"),
-    ):
-        t = tsub.add_parser(action, help=text)
-        t.add_argument("terrain", help="terrain name or JSON path ('random' with --removed)")
-        t.add_argument("--removed", type=int, default=None)
-        t.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
-                       help=HEIGHT_HELP)
-        t.add_argument("--seed", type=int, default=0)
-        if action in ("render", "save"):
-            t.add_argument("--out", required=action == "save")
-        if action == "render":
-            t.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT,
-                           help="whose nominal feet are drawn at the start (default solo12)")
-        if action == "save":
-            t.add_argument("--force", action="store_true")
-    terrain.set_defaults(func=cmd_terrain)
+    add_terrain_parser(sub)
 
     add_robot_parser(sub)
     return parser

@@ -9,6 +9,7 @@ import sys
 
 SIM_HELP = "the physics engine (default pybullet; mujoco where pybullet is not installed)"
 ROBOT_METAVAR = "NAME|FILE.toml"
+HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 
 
 class UserError(Exception):
@@ -101,4 +102,4 @@ def positive_int(name: str, high: int):
     return bounded_int(name, 1, high)
 
 
-__all__ = ["ROBOT_METAVAR", "SIM_HELP", "UserError", "sim_of", "bounded_float", "bounded_int", "choices", "number_list", "positive_int", "robot_argument"]
+__all__ = ["HEIGHT_HELP", "ROBOT_METAVAR", "SIM_HELP", "UserError", "sim_of", "bounded_float", "bounded_int", "choices", "number_list", "positive_int", "robot_argument"]

@@ -13,6 +13,7 @@ everything else is a hole. The package:
   and the point queries (``is_safe``, ``height_at``, ``ground_z``);
 - ``scenes``: the paper's scenes as generators, the shipped files, name resolution
   (``python -m contactnet.terrain`` rewrites the shipped files);
+- ``importing``: terrain from a height map or a mesh, segmented into steppable tops (``terrain import``);
 - ``mesh``: the extruded triangle mesh; ``render``: the matplotlib top view;
 - ``edits``: pure edit operations on terrain dicts (holes, stones, moves, undo).
 """
@@ -20,6 +21,7 @@ everything else is a hole. The package:
 from __future__ import annotations
 
 from contactnet.terrain.geometry import Terrain, region_geometry, validate_terrain_bytes
+from contactnet.terrain.importing import ImportReport, SegmentConfig, import_terrain
 from contactnet.terrain.scenes import (
     SHIPPED,
     available,
@@ -43,11 +45,14 @@ from contactnet.terrain.schema import TerrainError
 
 __all__ = [
     "SHIPPED",
+    "ImportReport",
+    "SegmentConfig",
     "Terrain",
     "TerrainError",
     "available",
     "by_name",
     "flat",
+    "import_terrain",
     "main",
     "narrow_stones",
     "push_field",

@@ -375,7 +375,8 @@ def available() -> list[str]:
 
 def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, seed: int = 0,
             height_m: float | None = None) -> Terrain:
-    """Terrain from a CLI argument: a .json path, 'random' or 'random_heights' (with ``removed``/``seed``, the
+    """Terrain from a CLI argument: a .json path, a height map or mesh (``.npy``, ``.png``, ``.stl``, ``.obj``, ``.ply``:
+    ``contactnet.terrain.importing`` with its defaults), 'random' or 'random_heights' (with ``removed``/``seed``, the
     latter with ``height_m``), or a shipped name.
 
     Order: an existing file or a name ending in .json is loaded; 'random' and 'random_heights' build
@@ -384,6 +385,10 @@ def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, se
     else raises TerrainError listing the available names.
     """
     text = os.fspath(name_or_path)
+    from contactnet.terrain.importing import HEIGHT_MAP_SUFFIXES, MESH_SUFFIXES, import_terrain
+
+    if text.lower().endswith(HEIGHT_MAP_SUFFIXES + MESH_SUFFIXES):  # a height map or a mesh, with the defaults
+        return import_terrain(text)[0]
     if text.endswith(".json") or Path(text).is_file():
         return Terrain.load(text)
     if text in _FIELDS or (text in _SEEDED and seed != 0):

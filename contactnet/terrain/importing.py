@@ -1,0 +1,387 @@
+"""Terrain from a height map or a mesh: what a perception stack hands a planner, segmented into steppable tops.
+
+``import_terrain(SOURCE)`` reads
+
+- a **height map**: ``.npy`` (a 2-D float array, metres) or a 16-bit (or 8-bit) ``.png`` (pixel value times
+  ``z_scale`` metres). ``map[i, j]`` is the height at x = origin_x + j * resolution, y = origin_y + i * resolution
+  (row i along y, column j along x); NaN is a hole;
+- a **mesh**: ``.stl``, ``.obj``, ``.ply`` (through trimesh), in metres, z up; it is sampled into a height map at
+  ``resolution`` (the highest upward-facing surface over each cell's centre; no surface: a hole).
+
+and segments the map as perceptive planners do (``SegmentConfig``; each rule's number is a field):
+
+1. a cell is a **hole** when its height is NaN, or lies more than ``max_drop_m`` (a leg's length) below the map's
+   median: a pit the feet cannot reach;
+2. **tops** are the 4-connected groups of the other cells whose neighbours differ by at most ``max_step_m`` (an
+   edge higher than that separates two tops);
+3. a top is **flat** when its heights spread over at most ``max_spread_m``. Tops are flat in contactnet's terrains,
+   so a top that is not is dropped as *sloped* when its best plane explains it within ``max_roughness_m`` and is
+   steeper than ``MIN_SLOPE_DEG`` (the report gives the slope); otherwise (flat tops of nearly the same height side
+   by side, as on ``random_heights``) it is split again with half the step, down to ``MIN_STEP_M`` (then *rough*);
+4. a top narrower than ``min_width_m`` (its outline shrunk by half of it is empty) is dropped: no foot fits on it.
+
+Each top becomes polygons (its cells' union, split where it has holes inside) at its median height. The start is
+the widest point of the first top along x, the goal the last top's (``--start``, ``--goal-x`` say otherwise).
+`ImportReport` says what was kept and dropped; ``contactnet terrain render`` draws the result.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from contactnet.terrain.geometry import Terrain
+from contactnet.terrain.schema import TerrainError
+
+#: A top whose best plane is steeper than this is sloped; one that is not flat and not sloped is split with a finer
+#: step between neighbours, down to `MIN_STEP_M` (then it is rough).
+MIN_SLOPE_DEG = 1.0
+MIN_STEP_M = 1e-4
+#: The file endings `import_terrain` reads.
+HEIGHT_MAP_SUFFIXES = (".npy", ".png")
+MESH_SUFFIXES = (".stl", ".obj", ".ply")
+
+
+@dataclass(frozen=True)
+class SegmentConfig:
+    """The segmentation's rules (see the module's docstring), in metres."""
+
+    max_roughness_m: float = 0.005
+    max_step_m: float = 0.005
+    max_spread_m: float = 0.01
+    max_drop_m: float = 0.32
+    min_width_m: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("max_roughness_m", "max_step_m", "max_spread_m", "max_drop_m", "min_width_m"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise TerrainError(f"{name} must be a finite number >= 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class ImportReport:
+    """What an import kept: tops (count, area), and what it dropped, each a line."""
+
+    cells: tuple[int, int]
+    resolution_m: float
+    tops: int
+    steppable_m2: float
+    dropped: tuple[str, ...] = field(default_factory=tuple)
+
+    def lines(self) -> list[str]:
+        rows, cols = self.cells
+        return [f"{rows} x {cols} cells of {100 * self.resolution_m:g} cm: {self.tops} top(s), "
+                f"{self.steppable_m2:.3f} m^2 steppable", *self.dropped]
+
+
+def read_height_map(path: Path, z_scale: float = 1.0) -> np.ndarray:
+    """The height map (rows along y, columns along x) of a ``.npy`` or ``.png`` file, in metres."""
+    if path.suffix == ".npy":
+        try:
+            heights = np.load(path, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise TerrainError(f"{path}: not a numpy array file ({exc})") from None
+    else:
+        from PIL import Image, UnidentifiedImageError
+
+        try:
+            with Image.open(path) as image:
+                heights = np.asarray(image)
+        except (OSError, UnidentifiedImageError) as exc:
+            raise TerrainError(f"{path}: not a PNG image ({exc})") from None
+        if heights.ndim == 3:
+            raise TerrainError(f"{path}: a colour image; a height map is one channel (8 or 16 bit grey)")
+    if heights.ndim != 2 or min(heights.shape) < 2:
+        raise TerrainError(f"{path}: a height map is a 2-D array of at least 2 x 2, got shape {heights.shape}")
+    if not np.issubdtype(heights.dtype, np.number):
+        raise TerrainError(f"{path}: a height map holds numbers, got {heights.dtype}")
+    return heights.astype(float) * z_scale
+
+
+def mesh_height_map(path: Path, resolution_m: float) -> tuple[np.ndarray, tuple[float, float]]:
+    """A mesh sampled into a height map at ``resolution_m``: the highest upward-facing triangle over each cell
+    centre (NaN where there is none); returns the map and its origin (x, y), the first cell's centre, half a cell
+    inside the mesh's bounds (so that the cells tile them)."""
+    import trimesh
+
+    try:
+        mesh = trimesh.load(path, force="mesh")
+    except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds for a bad file
+        raise TerrainError(f"{path}: not a mesh trimesh can read ({type(exc).__name__}: {exc})") from None
+    if len(mesh.faces) == 0:
+        raise TerrainError(f"{path}: the mesh has no faces")
+    lower, upper = mesh.bounds
+    origin = (float(lower[0]) + resolution_m / 2, float(lower[1]) + resolution_m / 2)  # the first cell's centre
+    cols = max(1, int(math.ceil((upper[0] - lower[0]) / resolution_m - 1e-9)))
+    rows = max(1, int(math.ceil((upper[1] - lower[1]) / resolution_m - 1e-9)))
+    if rows * cols > 4_000_000:
+        raise TerrainError(f"{path}: {rows} x {cols} cells at {resolution_m} m; raise --resolution")
+    heights = np.full((rows, cols), np.nan)
+    triangles = mesh.triangles[mesh.face_normals[:, 2] > 1e-6]  # facing up
+    for tri in triangles:
+        (x0, y0, _), (x1, y1, _), (x2, y2, _) = tri
+        j0 = max(0, int(math.ceil((min(x0, x1, x2) - origin[0]) / resolution_m - 1e-9)))
+        j1 = min(cols - 1, int(math.floor((max(x0, x1, x2) - origin[0]) / resolution_m + 1e-9)))
+        i0 = max(0, int(math.ceil((min(y0, y1, y2) - origin[1]) / resolution_m - 1e-9)))
+        i1 = min(rows - 1, int(math.floor((max(y0, y1, y2) - origin[1]) / resolution_m + 1e-9)))
+        if j1 < j0 or i1 < i0:
+            continue
+        xs = origin[0] + resolution_m * np.arange(j0, j1 + 1)
+        ys = origin[1] + resolution_m * np.arange(i0, i1 + 1)
+        px, py = np.meshgrid(xs, ys)
+        det = (y1 - y2) * (x0 - x2) + (x2 - x1) * (y0 - y2)
+        if abs(det) < 1e-15:
+            continue
+        a = ((y1 - y2) * (px - x2) + (x2 - x1) * (py - y2)) / det
+        b = ((y2 - y0) * (px - x2) + (x0 - x2) * (py - y2)) / det
+        c = 1.0 - a - b
+        inside = (a >= -1e-9) & (b >= -1e-9) & (c >= -1e-9)
+        z = a * tri[0, 2] + b * tri[1, 2] + c * tri[2, 2]
+        block = heights[i0:i1 + 1, j0:j1 + 1]
+        higher = inside & ~(z <= block)  # NaN compares False: any surface beats none
+        block[higher] = z[higher]
+    return heights, origin
+
+
+def segment(heights: np.ndarray, resolution_m: float, origin_xy: Sequence[float],
+            config: SegmentConfig = SegmentConfig()) -> tuple[list[dict], list[str], int]:
+    """The steppable tops of a height map as terrain regions (polygons with their ``z``), a line per part dropped, and
+    how many tops were kept."""
+    finite = np.isfinite(heights)
+    if not finite.any():
+        raise TerrainError("the height map has no finite height")
+    median = float(np.median(heights[finite]))
+    usable = finite & (np.where(finite, heights, median) >= median - config.max_drop_m)
+    segmenter = _Segmenter(heights, np.where(usable, heights, np.nan), resolution_m, origin_xy, config)
+    segmenter.split(usable, config.max_step_m)
+    if not segmenter.regions:
+        raise TerrainError("no steppable top was found" + (f" ({segmenter.dropped[0]})" if segmenter.dropped else ""))
+    return segmenter.regions, segmenter.dropped, segmenter.kept
+
+
+class _Segmenter:
+    """The recursion of `segment`: a group of cells is split into tops at a step; a top that is flat is kept (or
+    dropped as narrow); one that is not is dropped as sloped when one plane explains it, else split again with half
+    the step. What a split leaves over (cells of no kept top) is one line: sloped, or narrow and rough pieces."""
+
+    def __init__(self, heights: np.ndarray, filled: np.ndarray, resolution_m: float, origin_xy: Sequence[float],
+                 config: SegmentConfig) -> None:
+        self.heights, self.filled, self.res, self.origin, self.config = heights, filled, resolution_m, origin_xy, config
+        self.regions: list[dict] = []
+        self.dropped: list[str] = []
+        self.kept = 0
+
+    def _where(self, cells: np.ndarray) -> str:
+        x, y = _cell_xy(cells, self.res, self.origin)
+        return f"near ({x:.2f}, {y:.2f}) m"
+
+    def split(self, group: np.ndarray, step_m: float) -> np.ndarray:
+        """Keep the tops of ``group`` at ``step_m``; returns the cells kept."""
+        with np.errstate(invalid="ignore"):
+            join_x = np.abs(np.diff(self.filled, axis=1)) <= step_m  # cells j and j+1 of a row: one top
+            join_y = np.abs(np.diff(self.filled, axis=0)) <= step_m
+        labels = _components(group, join_x, join_y)
+        kept = np.zeros(group.shape, dtype=bool)
+        narrow = np.zeros(group.shape, dtype=bool)
+        narrow_tops = 0
+        for label in range(1, int(labels.max()) + 1):
+            cells = labels == label
+            top = self._top(cells, step_m)
+            if top is None:
+                narrow |= cells
+                narrow_tops += 1
+            else:
+                kept |= top
+        if narrow_tops:  # one line for them all (a rough patch breaks into many one-cell tops)
+            self.dropped.append(f"dropped {narrow_tops} top(s) narrower than {100 * self.config.min_width_m:g} cm, "
+                                f"{narrow.sum() * self.res ** 2 * 1e4:.0f} cm^2 {self._where(narrow)}")
+        return kept
+
+    def _top(self, cells: np.ndarray, step_m: float) -> np.ndarray | None:
+        """The cells kept of one group (None: a flat top too narrow for a foot)."""
+        config, values = self.config, self.heights[cells]
+        spread = float(values.max() - values.min())
+        if spread <= config.max_spread_m:
+            outline = _cells_polygon(cells, self.res, self.origin)
+            if config.min_width_m > 0 and outline.buffer(-config.min_width_m / 2).is_empty:
+                return None
+            z = float(np.median(values))
+            self.kept += 1
+            for polygon in _without_holes(outline):
+                ring = np.asarray(polygon.exterior.coords)[:-1]
+                self.regions.append({"shape": "polygon", "vertices": ring.round(9).tolist(), "z": round(z, 6)})
+            return cells
+        if self._sloped(cells) or step_m <= MIN_STEP_M:
+            if step_m <= MIN_STEP_M:
+                self.dropped.append(f"dropped a rough part {self._where(cells)}: heights over {100 * spread:.1f} cm")
+            return np.zeros_like(cells)
+        before = len(self.dropped)
+        kept = self.split(cells, step_m / 2)
+        left = cells & ~kept
+        if left.any():  # one line for what the finer split left over, instead of one per piece
+            del self.dropped[before:]
+            if not self._sloped(left):
+                self.dropped.append(f"dropped {left.sum() * self.res ** 2 * 1e4:.0f} cm^2 {self._where(left)}: not a "
+                                    f"flat top (narrow or rough pieces, heights over "
+                                    f"{100 * float(np.ptp(self.heights[left])):.1f} cm)")
+        return kept
+
+    def _sloped(self, cells: np.ndarray) -> bool:
+        """Whether one plane steeper than `MIN_SLOPE_DEG` explains these cells (then they are dropped as sloped)."""
+        values = self.heights[cells]
+        slope_deg, residual_m = _plane_fit(cells, values, self.res)
+        if residual_m > self.config.max_roughness_m or slope_deg < MIN_SLOPE_DEG:
+            return False
+        self.dropped.append(f"dropped a top {self._where(cells)}: sloped {slope_deg:.1f} degrees, its heights spread "
+                            f"over {100 * float(np.ptp(values)):.1f} cm (> {100 * self.config.max_spread_m:g} cm: "
+                            "tops are flat)")
+        return True
+
+
+def _plane_fit(cells: np.ndarray, values: np.ndarray, resolution_m: float) -> tuple[float, float]:
+    """The slope (degrees) of the best plane through a top's heights and the residuals' standard deviation (m)."""
+    i, j = np.nonzero(cells)
+    design = np.column_stack([j * resolution_m, i * resolution_m, np.ones(len(i))])
+    coef, *_ = np.linalg.lstsq(design, values, rcond=None)
+    residual = values - design @ coef
+    return float(np.degrees(np.arctan(np.hypot(coef[0], coef[1])))), float(residual.std())
+
+
+def _components(cells: np.ndarray, join_x: np.ndarray, join_y: np.ndarray) -> np.ndarray:
+    """Labels (1..N) of the 4-connected groups of ``cells`` joined where ``join_x`` / ``join_y`` say; 0 elsewhere."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rows, cols = cells.shape
+    index = np.arange(rows * cols).reshape(rows, cols)
+    ex = cells[:, :-1] & cells[:, 1:] & join_x
+    ey = cells[:-1, :] & cells[1:, :] & join_y
+    a = np.concatenate([index[:, :-1][ex], index[:-1, :][ey]])
+    b = np.concatenate([index[:, 1:][ex], index[1:, :][ey]])
+    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(rows * cols, rows * cols))
+    _, component = connected_components(graph, directed=False)
+    component = component.reshape(rows, cols)
+    labels = np.zeros((rows, cols), dtype=int)
+    _, first = np.unique(component[cells], return_inverse=True)
+    labels[cells] = first + 1
+    return labels
+
+
+def _cell_xy(cells: np.ndarray, resolution_m: float, origin_xy: Sequence[float]) -> tuple[float, float]:
+    i, j = np.nonzero(cells)
+    return origin_xy[0] + resolution_m * float(j.mean()), origin_xy[1] + resolution_m * float(i.mean())
+
+
+def _cells_polygon(cells: np.ndarray, resolution_m: float, origin_xy: Sequence[float]):  # noqa: ANN202
+    """The union of a top's cells (each cell a square of ``resolution_m`` centred on its sample), as runs along x
+    merged by shapely, collinear vertices removed."""
+    import shapely
+
+    rows, cols = cells.shape
+    # Cell edges computed once each, so that neighbouring cells share them exactly (no sliver between rows).
+    x_edges = origin_xy[0] + resolution_m * (np.arange(cols + 1) - 0.5)
+    y_edges = origin_xy[1] + resolution_m * (np.arange(rows + 1) - 0.5)
+    boxes = []
+    for i in range(rows):
+        row = cells[i]
+        if not row.any():
+            continue
+        edges = np.diff(np.concatenate([[0], row.astype(np.int8), [0]]))
+        starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+        boxes += [shapely.box(x_edges[j0], y_edges[i], x_edges[j1], y_edges[i + 1])
+                  for j0, j1 in zip(starts, stops, strict=True)]
+    union = shapely.union_all(boxes)
+    # An opening of 1 um parts cells that touch at a corner only (a ring that touches itself is not simple).
+    opened = union.buffer(-1e-6, join_style="mitre").buffer(1e-6, join_style="mitre")
+    return shapely.simplify(opened, 0.0)
+
+
+def _without_holes(geometry) -> list:  # noqa: ANN001 - a shapely (Multi)Polygon
+    """The polygons of ``geometry`` with every hole cut open: each holed polygon split in two along a line through
+    a hole, until none has one (the terrain's polygons have no holes; their union is the same set)."""
+    import shapely
+    from shapely.ops import split
+
+    out, pending = [], list(shapely.get_parts(geometry))
+    while pending:
+        polygon = pending.pop()
+        if polygon.is_empty or polygon.area <= 0:
+            continue
+        if not polygon.interiors:
+            out.append(polygon)
+            continue
+        hole_x = shapely.Polygon(polygon.interiors[0]).centroid.x
+        _, y0, _, y1 = polygon.bounds
+        cut = shapely.LineString([(hole_x, y0 - 1.0), (hole_x, y1 + 1.0)])
+        pending += [p for p in split(polygon, cut).geoms if p.area > 0]
+    return out
+
+
+def import_terrain(source: str | Path, resolution_m: float | None = None, z_scale: float = 1.0,
+                   origin_xy: Sequence[float] = (0.0, 0.0), start_xy: Sequence[float] | None = None,
+                   goal_x: float | None = None, config: SegmentConfig = SegmentConfig(),
+                   name: str | None = None) -> tuple[Terrain, ImportReport]:
+    """A terrain from a height map or a mesh (see the module's docstring), and what the import kept and dropped.
+    ``resolution_m``: metres per pixel of a height map (default 0.01), the sampling step of a mesh (default 0.005)."""
+    path = Path(source)
+    suffix = path.suffix.lower()
+    if suffix not in HEIGHT_MAP_SUFFIXES + MESH_SUFFIXES:
+        raise TerrainError(f"{path}: import reads {', '.join(HEIGHT_MAP_SUFFIXES + MESH_SUFFIXES)}")
+    if not path.is_file():
+        raise TerrainError(f"{path}: no such file")
+    if resolution_m is not None and not (math.isfinite(resolution_m) and resolution_m > 0):
+        raise TerrainError(f"--resolution must be a positive number of metres, got {resolution_m!r}")
+    if suffix in MESH_SUFFIXES:
+        resolution_m = resolution_m or 0.005
+        heights, origin = mesh_height_map(path, resolution_m)
+        origin_xy = origin
+    else:
+        resolution_m = resolution_m or 0.01
+        heights = read_height_map(path, z_scale)
+    regions, dropped, kept = segment(heights, resolution_m, origin_xy, config)
+    tops = _tops_by_x(regions)
+    start = tuple(start_xy) if start_xy is not None else _end_point(tops, first=True)
+    goal = float(goal_x) if goal_x is not None else _end_point(tops, first=False)[0]
+    if goal <= start[0]:
+        raise TerrainError(f"{path}: the goal (x {goal:.2f} m) is not ahead of the start (x {start[0]:.2f} m): give "
+                           "--start X,Y and --goal-x X")
+    surface_z = float(min(r["z"] for r in regions))
+    terrain = Terrain(name=name or path.stem, start_xy=start, goal_x=goal, regions=regions, surface_z=surface_z,
+                      description=f"imported from {path.name}", source=str(path))
+    report = ImportReport(heights.shape, resolution_m, kept, float(terrain.steppable.area), tuple(dropped))
+    return terrain, report
+
+
+#: The start and the goal lie on the steppable ground within this distance of its first and last x, m.
+END_STRIP_M = 0.5
+
+
+def _tops_by_x(regions: list[dict]) -> list:
+    import shapely
+
+    polygons = [shapely.Polygon(r["vertices"]) for r in regions]
+    merged = list(shapely.get_parts(shapely.union_all(polygons)))
+    return sorted(merged, key=lambda p: p.bounds[0])
+
+
+def _end_point(tops: list, first: bool) -> tuple[float, float]:
+    """The widest point (centre of the largest inscribed circle) of the steppable ground within `END_STRIP_M` of its
+    first x (``first``) or its last x."""
+    import shapely
+
+    ground = shapely.union_all(tops)
+    x0, y0, x1, y1 = ground.bounds
+    strip = shapely.box(x0, y0, x0 + END_STRIP_M, y1) if first else shapely.box(x1 - END_STRIP_M, y0, x1, y1)
+    parts = [part for part in shapely.get_parts(ground.intersection(strip)) if part.geom_type == "Polygon"]
+    widest = max(parts, key=lambda part: shapely.maximum_inscribed_circle(part).length)
+    centre = shapely.maximum_inscribed_circle(widest).coords[0]
+    return float(centre[0]), float(centre[1])
+
+
+__all__ = ["HEIGHT_MAP_SUFFIXES", "MESH_SUFFIXES", "ImportReport", "SegmentConfig", "import_terrain",
+           "mesh_height_map", "read_height_map", "segment"]

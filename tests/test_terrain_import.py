@@ -1,0 +1,132 @@
+"""Terrain import: height maps and meshes in, steppable tops out.
+
+The reference is the plainest possible rasteriser kept here: the generated terrain asked point by point (is the cell
+centre steppable, and at what height). A generated terrain rasterised or meshed and imported back must give the same
+steppable area within a cell (the symmetric difference at most the outline's length times the resolution) and the
+same heights away from the edges.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+from contactnet.terrain import SegmentConfig, TerrainError, import_terrain, resolve
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def rasterise(terrain, resolution_m: float) -> tuple[np.ndarray, tuple[float, float]]:  # noqa: ANN001
+    """map[i, j]: the top at the centre of cell (i, j) (NaN over a hole), the first centre half a cell inside."""
+    x0, y0, x1, y1 = terrain.bounds
+    xs = np.arange(x0 + resolution_m / 2, x1, resolution_m)
+    ys = np.arange(y0 + resolution_m / 2, y1, resolution_m)
+    heights = np.full((len(ys), len(xs)), np.nan)
+    for i, y in enumerate(ys):
+        for j, x in enumerate(xs):
+            if terrain.steppable.contains(shapely.Point(x, y)):
+                heights[i, j] = terrain.height_at(np.array([[x, y]]))[0]
+    return heights, (float(xs[0]), float(ys[0]))
+
+
+def same_within_a_cell(original, imported, resolution_m: float) -> None:  # noqa: ANN001
+    difference = original.steppable.symmetric_difference(imported.steppable).area
+    assert difference <= original.steppable.length * resolution_m, (difference, original.steppable.length)
+    x0, y0, x1, y1 = original.bounds
+    points = np.random.default_rng(0).uniform([x0, y0], [x1, y1], size=(5000, 2))
+    inner = shapely.contains_xy(original.steppable.buffer(-2 * resolution_m), *points.T)
+    np.testing.assert_allclose(imported.height_at(points[inner]), original.height_at(points[inner]), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["stairs", "raised_stones", "stepping_stones"])
+def test_a_rasterised_terrain_imports_back_within_a_cell(name, tmp_path):
+    original = resolve(name)
+    heights, origin = rasterise(original, 0.01)
+    np.save(tmp_path / "map.npy", heights)
+    imported, report = import_terrain(tmp_path / "map.npy", resolution_m=0.01, origin_xy=origin)
+    same_within_a_cell(original, imported, 0.01)
+    assert len(imported.levels) == len(original.levels)
+    assert report.cells == heights.shape and report.dropped == ()
+
+
+@pytest.mark.parametrize("name", ["stairs", "raised_stones"])
+def test_a_meshed_terrain_imports_back_within_a_cell(name, tmp_path):
+    import trimesh
+
+    original = resolve(name)
+    mesh = original.mesh(thickness=0.05)
+    path = tmp_path / f"{name}.stl"
+    trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces)).export(path)
+    imported, _ = import_terrain(path, resolution_m=0.005)
+    same_within_a_cell(original, imported, 0.005)
+    np.testing.assert_allclose(imported.start_xy, original.start_xy, atol=0.005)  # the first top's widest point
+
+
+def test_the_segmentation_drops_what_a_foot_cannot_use_and_says_why(tmp_path):
+    res = 0.01
+    heights = np.zeros((60, 200))
+    heights[:, 60:70] = np.nan  # a gap across the path
+    heights[:, 100:140] = np.linspace(0.0, 0.4 * np.tan(np.radians(8)), 40)[None, :]  # an 8 degree ramp
+    heights[10:12, 160:190] = 0.05  # a 2 cm wide raised strip: narrower than the default 2 cm? exactly: kept
+    heights[30:31, 160:190] = 0.08  # a 1 cm strip: dropped
+    heights[45:55, 150:160] = -1.0  # a pit deeper than a leg: a hole
+    heights[:, 195:] += np.random.default_rng(0).normal(0.0, 0.02, size=(60, 5))  # noise: one-cell pieces
+    np.save(tmp_path / "map.npy", heights)
+    terrain, report = import_terrain(tmp_path / "map.npy", resolution_m=res, start_xy=(0.2, 0.3), goal_x=1.8)
+    text = "\n".join(report.dropped)
+    assert "sloped 8.2 degrees" in text  # 5.6 cm over 39 cells of 1 cm
+    assert "narrower than 2 cm" in text  # the 1 cm strip and the noisy cells, as one line
+    assert len(report.dropped) <= 4
+    assert not terrain.is_safe(np.array([[0.65, 0.3], [1.2, 0.3], [1.55, 0.5]]))[:].any()  # gap, ramp, pit
+    assert terrain.is_safe(np.array([[0.3, 0.3], [0.9, 0.3], [1.7, 0.105]])).all()
+    assert terrain.height_at(np.array([[1.7, 0.105]]))[0] == pytest.approx(0.05)
+
+
+def test_a_png_height_map_with_a_z_scale(tmp_path):
+    from PIL import Image
+
+    heights_mm = np.zeros((40, 120), dtype=np.uint16)
+    heights_mm[:, 60:] = 50  # a 5 cm step up, in millimetres
+    Image.fromarray(heights_mm).save(tmp_path / "step.png")
+    terrain, report = import_terrain(tmp_path / "step.png", resolution_m=0.01, z_scale=0.001)
+    assert report.tops == 2 and sorted(z for z, _ in terrain.levels) == pytest.approx([0.0, 0.05])
+
+
+@pytest.mark.parametrize(("content", "message"), [
+    (b"not an array", "not a numpy array file"),
+    (None, "no finite height"),
+])
+def test_a_bad_height_map_is_one_line(tmp_path, content, message):
+    path = tmp_path / "bad.npy"
+    if content is None:
+        np.save(path, np.full((5, 5), np.nan))
+    else:
+        path.write_bytes(content)
+    with pytest.raises(TerrainError, match=message) as error:
+        import_terrain(path)
+    assert "\n" not in str(error.value)
+    with pytest.raises(TerrainError, match="import reads"):
+        import_terrain(tmp_path / "map.tiff")
+    with pytest.raises(TerrainError, match="min_width_m must be"):
+        SegmentConfig(min_width_m=float("nan"))
+
+
+def test_terrain_import_on_the_command_line_and_a_map_as_a_terrain(tmp_path):
+    heights = np.zeros((50, 220))
+    heights[:, 100:106] = np.nan  # a 6 cm gap
+    np.save(tmp_path / "gap.npy", heights)
+    out = tmp_path / "gap.json"
+    result = subprocess.run([sys.executable, "-m", "contactnet", "terrain", "import", str(tmp_path / "gap.npy"),
+                             "--out", str(out), "--resolution", "0.01", "--origin=-0.5,-0.25"],
+                            capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "2 top(s)" in result.stdout and out.is_file()
+    saved = json.loads(out.read_text())
+    assert saved["start"][0] < 0.0 < saved["goal_x"]
+    assert resolve(str(tmp_path / "gap.npy")).steppable.area == pytest.approx(0.5 * (2.2 - 0.06), rel=1e-6)
