@@ -130,3 +130,22 @@ def test_terrain_import_on_the_command_line_and_a_map_as_a_terrain(tmp_path):
     saved = json.loads(out.read_text())
     assert saved["start"][0] < 0.0 < saved["goal_x"]
     assert resolve(str(tmp_path / "gap.npy")).steppable.area == pytest.approx(0.5 * (2.2 - 0.06), rel=1e-6)
+
+
+@pytest.mark.slow
+def test_the_raised_stones_exported_as_a_mesh_are_crossed_as_the_original(tmp_path):
+    """The issue's target: a generator exported as a mesh and imported back (at the default 2 mm) is crossed as the
+    original is (ContactNet, walk). At 5 mm the stones' outlines are stairs of 5 mm and both gaits fell."""
+    import trimesh
+
+    from contactnet.locomotion import Locomotion
+    from contactnet.registry import gait_by_name, load_robot, make_planner
+
+    mesh = resolve("raised_stones").mesh(thickness=0.05)
+    path = tmp_path / "raised_stones.stl"
+    trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces)).export(path)
+    robot, gait = load_robot("solo12"), gait_by_name("walk")
+    with Locomotion(robot, resolve(str(path)), gait, make_planner("contactnet", gait, robot),
+                    vel_cmd_xy=(0.05, 0.0)) as loco:
+        summary = loco.run(60.0)
+    assert summary["success"], summary["fall_reason"]

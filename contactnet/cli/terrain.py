@@ -45,7 +45,7 @@ def add_terrain_parser(sub) -> None:  # noqa: ANN001 - argparse's subparsers
     imp.add_argument("source", metavar="SOURCE")
     imp.add_argument("--out", required=True, metavar="FILE.json")
     imp.add_argument("--resolution", type=bounded_float("--resolution", 1e-4, 10.0), default=None, metavar="M",
-                     help="metres per pixel of a height map (default 0.01); a mesh's sampling step (default 0.005)")
+                     help="metres per pixel of a height map (default 0.01); a mesh's sampling step (default 0.002)")
     imp.add_argument("--z-scale", type=bounded_float("--z-scale", 1e-9, 1e3), default=1.0,
                      help="metres per unit of the map's values (e.g. 0.001 for millimetres in a 16-bit PNG)")
     imp.add_argument("--origin", type=number_list("--origin", -1e3, 1e3), default=(0.0, 0.0), metavar="X,Y",

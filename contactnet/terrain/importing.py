@@ -6,7 +6,8 @@
   ``z_scale`` metres). ``map[i, j]`` is the height at x = origin_x + j * resolution, y = origin_y + i * resolution
   (row i along y, column j along x); NaN is a hole;
 - a **mesh**: ``.stl``, ``.obj``, ``.ply`` (through trimesh), in metres, z up; it is sampled into a height map at
-  ``resolution`` (the highest upward-facing surface over each cell's centre; no surface: a hole).
+  ``resolution`` (default `MESH_RESOLUTION_M`; the highest upward-facing surface over each cell's centre; no
+  surface: a hole).
 
 and segments the map as perceptive planners do (``SegmentConfig``; each rule's number is a field):
 
@@ -21,7 +22,9 @@ and segments the map as perceptive planners do (``SegmentConfig``; each rule's n
 4. a top narrower than ``min_width_m`` (its outline shrunk by half of it is empty) is dropped: no foot fits on it.
 
 Each top becomes polygons (its cells' union, split where it has holes inside) at its median height. The start is
-the widest point of the first top along x, the goal the last top's (``--start``, ``--goal-x`` say otherwise).
+the widest point of the ground within `END_STRIP_M` of its first x, the goal the one of its last (``--start``,
+``--goal-x`` say otherwise); the nominal ground (``surface_z``, what heights over a hole are measured from) is the
+start's top.
 `ImportReport` says what was kept and dropped; ``contactnet terrain render`` draws the result.
 """
 
@@ -103,6 +106,13 @@ def read_height_map(path: Path, z_scale: float = 1.0) -> np.ndarray:
     return heights.astype(float) * z_scale
 
 
+#: A mesh's default sampling step, m: the raised stones meshed and sampled at 5 mm (outlines of 5 mm stairs) made
+#: both gaits fall at a stone's edge, at 2 and 3 mm both cross as on the original (docs/terrain-files.md).
+MESH_RESOLUTION_M = 0.002
+#: The most cells a mesh is sampled into (a larger mesh needs a coarser --resolution).
+MAX_MESH_CELLS = 4_000_000
+
+
 def mesh_height_map(path: Path, resolution_m: float) -> tuple[np.ndarray, tuple[float, float]]:
     """A mesh sampled into a height map at ``resolution_m``: the highest upward-facing triangle over each cell
     centre (NaN where there is none); returns the map and its origin (x, y), the first cell's centre, half a cell
@@ -119,8 +129,10 @@ def mesh_height_map(path: Path, resolution_m: float) -> tuple[np.ndarray, tuple[
     origin = (float(lower[0]) + resolution_m / 2, float(lower[1]) + resolution_m / 2)  # the first cell's centre
     cols = max(1, int(math.ceil((upper[0] - lower[0]) / resolution_m - 1e-9)))
     rows = max(1, int(math.ceil((upper[1] - lower[1]) / resolution_m - 1e-9)))
-    if rows * cols > 4_000_000:
-        raise TerrainError(f"{path}: {rows} x {cols} cells at {resolution_m} m; raise --resolution")
+    if rows * cols > MAX_MESH_CELLS:
+        coarser = math.sqrt((upper[0] - lower[0]) * (upper[1] - lower[1]) / MAX_MESH_CELLS)
+        raise TerrainError(f"{path}: {rows} x {cols} cells at {resolution_m} m, more than {MAX_MESH_CELLS}: give "
+                           f"--resolution {coarser:.3f} or more")
     heights = np.full((rows, cols), np.nan)
     triangles = mesh.triangles[mesh.face_normals[:, 2] > 1e-6]  # facing up
     for tri in triangles:
@@ -327,7 +339,8 @@ def import_terrain(source: str | Path, resolution_m: float | None = None, z_scal
                    goal_x: float | None = None, config: SegmentConfig = SegmentConfig(),
                    name: str | None = None) -> tuple[Terrain, ImportReport]:
     """A terrain from a height map or a mesh (see the module's docstring), and what the import kept and dropped.
-    ``resolution_m``: metres per pixel of a height map (default 0.01), the sampling step of a mesh (default 0.005)."""
+    ``resolution_m``: metres per pixel of a height map (default 0.01), the sampling step of a mesh (default
+    `MESH_RESOLUTION_M`)."""
     path = Path(source)
     suffix = path.suffix.lower()
     if suffix not in HEIGHT_MAP_SUFFIXES + MESH_SUFFIXES:
@@ -337,8 +350,8 @@ def import_terrain(source: str | Path, resolution_m: float | None = None, z_scal
     if resolution_m is not None and not (math.isfinite(resolution_m) and resolution_m > 0):
         raise TerrainError(f"--resolution must be a positive number of metres, got {resolution_m!r}")
     if suffix in MESH_SUFFIXES:
-        resolution_m = resolution_m or 0.005
-        heights, origin = mesh_height_map(path, resolution_m)
+        heights, origin = mesh_height_map(path, resolution_m or MESH_RESOLUTION_M)
+        resolution_m = resolution_m or MESH_RESOLUTION_M
         origin_xy = origin
     else:
         resolution_m = resolution_m or 0.01
@@ -350,7 +363,9 @@ def import_terrain(source: str | Path, resolution_m: float | None = None, z_scal
     if goal <= start[0]:
         raise TerrainError(f"{path}: the goal (x {goal:.2f} m) is not ahead of the start (x {start[0]:.2f} m): give "
                            "--start X,Y and --goal-x X")
-    surface_z = float(min(r["z"] for r in regions))
+    # The nominal ground, which heights over a hole are measured from (Terrain.ground_z): the start's top.
+    probe = Terrain(name="probe", start_xy=start, goal_x=goal, regions=regions)
+    surface_z = float(probe.height_at(np.array([start]), outside=float(np.median([r["z"] for r in regions])))[0])
     terrain = Terrain(name=name or path.stem, start_xy=start, goal_x=goal, regions=regions, surface_z=surface_z,
                       description=f"imported from {path.name}", source=str(path))
     report = ImportReport(heights.shape, resolution_m, kept, float(terrain.steppable.area), tuple(dropped))
