@@ -117,6 +117,19 @@ def test_a_bad_height_map_is_one_line(tmp_path, content, message):
         SegmentConfig(min_width_m=float("nan"))
 
 
+def test_a_map_too_large_is_refused_before_it_is_read(tmp_path, monkeypatch):
+    from PIL import Image
+
+    from contactnet.terrain import importing
+
+    monkeypatch.setattr(importing, "MAX_MAP_CELLS", 100)
+    np.save(tmp_path / "big.npy", np.zeros((20, 20)))
+    Image.fromarray(np.zeros((20, 20), dtype=np.uint16)).save(tmp_path / "big.png")
+    for name in ("big.npy", "big.png"):
+        with pytest.raises(TerrainError, match="a height map of 20 x 20 cells; at most 100"):
+            import_terrain(tmp_path / name)
+
+
 def test_terrain_import_on_the_command_line_and_a_map_as_a_terrain(tmp_path):
     heights = np.zeros((50, 220))
     heights[:, 100:106] = np.nan  # a 6 cm gap

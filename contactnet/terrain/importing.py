@@ -85,18 +85,29 @@ class ImportReport:
 def read_height_map(path: Path, z_scale: float = 1.0) -> np.ndarray:
     """The height map (rows along y, columns along x) of a ``.npy`` or ``.png`` file, in metres."""
     if path.suffix == ".npy":
-        try:
+        try:  # the header first: a map too large to segment is refused before it is read
+            with open(path, "rb") as file:
+                version = np.lib.format.read_magic(file)
+                read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                               else np.lib.format.read_array_header_2_0)
+                shape, _, _ = read_header(file)
+            _check_size(path, shape)
             heights = np.load(path, allow_pickle=False)
+        except TerrainError:
+            raise
         except (OSError, ValueError) as exc:
-            raise TerrainError(f"{path}: not a numpy array file ({exc})") from None
+            raise TerrainError(f"{path}: not a numpy array file ({str(exc).splitlines()[0]})") from None
     else:
         from PIL import Image, UnidentifiedImageError
 
         try:
             with Image.open(path) as image:
+                _check_size(path, (image.height, image.width))
                 heights = np.asarray(image)
-        except (OSError, UnidentifiedImageError) as exc:
-            raise TerrainError(f"{path}: not a PNG image ({exc})") from None
+        except TerrainError:
+            raise
+        except (OSError, UnidentifiedImageError, Image.DecompressionBombError) as exc:
+            raise TerrainError(f"{path}: not a PNG image ({str(exc).splitlines()[0]})") from None
         if heights.ndim == 3:
             raise TerrainError(f"{path}: a colour image; a height map is one channel (8 or 16 bit grey)")
     if heights.ndim != 2 or min(heights.shape) < 2:
@@ -111,6 +122,16 @@ def read_height_map(path: Path, z_scale: float = 1.0) -> np.ndarray:
 MESH_RESOLUTION_M = 0.002
 #: The most cells a mesh is sampled into (a larger mesh needs a coarser --resolution).
 MAX_MESH_CELLS = 4_000_000
+
+
+#: The most cells a height map may have (4096 x 4096).
+MAX_MAP_CELLS = 4096 * 4096
+
+
+def _check_size(path: Path, shape: tuple) -> None:
+    if len(shape) >= 2 and int(np.prod(shape, dtype=np.int64)) > MAX_MAP_CELLS:
+        raise TerrainError(f"{path}: a height map of {' x '.join(map(str, shape))} cells; at most {MAX_MAP_CELLS} "
+                           "(4096 x 4096): downsample it")
 
 
 def mesh_height_map(path: Path, resolution_m: float) -> tuple[np.ndarray, tuple[float, float]]:
