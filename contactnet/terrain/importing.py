@@ -120,6 +120,8 @@ def read_height_map(path: Path, z_scale: float = 1.0) -> np.ndarray:
 #: A mesh's default sampling step, m: the raised stones meshed and sampled at 5 mm (outlines of 5 mm stairs) made
 #: both gaits fall at a stone's edge, at 2 and 3 mm both cross as on the original (docs/terrain-files.md).
 MESH_RESOLUTION_M = 0.002
+#: The largest mesh file read, bytes.
+MAX_MESH_BYTES = 200_000_000
 #: The most cells a mesh is sampled into (a larger mesh needs a coarser --resolution).
 MAX_MESH_CELLS = 4_000_000
 
@@ -140,6 +142,9 @@ def mesh_height_map(path: Path, resolution_m: float) -> tuple[np.ndarray, tuple[
     inside the mesh's bounds (so that the cells tile them)."""
     import trimesh
 
+    if path.stat().st_size > MAX_MESH_BYTES:
+        raise TerrainError(f"{path}: {path.stat().st_size / 1e6:.0f} MB; a terrain mesh is at most "
+                           f"{MAX_MESH_BYTES / 1e6:.0f} MB (decimate it)")
     try:
         mesh = trimesh.load(path, force="mesh")
     except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds for a bad file
