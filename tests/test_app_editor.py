@@ -90,3 +90,23 @@ def test_the_service_says_what_a_save_would_replace(tmp_path, stones):
     assert service.exists("mine") == "yours"
     with pytest.raises(EditError):
         service.exists("../outside")
+
+
+def test_an_imported_upload_names_the_file_on_a_bad_one(monkeypatch):
+    import io
+
+    import numpy as np
+
+    from app.live import terrain_files
+
+    buffer = io.BytesIO()
+    np.save(buffer, np.zeros((30, 100)))
+    terrain, report = terrain_files.import_upload(buffer.getvalue(), "my field.npy")
+    assert terrain.name == "imported" and report.tops == 1  # "my field" is not a terrain name: a safe default
+    with pytest.raises(EditError, match=r"rocks.tif: a height map \(.npy, .png\) or a mesh"):
+        terrain_files.import_upload(b"", "rocks.tif")
+    with pytest.raises(EditError, match="^broken.npy: not a numpy array file"):
+        terrain_files.import_upload(b"garbage", "broken.npy")
+    monkeypatch.setattr(terrain_files, "MAX_IMPORT_BYTES", 10)
+    with pytest.raises(EditError, match="at most 0 MB"):
+        terrain_files.import_upload(buffer.getvalue(), "big.npy")

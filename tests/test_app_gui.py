@@ -434,6 +434,26 @@ def test_terrain_upload(app, browser):
     assert app.terrains.current == current and state(app).terrain == "narrow_stones (uploaded)"
 
 
+def test_a_height_map_upload_is_imported_and_a_bad_one_said(app, browser):
+    import io
+
+    panel = app.viewer.panel.editor
+    heights = np.zeros((50, 200))
+    heights[:, 80:88] = np.nan  # an 8 cm gap across the path
+    heights[:, 120:] = 0.04  # a 4 cm step up
+    buffer = io.BytesIO()
+    np.save(buffer, heights)
+    browser.upload(panel.import_upload, "gap_and_step.npy", buffer.getvalue())
+    wait_for(lambda: state(app).terrain == "gap_and_step (imported)", what="the imported terrain")
+    terrain = app.session.view.terrain
+    assert sorted(round(z, 3) for z, _ in terrain.levels) == [0.0, 0.04]
+    assert not terrain.is_safe(np.array([[0.84, 0.25]]))[0] and terrain.is_safe(np.array([[0.5, 0.25]]))[0]
+    current = app.terrains.current
+    browser.upload(panel.import_upload, "noise.npy", b"not an array")
+    time.sleep(1.0)
+    assert app.terrains.current == current and state(app).terrain == "gap_and_step (imported)"
+
+
 def test_camera_modes_per_browser(app, browser):
     camera = app.viewer.panel.camera
     client_id = next(iter(app.viewer.server.get_clients()))

@@ -14,7 +14,8 @@ changes, and deleting the copy brings it back. (Refusing such saves outright wou
 shipped files, but editing a shipped terrain and keeping it under its name is what the editor is for.)
 
 Uploads are validated once (`validate_upload`, off the event loop in the server) and written as they
-were validated: no second or third validation of the same terrain.
+were validated: no second or third validation of the same terrain. A height map or a mesh is imported
+(`import_upload`: segmented into steppable tops by ``contactnet.terrain.importing``).
 """
 
 from __future__ import annotations
@@ -50,6 +51,37 @@ def validate_upload(content: bytes, name: str | None = None, source: str | None 
         return Terrain.from_dict(data, source=source)
     except TerrainError as exc:
         raise EditError(str(exc)) from None
+
+
+#: The largest height map or mesh accepted from the browser, bytes.
+MAX_IMPORT_BYTES = 16_000_000
+
+
+def import_upload(content: bytes, filename: str) -> tuple[Terrain, Any]:
+    """The terrain segmented from an uploaded height map or mesh (``contactnet.terrain.importing``, its defaults),
+    and the import's report; EditError (one line naming the file) for a file it cannot read or a size over
+    `MAX_IMPORT_BYTES`. Thread-safe: the panel runs it off the event loop."""
+    import tempfile
+
+    from contactnet.terrain.importing import HEIGHT_MAP_SUFFIXES, MESH_SUFFIXES, import_terrain
+
+    suffix = Path(filename).suffix.lower()
+    if suffix not in HEIGHT_MAP_SUFFIXES + MESH_SUFFIXES:
+        raise EditError(f"{filename}: a height map (.npy, .png) or a mesh (.stl, .obj, .ply) is imported, not {suffix or 'this'}")
+    if len(content) > MAX_IMPORT_BYTES:
+        raise EditError(f"{filename}: {len(content) / 1e6:.1f} MB; at most {MAX_IMPORT_BYTES / 1e6:.0f} MB")
+    stem = Path(filename).stem
+    try:
+        name = validate_name(stem)
+    except EditError:
+        name = "imported"
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / f"{name}{suffix}"
+        path.write_bytes(content)
+        try:
+            return import_terrain(path, name=name)
+        except TerrainError as exc:
+            raise EditError(str(exc).replace(str(path), filename)) from None
 
 
 class StoredTerrainError(EditError):

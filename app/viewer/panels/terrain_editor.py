@@ -28,7 +28,7 @@ import viser
 from app.live import editor
 from app.live.editing import TerrainService
 from app.live.editor import EditError
-from app.live.terrain_files import validate_upload
+from app.live.terrain_files import import_upload, validate_upload
 from app.live.view import LiveView
 from app.scene.terrain_pick import ray_hit_xy, ray_to_plane
 from contactnet.terrain import TerrainError
@@ -81,6 +81,11 @@ class EditorPanel:
             self.upload = gui.add_upload_button(
                 "Upload terrain JSON", icon=viser.Icon.UPLOAD, mime_type="application/json"
             )
+            self.import_upload = gui.add_upload_button(
+                "Upload height map or mesh", icon=viser.Icon.UPLOAD, mime_type=".npy,.png,.stl,.obj,.ply",
+                hint="a height map (.npy in metres, 1 cm per pixel; .png) or a mesh (.stl, .obj, .ply, metres, z up): "
+                     "its flat steppable tops become the terrain (contactnet terrain import for other settings)",
+            )
         self.history_buttons.on_click(self._on_history)
         self.height_slider.on_update(lambda event: self._on_height(self.height_slider, event))
         self.height_number.on_update(lambda event: self._on_height(self.height_number, event))
@@ -89,6 +94,7 @@ class EditorPanel:
         self.cancel_button.on_click(lambda event: self._end_confirm() or self._say("Not saved."))
         self.name.on_update(lambda event: self._end_confirm())
         self.upload.on_upload(self._on_upload)
+        self.import_upload.on_upload(self._on_import)
         self.tool.on_update(self._on_tool)
         server.scene.on_click()(self._on_click)
         terrains.on_change(self._changed)
@@ -343,6 +349,19 @@ class EditorPanel:
             self._notify(event.client, "Terrain loaded", f"{name}: {len(terrain.regions)} regions")
 
         self._run(event.client, "Upload terrain", load)
+
+    def _on_import(self, event) -> None:
+        uploaded = self.import_upload.value
+        name = uploaded.name
+
+        def load() -> None:  # segmented into flat tops (contactnet/terrain/importing.py), what was dropped said
+            terrain, report = import_upload(uploaded.content, name)
+            self.terrains.load_terrain(terrain, label=f"{terrain.name} (imported)")
+            lines = report.lines()
+            more = f"; {len(lines) - 1} part(s) dropped: {lines[1]}" if len(lines) > 1 else ""
+            self._notify(event.client, "Terrain imported", f"{name}: {lines[0]}{more}")
+
+        self._run(event.client, "Import terrain", load)
 
     def refresh(self, view: LiveView) -> None:
         """The "Save as" field follows the session's terrain name (a file or generator name, not a label
