@@ -338,6 +338,16 @@ def test_pages(client):
     viewer = client.get("/viewer/")
     assert viewer.status_code == 200 and "<html" in viewer.text.lower()
     assert client.get("/static/app.js").status_code == 200
+    icon = client.get("/favicon.ico")
+    assert icon.status_code == 200 and icon.headers["content-type"].startswith("image/svg+xml")
+    assert 'rel="icon"' in page.text
+
+
+def test_the_api_s_examples_are_sensible_commands(client):
+    """Swagger's "Try it out" fills in each field's example: the velocity command's must not be a full-speed
+    reverse (without an example it takes the minimum, -0.3 m/s)."""
+    schema = client.get("/openapi.json").json()["components"]["schemas"]["VelocityCommand"]["properties"]
+    assert schema["vx"]["examples"] == [0.05] and schema["vy"]["examples"] == [0.0]
 
 
 def test_clicks_in_the_3d_view_edit_the_terrain(client, app):

@@ -43,10 +43,12 @@ class VelocityCommand(_Strict):
     """Commanded base velocity in the robot's horizontal frame."""
 
     vx: float = Field(
-        ..., ge=-VELOCITY_LIMIT_M_S, le=VELOCITY_LIMIT_M_S, allow_inf_nan=False, description="m/s, forward"
+        ..., ge=-VELOCITY_LIMIT_M_S, le=VELOCITY_LIMIT_M_S, allow_inf_nan=False, description="m/s, forward",
+        examples=[0.05],  # the paper's speed (Swagger's "Try it out" would otherwise fill in the minimum)
     )
     vy: float = Field(
-        0.0, ge=-VELOCITY_LIMIT_M_S, le=VELOCITY_LIMIT_M_S, allow_inf_nan=False, description="m/s, left"
+        0.0, ge=-VELOCITY_LIMIT_M_S, le=VELOCITY_LIMIT_M_S, allow_inf_nan=False, description="m/s, left",
+        examples=[0.0],
     )
 
 

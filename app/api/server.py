@@ -149,6 +149,10 @@ def create_api(app: ContactnetApp) -> FastAPI:
     def index() -> FileResponse:
         return FileResponse(STATIC_DIR / "index.html", media_type="text/html")
 
+    @api.get("/favicon.ico", include_in_schema=False)
+    def favicon() -> FileResponse:  # what browsers ask for before they read the page's <link rel="icon">
+        return FileResponse(STATIC_DIR / "favicon.svg", media_type="image/svg+xml")
+
     @api.get("/viewer/", include_in_schema=False)
     def viewer_page() -> FileResponse:
         """viser's client (one self-contained HTML file): give it ?websocket=ws://host:port for the
