@@ -16,6 +16,14 @@ from contactnet.robots.robot_init import draft
 
 ROOT = Path(__file__).resolve().parents[1]
 
+
+@pytest.fixture(autouse=True)
+def _own_robot_files(monkeypatch):
+    """A robot file read here is listed in CONTACTNET_ROBOT_FILES for child processes: not for the other tests'."""
+    from contactnet.robots.robot_file import ROBOT_FILES_ENV
+
+    monkeypatch.delenv(ROBOT_FILES_ENV, raising=False)
+
 A1 = """\
 name = "a1_file"
 description_dir = "a1_description"
@@ -49,6 +57,12 @@ def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
     again = tmp_path / "again.toml"
     again.write_text(to_toml(spec_values(spec)))
     assert load_robot_file(again) == spec  # what to_toml writes reads back as the same robot
+    from contactnet.robots import robot_names
+    from contactnet.robots.robot_file import registered_files
+
+    assert registered_files() == (str(path.resolve()),)
+    path.write_text(A1.replace("fz_max_n = 120.0", "fz_max_n = 130.0"))  # changed under the same name
+    assert "a1_file" in robot_names()  # said on stderr, the first one kept
 
 
 @pytest.mark.parametrize(("change", "message"), [

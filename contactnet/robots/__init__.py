@@ -56,7 +56,12 @@ def robot_names() -> tuple[str, ...]:
 
     load_plugins()
     for path in registered_files():  # registering a file's spec again is no change
-        register_robot(load_robot_file(path))
+        try:
+            register_robot(load_robot_file(path))
+        except (RobotDataError, ValueError) as exc:  # the file changed or went away since: said, and skipped
+            import sys
+
+            print(f"contactnet: {ROBOT_FILES_ENV} names {path}: {exc}", file=sys.stderr)
     return tuple(_ROBOTS)
 
 
