@@ -15,6 +15,7 @@ from contactnet.sim.mismatch import ModelMismatch
 from contactnet.sim.mujoco_world import MujocoSimulator, terrain_prisms
 from contactnet.sim.world import Push, SimConfig, standing_torques
 from contactnet.terrain import flat, random_field, resolve
+from contactnet.terrain.mesh import _triangulate
 
 
 def _stand(sim, seconds: float) -> None:  # noqa: ANN001 - either engine
@@ -28,16 +29,20 @@ def _stand(sim, seconds: float) -> None:  # noqa: ANN001 - either engine
                                      resolve("random_heights", removed=80, seed=2)], ids=lambda t: t.name)
 def test_the_prisms_are_the_steppable_area(terrain) -> None:  # noqa: ANN001
     prisms = terrain_prisms(terrain, thickness_m=0.4)
-    tops = np.array([p[:3] for p in prisms])  # (T, 3, 3)
-    edge1, edge2 = tops[:, 1, :2] - tops[:, 0, :2], tops[:, 2, :2] - tops[:, 0, :2]
-    areas = 0.5 * np.abs(edge1[:, 0] * edge2[:, 1] - edge1[:, 1] * edge2[:, 0])
+    tops = [p[:len(p) // 2] for p in prisms]  # each piece's corners, counter-clockwise
+    pieces = [shapely.Polygon(top[:, :2]) for top in tops]
     steppable = sum(shapely.area(geometry) for _, geometry in terrain.levels)
-    assert areas.sum() == pytest.approx(steppable, rel=1e-6)  # no hole is covered, no top is missing
-    centroids = tops.mean(axis=1)
-    assert terrain.is_safe(centroids[:, :2], 0.0).all()
-    np.testing.assert_allclose(centroids[:, 2], terrain.ground_z(centroids[:, :2]), atol=1e-9)
-    bottoms = np.array([p[3:] for p in prisms])
-    assert np.ptp(bottoms[..., 2]) == 0.0 and bottoms[0, 0, 2] == pytest.approx(terrain.levels[-1][0] - 0.4)
+    assert sum(piece.area for piece in pieces) == pytest.approx(steppable, rel=1e-6)  # no hole covered, no top missing
+    assert shapely.union_all(pieces).area == pytest.approx(steppable, rel=1e-6)  # and no two pieces overlap
+    for piece, top in zip(pieces, tops, strict=True):
+        assert piece.is_valid and piece.area == pytest.approx(piece.convex_hull.area, rel=1e-9)  # convex: MuJoCo's hull
+        centroid = np.array(piece.centroid.coords[0])
+        assert terrain.is_safe(centroid[None], 0.0)[0]
+        assert np.ptp(top[:, 2]) == 0.0 and top[0, 2] == pytest.approx(terrain.ground_z(centroid[None])[0], abs=1e-9)
+    bottoms = np.concatenate([p[len(p) // 2:] for p in prisms])
+    assert np.ptp(bottoms[:, 2]) == 0.0 and bottoms[0, 2] == pytest.approx(terrain.levels[-1][0] - 0.4)
+    triangles = sum(len(_triangulate(polygon)[1]) for _, level in terrain.levels for polygon in shapely.get_parts(level))
+    assert len(prisms) < triangles  # merged: fewer seams than the triangulation's
 
 
 def test_a_hole_in_mujoco_is_a_hole(robot) -> None:

@@ -55,11 +55,12 @@ def _floating_urdf(urdf_text: str) -> str:
 
 
 def terrain_prisms(terrain: Terrain, thickness_m: float) -> list[np.ndarray]:
-    """The terrain's tops as convex prisms: one (6, 3) array of vertices (top triangle, then bottom) per triangle of
-    each top polygon's triangulation, from the top down to ``thickness_m`` below the lowest top (or the surface)."""
+    """The terrain's tops as convex prisms: one (2 N, 3) array of vertices (the top's N corners counter-clockwise,
+    then the same N at the bottom) per convex piece of each top polygon, from the top down to ``thickness_m`` below
+    the lowest top (or the surface). The pieces are the polygon's triangulation with neighbouring triangles merged
+    while the union stays convex (`convex_pieces`): fewer seams inside a top, where a foot resting across two pieces
+    could be pushed sideways by the side face of the other."""
     import shapely
-
-    from contactnet.terrain.mesh import _triangulate
 
     base_z = min(terrain.surface_z, terrain.levels[-1][0]) - thickness_m
     prisms = []
@@ -67,15 +68,70 @@ def terrain_prisms(terrain: Terrain, thickness_m: float) -> list[np.ndarray]:
         for polygon in shapely.get_parts(geometry):
             if polygon.is_empty or polygon.area <= 0.0:
                 continue
-            xy, triangles = _triangulate(polygon)
-            corners = xy[triangles]  # (T, 3, 2)
-            edge1, edge2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-            area = 0.5 * np.abs(edge1[:, 0] * edge2[:, 1] - edge1[:, 1] * edge2[:, 0])
-            for tri in corners[area > 1e-8]:  # slivers have no volume to collide with
-                top = np.column_stack([tri, np.full(3, top_z)])
-                bottom = np.column_stack([tri, np.full(3, base_z)])
+            for corners in convex_pieces(polygon):
+                top = np.column_stack([corners, np.full(len(corners), top_z)])
+                bottom = np.column_stack([corners, np.full(len(corners), base_z)])
                 prisms.append(np.concatenate([top, bottom]))
     return prisms
+
+
+def convex_pieces(polygon) -> list[np.ndarray]:  # noqa: ANN001 - a shapely Polygon
+    """A polygon (with holes) as convex pieces, each (N, 2) counter-clockwise: its earcut triangles (the PyBullet
+    mesh's), merged greedily across shared edges while the merged piece stays convex (Hertel-Mehlhorn). A rectangle
+    or a disc is one piece, a star its tips and its core. Slivers (triangles of no area) are dropped."""
+    from contactnet.terrain.mesh import _triangulate
+
+    xy, triangles = _triangulate(polygon)
+    corners = xy[triangles]
+    edge1, edge2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area = 0.5 * np.abs(edge1[:, 0] * edge2[:, 1] - edge1[:, 1] * edge2[:, 0])
+    pieces: dict[int, list[int]] = {k: list(map(int, t)) for k, t in enumerate(triangles) if area[k] > 1e-8}
+    owner: dict[tuple[int, int], int] = {}  # a directed edge -> the piece whose boundary runs along it
+    for k, cycle in pieces.items():
+        for a, b in zip(cycle, cycle[1:] + cycle[:1], strict=True):
+            owner[(a, b)] = k
+    changed = True
+    while changed:
+        changed = False
+        for k in list(pieces):
+            if k not in pieces:
+                continue
+            cycle = pieces[k]
+            for i, (a, b) in enumerate(zip(cycle, cycle[1:] + cycle[:1], strict=True)):
+                other = owner.get((b, a))
+                if other is None or other == k or other not in pieces:
+                    continue
+                merged = _merge(cycle, i, pieces[other], b, a)
+                if merged is None or not _convex(xy[merged]):
+                    continue
+                for c, d in zip(pieces[other], pieces[other][1:] + pieces[other][:1], strict=True):
+                    owner[(c, d)] = k
+                for c, d in zip(merged, merged[1:] + merged[:1], strict=True):
+                    owner[(c, d)] = k
+                owner.pop((a, b), None)
+                owner.pop((b, a), None)
+                pieces[k] = merged
+                del pieces[other]
+                changed = True
+                break
+    return [xy[cycle] for cycle in pieces.values()]
+
+
+def _merge(cycle: list[int], i: int, other: list[int], b: int, a: int) -> list[int] | None:
+    """The cycle of two pieces joined along the edge ``cycle[i] -> cycle[i + 1]`` (``a -> b``), which ``other`` runs
+    ``b -> a``: ``cycle`` up to ``a``, then ``other`` from after ``a`` round to ``b``, then the rest of ``cycle``."""
+    j = other.index(b)
+    if other[(j + 1) % len(other)] != a:
+        return None
+    rest = [other[(j + 2 + m) % len(other)] for m in range(len(other) - 2)]  # other's vertices after a, before b
+    return cycle[:i + 1] + rest + cycle[i + 1:]
+
+
+def _convex(corners: np.ndarray) -> bool:
+    """Whether a counter-clockwise cycle of points turns left (or goes straight) at every corner."""
+    nxt, after = np.roll(corners, -1, axis=0), np.roll(corners, -2, axis=0)
+    turn = (nxt[:, 0] - corners[:, 0]) * (after[:, 1] - nxt[:, 1]) - (nxt[:, 1] - corners[:, 1]) * (after[:, 0] - nxt[:, 0])
+    return bool((turn >= -1e-12).all())
 
 
 class MujocoSimulator(EngineBase):
