@@ -4,9 +4,9 @@ torque control by MuJoCo (the engine alone, ``mujoco-core``; no viewer).
 The robot is the URDF the PyBullet world loads (``Robot.pybullet_urdf``: the same collision recipe, sphere feet),
 read by MuJoCo's URDF importer with a free joint added at its root link. Its links do not collide with each other
 (PyBullet's default for a URDF). The terrain's tops are exact, with real holes: each polygon of each level is
-triangulated (the same earcut triangulation as the PyBullet mesh) and every triangle extruded into a convex prism
-down to ``terrain_thickness_m`` below the lowest top, one static mesh geom each (MuJoCo collides with the convex hull
-of a mesh, so one concave mesh would fill the holes).
+triangulated (the same earcut triangulation as the PyBullet mesh), the triangles merged into convex pieces, and every
+piece extruded into a convex prism down to ``terrain_thickness_m`` below the lowest top, one static mesh geom each
+(MuJoCo collides with the convex hull of a mesh, so one concave mesh would fill the holes).
 
 Contact parameters, chosen to match the PyBullet world (``MujocoConfig``, measured in the tests and
 ``contactnet bench sim``): PyBullet multiplies the two bodies' friction coefficients (feet 0.9 on terrain 0.9: 0.81;
