@@ -218,3 +218,14 @@ def test_a_new_terrain_restarts_every_robot(tmp_path):
         assert view.snapshot.t_s == 0.0 and view.compare[0].snapshot.t_s == 0.0 and view.run.goal_x_m == 1.0
     finally:
         live.stop()
+
+
+def test_a_push_refused_at_the_end_says_when_the_next_run_starts_or_to_reset():
+    from app.live.runs import RunClock
+
+    clock = RunClock(wait_for_viewer=False, viewer_start_delay_s=0.0, loop=True, loop_delay_s=6.0)
+    clock.over = True
+    clock.restart_at = time.perf_counter() + 4.2
+    assert clock.held_because(None, "goal") == "done (goal): the next run starts in 4 s"
+    clock.restart_at = None  # the loop is off: it stays at the end
+    assert clock.held_because(None, "fell") == "done (fell): reset it first"

@@ -108,6 +108,9 @@ class RunClock:
         if error is not None:
             return "stopped by an error (reset it)"
         if self.over:
+            if self.restart_at is not None:  # the loop starts the next run by itself
+                left_s = max(0.0, self.restart_at - time.perf_counter())
+                return f"done ({done or 'stopped'}): the next run starts in {left_s:.0f} s"
             return f"done ({done or 'stopped'}): reset it first"
         if self.waiting:
             return "waiting for a browser to open the 3D view: open it or run the robot first"
