@@ -53,7 +53,7 @@ from contactnet.terrain import Terrain
 class LocomotionConfig:
     """Settings of the loop (the gait, planner, world and controller have their own)."""
 
-    swing_height_m: float = 0.05
+    swing_height_m: float = 0.05  # for the paper's Solo12: times the robot's size_scale (gait.SIZE_RULE)
     # Re-solve the optimizer from the measured state every this many nodes between plans (2: every
     # 80 ms, 12.5 Hz); 0: only after each touchdown, as in the paper.
     reoptimize_every_nodes: int = 2
@@ -111,9 +111,12 @@ class Locomotion:
         self.controller = WholeBodyController(robot, gains)
         self.set_observer(config.observer)
         model = SrbdModel.for_robot(robot.description, gravity=sim_config.gravity, mu=config.mu)
-        if config.trajopt.n_nodes != gait.horizon_nodes or abs(config.trajopt.dt_s - gait.node_dt_s) > 1e-12:
+        trajopt = config.trajopt
+        if abs(trajopt.dt_s - gait.node_dt_s) > 1e-12:  # a gait sized to another robot: its node duration
+            trajopt = replace(trajopt, dt_s=gait.node_dt_s)
+        if trajopt.n_nodes != gait.horizon_nodes:
             raise ValueError("the optimizer's horizon must be the gait's 3 step horizons")
-        self.optimizer = TrajectoryOptimizer(model, config.trajopt, config.trajopt_weights)
+        self.optimizer = TrajectoryOptimizer(model, trajopt, config.trajopt_weights)
         self.ticks_per_node = round(gait.node_dt_s / sim_config.dt_s)
         self.ticks_per_step = self.ticks_per_node * gait.nodes_per_step
         self._reoptimize_ticks = self.ticks_per_node * config.reoptimize_every_nodes
@@ -134,6 +137,7 @@ class Locomotion:
         self.set_command(*self.vel_cmd_xy)
         self.plan: ActivePlan | None = None
         self.records: list[StepRecord] = []
+        self._swing_height_m = self.config.swing_height_m * self.robot.description.size_scale
         self.planner_times_s: list[float] = []
         self.trajopt_times_s: list[float] = []
         self.trajopt_failures = 0
@@ -315,11 +319,11 @@ class Locomotion:
             t0_s, t1_s = t_now + gait.liftoff_s, t_now + gait.liftoff_s + gait.swing_duration_s
             start = ctx.foot_pos_world[leg].copy()
             if self._heights:
-                swings[leg] = swing_over_terrain(terrain, start, end, t0_s, t1_s, self.config.swing_height_m,
+                swings[leg] = swing_over_terrain(terrain, start, end, t0_s, t1_s, self._swing_height_m,
                                                  self.foot_radius_m, self.config.swing_clearance_m)
             else:
                 swings[leg] = SwingTrajectory(start_world=start, end_world=end, t0_s=t0_s, t1_s=t1_s,
-                                              height_m=self.config.swing_height_m)
+                                              height_m=self._swing_height_m)
         self._liftoff_tops = (tuple(first.legs), tops[0, list(first.legs)].copy(),
                               ctx.foot_pos_world[list(first.legs), :2].copy())
         landing_safe = bool(terrain.is_safe(first.footholds_xy_world).all())

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from contactnet.motion.gait import GaitSpec, gait_by_name, gait_names, register_gait
+from contactnet.motion.gait import GaitSpec, gait_by_name, gait_for, gait_names, register_gait
 from contactnet.planning.oracle import OraclePlanner
 from contactnet.planning.planner import (
     ContactNetPlanner,
@@ -131,6 +131,7 @@ __all__ = [
     "MODELS_DIR",
     "PlannerEntry",
     "gait_by_name",
+    "gait_for",
     "gait_names",
     "load_robot",
     "make_planner",

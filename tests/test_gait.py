@@ -74,3 +74,23 @@ def test_candidates_world_rotate_with_yaw():
 def test_unknown_gait_is_a_clear_error():
     with pytest.raises(ValueError, match="unknown gait 'gallop'"):
         gait_by_name("gallop")
+
+
+def test_a_gait_is_sized_to_the_robot_and_solo12_keeps_the_paper_s_numbers():
+    from contactnet.motion.gait import gait_by_name, gait_for
+    from contactnet.robots import load_robot
+
+    solo, go2 = load_robot("solo12"), load_robot("go2")
+    assert solo.description.size_scale == 1.0
+    assert gait_for("walk", solo) is gait_by_name("walk") and gait_for("trot", solo) is gait_by_name("trot")
+    scale = go2.description.size_scale
+    assert scale == pytest.approx(go2.description.leg_reach_m / 0.3245, abs=5e-4) and 1.2 < scale < 1.4
+    for name in ("walk", "trot"):
+        base, sized = gait_by_name(name), gait_for(name, go2)
+        assert sized.grid_spacing_m == pytest.approx(base.grid_spacing_m * scale)
+        assert sized.node_dt_s == pytest.approx(base.node_dt_s * scale ** 0.5, abs=5e-4)
+        assert round(sized.node_dt_s * 1000) == pytest.approx(sized.node_dt_s * 1000, abs=1e-9)  # whole ticks
+        assert (sized.grid_n, sized.n_actions, sized.nodes_per_step) == (base.grid_n, base.n_actions,
+                                                                         base.nodes_per_step)
+    with pytest.raises(ValueError, match="scale"):
+        gait_by_name("walk").scaled(0.0)

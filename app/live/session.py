@@ -220,7 +220,7 @@ class LiveSession:
     def _build(self, publish: bool = True) -> None:
         """(Re)build the Locomotion (and its PyBullet world) for the current settings; ``publish=False``
         leaves publishing the new view to the caller (a command publishes once it is fully applied)."""
-        gait = registry.gait_by_name(self._gait_name)
+        gait = registry.gait_for(self._gait_name, self._robot)
         planner, active, note = self._planner_factory(self._planner_name, gait, self._robot)
         sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0, engine=self._sim)
         config = loco_config(self._retarget, observer=self._observer)

@@ -19,7 +19,7 @@ def benchmark(n_states: int = 20, seed: int = 0, single_core: bool = True, robot
     restore = pin_single_core() if single_core else None
     rows = []
     try:
-        for gait in (WALK, TROT):
+        for gait in (WALK.scaled(robot.size_scale), TROT.scaled(robot.size_scale)):  # sized to the robot
             cost = RankingCost(gait, robot)
             times = []
             for i in range(n_states + 1):

@@ -16,14 +16,15 @@ from contactnet.robots import DEFAULT_ROBOT
 def run_case(case: dict) -> dict:
     from contactnet.locomotion import Locomotion
     from contactnet.planning.planner import HeuristicPlanner
-    from contactnet.registry import gait_by_name, load_robot
+    from contactnet.registry import gait_for, load_robot
     from contactnet.sim.world import Push, SimConfig
     from contactnet.terrain import flat
 
-    gait = gait_by_name(case["gait"])
+    robot = load_robot(case.get("robot", DEFAULT_ROBOT))
+    gait = gait_for(case["gait"], robot)
     vx, vy = case["vel"]
     with Locomotion(
-        load_robot(case.get("robot", DEFAULT_ROBOT)),
+        robot,
         flat(),
         gait,
         HeuristicPlanner(gait),

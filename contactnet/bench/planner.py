@@ -66,7 +66,7 @@ def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool 
     rows = []
     try:
         for terrain_name in terrains:
-            for gait in (WALK, TROT):
+            for gait in (WALK.scaled(description.size_scale), TROT.scaled(description.size_scale)):  # sized
                 path = model_path(robot_name, gait.name)
                 model = path if path.exists() else _random_model_file(gait, robot_name)
                 for name in ("contactnet", "fixed"):

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from contactnet.registry import DEFAULT_ROBOT, gait_by_name, load_robot, make_planner, model_path
+from contactnet.registry import DEFAULT_ROBOT, gait_for, load_robot, make_planner, model_path
 
 #: Simulated seconds of each whole-stack run.
 STACK_SECONDS = 6.4
@@ -49,8 +49,8 @@ def walking_real_time_factor(gait_name: str, sim_seconds: float = STACK_SECONDS,
     from contactnet.sim.world import SimConfig
     from contactnet.terrain import resolve
 
-    gait = gait_by_name(gait_name)
     robot = load_robot(robot_name)
+    gait = gait_for(gait_name, robot)
     planner = make_planner(planner_name, gait, robot)
     with Locomotion(robot, resolve(terrain_name), gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx, 0.0)) as loco:
         result = loco.run(sim_seconds)

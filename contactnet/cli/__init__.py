@@ -110,8 +110,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     terrain = resolve(args.terrain, removed=args.removed, seed=args.seed, height_m=args.height)
-    gait = registry.gait_by_name(args.gait)
     robot = registry.load_robot(args.robot)
+    gait = registry.gait_for(args.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
     planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args),
                            engine=sim_of(args))
@@ -250,7 +250,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
             model = None if model_dir is None else registry.model_path(args.robot, gait, Path(model_dir))
-            make_planner("contactnet", registry.gait_by_name(gait), robot, model=model)
+            make_planner("contactnet", registry.gait_for(gait, robot), robot, model=model)
     try:
         summary = run_experiment(args.name, args.out, trials, workers=args.workers, progress=not args.quiet,
                                  engine=args.engine, address=args.address)

@@ -39,7 +39,7 @@ from contactnet.jobs.runner import Job, check_file, code_identity, differences, 
 from contactnet.motion.gait import GaitSpec
 from contactnet.planning.network_input import INPUT_NAMES, network_input_of_context
 from contactnet.planning.planner import PlanningContext
-from contactnet.registry import DEFAULT_ROBOT, gait_by_name, robot_names
+from contactnet.registry import DEFAULT_ROBOT, gait_by_name, gait_for, robot_names
 from contactnet.sim.engines import ENGINES, engine_version
 
 FORMAT = "contactnet-dataset-v1"
@@ -104,7 +104,10 @@ class DatagenConfig:
 
     def inputs(self) -> dict:
         """Besides the settings, what determines the data: the gait's spec, the code and the engine's version."""
-        return {"gait_spec": digest(repr(gait_by_name(self.gait))), "code": code_identity(),
+        from contactnet.registry import gait_for, load_robot
+
+        spec = gait_by_name(self.gait) if self.robot == DEFAULT_ROBOT else gait_for(self.gait, load_robot(self.robot))
+        return {"gait_spec": digest(repr(spec)), "code": code_identity(),
                 "sim_version": engine_version(self.sim)}
 
 
@@ -191,7 +194,7 @@ def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndar
     from contactnet.terrain import flat
 
     robot = load_robot(config.robot)
-    gait = gait_by_name(config.gait)
+    gait = gait_for(config.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
     recorder = RecordingPlanner(make_oracle(gait, robot, config.oracle_evaluated_steps))
     us, vs, eps, falls = [], [], [], 0
     with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard, engine=config.sim)) as loco:

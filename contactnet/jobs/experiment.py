@@ -229,13 +229,13 @@ def run_trial(trial: Trial) -> dict:
     from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.planning.observer import DEFAULT_OBSERVER
     from contactnet.planning.retarget import RetargetConfig
-    from contactnet.registry import gait_by_name, load_robot, make_planner, model_path
+    from contactnet.registry import gait_for, load_robot, make_planner, model_path
     from contactnet.sim.world import SimConfig
 
     t0 = time.perf_counter()
     terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m)
-    gait = gait_by_name(trial.gait)
     robot = load_robot(trial.robot)
+    gait = gait_for(trial.gait, robot)
     model = None if trial.model_dir is None else model_path(trial.robot, trial.gait, Path(trial.model_dir))
     planner = make_planner(trial.planner, gait, robot, model=model)
     distance = max(terrain.goal_x - terrain.start_xy[0], 0.0)
@@ -282,6 +282,16 @@ def _terrain_inputs(*args: object) -> dict:
 
 
 @functools.lru_cache(maxsize=64)
+def _gait_digest(gait: str, robot: str) -> str:
+    """The digest of the gait as the trial's robot walks it (sized to it: Solo12's is the paper's spec)."""
+    from contactnet.registry import gait_by_name, gait_for, load_robot
+
+    if robot == DEFAULT_ROBOT:
+        return digest(repr(gait_by_name(gait)))
+    return digest(repr(gait_for(gait, load_robot(robot))))
+
+
+@functools.lru_cache(maxsize=64)
 def _model_identity(path: str, stamp: tuple[int, int]) -> str:
     from contactnet.planning.network import load_model
 
@@ -291,7 +301,7 @@ def _model_identity(path: str, stamp: tuple[int, int]) -> str:
 def trial_inputs(trial: Trial) -> dict:
     """Everything that determines ``trial``'s result, as plain values (see the module docstring). Raises
     ModelFileError when the trial's planner needs a model file that is missing or bad."""
-    from contactnet.registry import gait_by_name, model_path, planner_entry
+    from contactnet.registry import model_path, planner_entry
     from contactnet.sim.engines import engine_version
 
     model = None
@@ -314,7 +324,7 @@ def trial_inputs(trial: Trial) -> dict:
     del settings["sim"]  # named with its version below
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
                               trial.height_m)
-    return {"trial": settings, "terrain": terrain, "gait": digest(repr(gait_by_name(trial.gait))),
+    return {"trial": settings, "terrain": terrain, "gait": _gait_digest(trial.gait, trial.robot),
             "model": model, "code": code_identity(), "sim": f"{trial.sim} {engine_version(trial.sim)}"}
 
 

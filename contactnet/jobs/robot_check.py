@@ -115,11 +115,11 @@ def stand_check(robot, engine: str, seconds: float = 10.0) -> Check:  # noqa: AN
 def walk_check(robot, gait_name: str, engine: str, seconds: float = 20.0, vx_m_s: float = 0.1) -> Check:  # noqa: ANN001
     """The heuristic planner's ``gait_name`` on flat ground at ``vx_m_s`` for ``seconds``."""
     from contactnet.locomotion import Locomotion
-    from contactnet.registry import gait_by_name, make_planner
+    from contactnet.registry import gait_for, make_planner
     from contactnet.sim.world import SimConfig
     from contactnet.terrain import flat
 
-    gait = gait_by_name(gait_name)
+    gait = gait_for(gait_name, robot)
     planner = make_planner("heuristic", gait, robot)
     with Locomotion(robot, flat(), gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx_m_s, 0.0)) as loco:
         summary = loco.run(seconds, stop_at_goal=False)

@@ -20,15 +20,16 @@ model with N_a outputs (trained before the stand choice existed) never stands.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
 from contactnet.frames import rotation_2d
 from contactnet.motion.cost_weights import TROT_WEIGHTS, WALK_WEIGHTS, CostWeights
-from contactnet.robots.description import LEG_NAMES
+from contactnet.robots.description import LEG_NAMES, REFERENCE_LEG_M
 
 FL, FR, HL, HR = range(4)
 
@@ -188,6 +189,19 @@ class GaitSpec:
         incidence.flags.writeable = False
         return incidence
 
+    # ---- sized to a robot -------------------------------------------------------------------
+    def scaled(self, scale: float) -> GaitSpec:
+        """This gait for a robot ``scale`` times the reference's size (`SIZE_RULE`): the candidate grid's spacing
+        times ``scale``, the node duration (so the step timing) times its square root, the same number of cells and
+        nodes; the node duration is rounded to the millisecond (the control loop's tick). ``scale`` 1 is this very
+        spec."""
+        if not (isinstance(scale, int | float) and math.isfinite(scale) and 0.1 <= scale <= 10.0):
+            raise ValueError(f"a gait's scale must be a number in [0.1, 10], got {scale!r}")
+        if scale == 1.0:
+            return self
+        return replace(self, grid_spacing_m=round(self.grid_spacing_m * scale, 6),
+                       node_dt_s=round(self.node_dt_s * math.sqrt(scale), 3))  # whole milliseconds: 1 kHz ticks
+
     def decode(self, index: int) -> Action:
         if not 0 <= index < self.n_actions:
             raise IndexError(f"{self.name}: action {index} outside 0..{self.n_actions - 1}")
@@ -261,11 +275,25 @@ def gait_names() -> tuple[str, ...]:
     return tuple(_GAITS)
 
 
+#: How a gait is sized to a robot: its numbers are the paper's, for Solo12, whose leg (hip flexion joint to knee to
+#: foot centre) is `REFERENCE_LEG_M` (0.3245 m) long. A robot with a leg ``scale`` times that gets the candidate grid's spacing
+#: and the swing height times ``scale`` and the step timing times sqrt(``scale``) (the same Froude number: a robot
+#: twice as tall steps sqrt(2) times slower), rounded to 0.001 of the scale so Solo12 keeps exactly the paper's
+#: numbers; a robot's ``size_scale`` overrides the rule (``contactnet.robots.description.RobotSpec``).
+SIZE_RULE = f"grid spacing and swing height x scale, step timing x sqrt(scale), scale = leg / {REFERENCE_LEG_M} m"
+
+
 def gait_by_name(name: str) -> GaitSpec:
     try:
         return _GAITS[name]
     except KeyError:
         raise ValueError(f"unknown gait {name!r}: choose one of {', '.join(_GAITS)}") from None
+
+
+def gait_for(name: str, robot) -> GaitSpec:  # noqa: ANN001 - a Robot or a RobotDescription
+    """The gait ``name`` sized to ``robot`` (`SIZE_RULE`, its ``size_scale``): Solo12's is the paper's spec."""
+    description = getattr(robot, "description", robot)
+    return gait_by_name(name).scaled(description.size_scale)
 
 
 register_gait(WALK)

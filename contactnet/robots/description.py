@@ -32,6 +32,9 @@ import numpy as np
 from contactnet.atomic import atomic_write_bytes
 from contactnet.paths import default_cache_dir
 
+#: The leg length (m) the paper's gaits are sized for: Solo12's hip flexion joint to knee to foot centre, 0.3245 m
+#: (``RobotDescription.leg_reach_m``; ``contactnet.motion.gait.SIZE_RULE``).
+REFERENCE_LEG_M = 0.3245
 #: Canonical leg order and names of every quadruped here (a robot's own prefixes map onto these).
 LEG_NAMES: tuple[str, ...] = ("FL", "FR", "HL", "HR")
 
@@ -70,6 +73,9 @@ class RobotSpec:
     #: How PyBullet sees the collisions (see `CollisionRecipe`); None: the URDF's meshes.
     collision_recipe: CollisionRecipe | None = field(default=None, compare=False)
     recipe_version: str = "v1"  #: bump when collision_recipe changes (new cached URDF file)
+    #: How much larger than the paper's Solo12 the robot's gaits are sized (``contactnet.motion.gait.SIZE_RULE``);
+    #: None: its leg's length over `REFERENCE_LEG_M`, to 0.001.
+    size_scale: float | None = None
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -154,6 +160,7 @@ class RobotDescription:
     torque_limit_nm: np.ndarray  #: (12,)
     velocity_limit_rad_s: np.ndarray  #: (12,)
     leg_reach_m: float  #: hip-to-foot-centre distance of a straight leg (thigh + shank)
+    size_scale: float  #: the robot's size against the paper's Solo12: what its gaits are scaled by
     fz_max_n: float
     kin_threshold_m: float
     fall_base_height_m: float
@@ -436,6 +443,7 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         torque_limit_nm=_frozen(torque),
         velocity_limit_rad_s=_frozen(model.velocityLimit[6:]),
         leg_reach_m=reach,
+        size_scale=float(spec.size_scale) if spec.size_scale is not None else round(reach / REFERENCE_LEG_M, 3),
         fz_max_n=float(spec.fz_max_n),
         kin_threshold_m=float(spec.kin_threshold_m),
         fall_base_height_m=float(spec.fall_base_height_m),

@@ -18,6 +18,7 @@ read from them, as for the robots in modules::
     fall_base_height_m = 0.12
     # optional: torque_limit_nm (else the URDF's), standing_leg_joints_rad = [abduction, flexion, knee],
     # feet = "sphere" (default: each foot a ball of foot_radius_m in the simulators) or "mesh" (the URDF's),
+    # size_scale = 1.3 (the gaits' size against the paper's Solo12; default: the leg's length over 0.3245 m),
     # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains)
 
 `contactnet robot init` drafts one from a description folder or a URDF; `contactnet robot check FILE.toml` says
@@ -42,8 +43,8 @@ ROBOT_FILES_ENV = "CONTACTNET_ROBOT_FILES"
 _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes", "foot_suffix", "foot_radius_m",
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
-             "controller_gains")
-_POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm")
+             "controller_gains", "size_scale")
+_POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm", "size_scale")
 
 
 @dataclass(frozen=True)
@@ -137,6 +138,7 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
         controller_gains=tuple((name, tuple(float(v) for v in value) if isinstance(value, list) else float(value))
                                for name, value in gains.items()),
         collision_recipe=recipe, recipe_version=f"file-{feet}-feet-v1",
+        size_scale=None if "size_scale" not in values else float(values["size_scale"]),
     )
 
 
