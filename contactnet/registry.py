@@ -101,6 +101,24 @@ def make_planner(name: str, gait: GaitSpec, robot: Robot | RobotDescription | No
     return entry.build(gait, description, loaded)
 
 
+# ---- terrains at the robot's size ------------------------------------------------------------------
+#: Scenes whose numbers are absolute, never scaled to the robot: esfal's Go2 stones are given at Go2's size.
+ABSOLUTE_SCENES = ("stone_grid",)
+
+
+def terrain_for(name: str, robot: Robot | RobotDescription, removed: int | None = None, seed: int = 0,
+                height_m: float | None = None, scale: float | None = None):  # noqa: ANN201 - a Terrain
+    """The terrain ``name`` for ``robot``: a scene (the random field, the stones, ...) at the robot's size
+    (``size_scale``, `contactnet.motion.gait.SIZE_RULE`) unless ``scale`` says otherwise; a file as it is.
+    Solo12's scenes are the paper's."""
+    from contactnet.terrain import resolve
+
+    description = robot.description if isinstance(robot, Robot) else robot
+    if scale is None:
+        scale = 1.0 if name in ABSOLUTE_SCENES else description.size_scale
+    return resolve(name, removed=removed, seed=seed, height_m=height_m, scale=scale)
+
+
 # ---- model files --------------------------------------------------------------------------------
 MODELS_DIR = Path(__file__).resolve().parent / "models"
 
@@ -127,6 +145,7 @@ register_planner("oracle", lambda gait, robot, model: OraclePlanner(gait, robot)
 load_plugins()
 
 __all__ = [
+    "ABSOLUTE_SCENES",
     "DEFAULT_ROBOT",
     "MODELS_DIR",
     "PlannerEntry",
@@ -141,6 +160,7 @@ __all__ = [
     "register_gait",
     "register_planner",
     "register_robot",
+    "terrain_for",
     "robot_names",
     "robot_spec",
 ]

@@ -74,6 +74,18 @@ def test_each_engine_runs_the_same_trials_and_the_summary_puts_them_side_by_side
     assert "mujoco" in format_summary(summarize("random", records))
 
 
+def test_a_trial_s_scene_is_at_its_robot_s_size_unless_scaled():
+    from contactnet.jobs.experiment import _terrain
+
+    (solo,) = trials_of("stepping_stones", planners=("contactnet",))
+    assert "scale" not in trial_inputs(solo)["trial"]  # Solo12's trials resume as before
+    (scaled,) = trials_of("stepping_stones", planners=("contactnet",), scale=1.2)
+    assert scaled.key == solo.key + "/x1.2" and trial_inputs(scaled)["terrain"] != trial_inputs(solo)["terrain"]
+    base = _terrain("stepping_stones", None, 0, None, None)
+    go2 = _terrain("stepping_stones", None, 0, None, None, robot="go2")
+    assert 1.2 < go2.goal_x / base.goal_x < 1.4
+
+
 def test_the_terrains_with_heights_have_their_experiments():
     stairs = trials_of("stairs", planners=("contactnet",))
     assert [(t.terrain, t.gait, t.seed, t.height_m) for t in stairs] == [("stairs", "walk", 0, None),

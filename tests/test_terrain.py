@@ -647,3 +647,23 @@ def test_stone_grid_has_esfal_s_stones_under_the_feet():
                    for y in feet_y)
     with pytest.raises(T.TerrainError, match="do not fit"):
         T.stone_grid(side_m=0.2)
+
+
+def test_a_scene_at_another_robot_s_size():
+    from contactnet.registry import load_robot, terrain_for
+
+    stairs = T.resolve("stairs")
+    big = T.scaled(stairs, 1.5)
+    assert big.steppable.area == pytest.approx(2.25 * stairs.steppable.area)
+    assert big.goal_x == pytest.approx(1.5 * stairs.goal_x) and np.allclose(big.start_xy, 1.5 * stairs.start_xy)
+    assert [z for z, _ in big.levels] == pytest.approx([1.5 * z for z, _ in stairs.levels])
+    assert T.scaled(stairs, 1.0) is stairs
+    with pytest.raises(T.TerrainError, match="scale"):
+        T.scaled(stairs, 0.0)
+    solo, go2 = load_robot("solo12"), load_robot("go2")
+    field = T.resolve("random", removed=80, seed=3)
+    assert terrain_for("random", solo, removed=80, seed=3).to_dict() == field.to_dict()  # the paper's, for Solo12
+    go2_field = terrain_for("random", go2, removed=80, seed=3)
+    assert go2_field.steppable.area == pytest.approx(go2.description.size_scale ** 2 * field.steppable.area)
+    assert terrain_for("random", go2, removed=80, seed=3, scale=1.0).to_dict() == field.to_dict()
+    assert terrain_for("stone_grid", go2).to_dict() == T.resolve("stone_grid").to_dict()  # esfal's numbers: Go2's

@@ -16,6 +16,7 @@ from contactnet.cli.terrain import add_terrain_parser
 from contactnet.cli.types import (
     HEIGHT_HELP,
     ROBOT_METAVAR,
+    SCALE_HELP,
     SIM_HELP,
     UserError,
     bounded_float,
@@ -103,14 +104,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from contactnet.planning.observer import DEFAULT_OBSERVER
     from contactnet.planning.retarget import RetargetConfig
     from contactnet.sim.world import Push, SimConfig
-    from contactnet.terrain import resolve
 
     try:
         pushes = [Push.parse(text) for text in args.push]
     except ValueError as exc:
         raise UserError(str(exc)) from None
-    terrain = resolve(args.terrain, removed=args.removed, seed=args.seed, height_m=args.height)
     robot = registry.load_robot(args.robot)
+    terrain = registry.terrain_for(args.terrain, robot, removed=args.removed, seed=args.seed, height_m=args.height,
+                                   scale=args.terrain_scale)
     gait = registry.gait_for(args.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
     planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args),
@@ -241,7 +242,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
                            retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch,
-                           sims=sims)
+                           sims=sims, scale=args.terrain_scale)
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
@@ -377,6 +378,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                      help=HEIGHT_HELP)
     sim.add_argument("--seed", type=int, default=0)
+    sim.add_argument("--terrain-scale", type=bounded_float("--terrain-scale", 0.1, 10.0), default=None, metavar="S",
+                     help=SCALE_HELP)
     sim.add_argument("--gait", choices=registry.gait_names(), required=True)
     sim.add_argument("--planner", choices=registry.planner_names(), required=True)
     sim.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT)
@@ -453,6 +456,8 @@ def build_parser() -> argparse.ArgumentParser:
                                  "terrains with heights)")
     experiment.add_argument("--removed", type=number_list("--removed", 0, 300, int), default=(80,),
                             help="squares removed on random and random_heights, comma-separated (default 80)")
+    experiment.add_argument("--terrain-scale", type=bounded_float("--terrain-scale", 0.1, 10.0), default=None,
+                            metavar="S", help=SCALE_HELP)
     experiment.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                             help=HEIGHT_HELP)
     experiment.add_argument("--force", type=number_list("--force", 0.1, 100.0), default=None, metavar="N,...",

@@ -9,6 +9,8 @@ import sys
 
 SIM_HELP = "the physics engine (default pybullet; mujoco where pybullet is not installed)"
 ROBOT_METAVAR = "NAME|FILE.toml"
+SCALE_HELP = ("the scene's size against the paper's (default: the robot's size_scale, 1 for Solo12; esfal's "
+              "stone_grid and files are never scaled)")
 HEIGHT_HELP = "random_heights: each square's top within +-H m (default 0.03)"
 
 
@@ -102,4 +104,4 @@ def positive_int(name: str, high: int):
     return bounded_int(name, 1, high)
 
 
-__all__ = ["HEIGHT_HELP", "ROBOT_METAVAR", "SIM_HELP", "UserError", "sim_of", "bounded_float", "bounded_int", "choices", "number_list", "positive_int", "robot_argument"]
+__all__ = ["HEIGHT_HELP", "SCALE_HELP", "ROBOT_METAVAR", "SIM_HELP", "UserError", "sim_of", "bounded_float", "bounded_int", "choices", "number_list", "positive_int", "robot_argument"]

@@ -144,6 +144,7 @@ class Trial:
     retarget: bool = False  # swing retargeting on (contactnet.planning.retarget; off by default)
     mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
     sim: str = "pybullet"  # the physics engine (contactnet.sim.engines; the command line passes the installed one)
+    scale: float | None = None  # the scene's size against the paper's; None: the robot's (registry.terrain_for)
 
     @property
     def key(self) -> str:
@@ -158,9 +159,10 @@ class Trial:
             push = f"/push{self.push_force_xy[0]:g},{self.push_force_xy[1]:g}@{self.push_t0_s:g}"
             push += "" if self.push_duration_s == PUSH_DURATION_S else f"x{self.push_duration_s:g}s"
         mismatch = "" if self.mismatch.neutral else f"/{self.mismatch.label()}"
+        scale = "" if self.scale is None else f"/x{self.scale:g}"
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
                 f"{robot}{'' if self.observer else '/no-observer'}{'/retarget' if self.retarget else ''}{mismatch}"
-                f"{'' if self.sim == 'pybullet' else '/' + self.sim}")
+                f"{'' if self.sim == 'pybullet' else '/' + self.sim}{scale}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -170,7 +172,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
               forces_n: tuple[float, ...] = (5.0,), observer: bool = True, impulses_ns: tuple[float, ...] = (),
               push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False,
-              sims: tuple[str, ...] = ("pybullet",)) -> list[Trial]:
+              sims: tuple[str, ...] = ("pybullet",), scale: float | None = None) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
     ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 sampled pushes
@@ -178,7 +180,8 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
     random field and the stepping stones per case of ``ROBUSTNESS_CASES``). Every trial's robot differs from the
     model by ``mismatch`` (neutral by default; on ``robustness``: the cases', unless given); ``observer`` and
     ``retarget`` turn those parts of the stack on in every trial; every trial runs in each engine of ``sims``
-    (same seeds, terrains and pushes)."""
+    (same seeds, terrains and pushes); ``scale``: every scene that size against the paper's (default: the robot's,
+    ``registry.terrain_for``)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")
     gaits = gaits or DEFAULT_GAITS[name]
@@ -221,6 +224,8 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
     if not sims or any(sim not in SIM_ENGINES for sim in sims):
         raise ValueError(f"unknown physics engine in {sims!r}: choose among {', '.join(SIM_ENGINES)}")
     out = [replace(t, sim=sim) for sim in dict.fromkeys(sims) for t in out]
+    if scale is not None:
+        out = [replace(t, scale=float(scale)) for t in out]
     return [replace(t, observer=observer, retarget=retarget) for t in out] if not observer or retarget else out
 
 
@@ -233,7 +238,8 @@ def run_trial(trial: Trial) -> dict:
     from contactnet.sim.world import SimConfig
 
     t0 = time.perf_counter()
-    terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m)
+    terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m,
+                       trial.robot, trial.scale)
     robot = load_robot(trial.robot)
     gait = gait_for(trial.gait, robot)
     model = None if trial.model_dir is None else model_path(trial.robot, trial.gait, Path(trial.model_dir))
@@ -266,13 +272,18 @@ def _ms_samples(times_s: list[float]) -> list[float]:
 
 
 def _terrain(name: str, removed: int | None, seed: int, bar_width_m: float | None, last_gap_m: float | None,
-             height_m: float | None = None):
+             height_m: float | None = None, robot: str = DEFAULT_ROBOT, scale: float | None = None):
     from contactnet.terrain import narrow_stones, resolve
 
-    if bar_width_m is not None or last_gap_m is not None:
+    if bar_width_m is not None or last_gap_m is not None:  # narrow_map's bars and gaps: the sizes asked for
         return narrow_stones(bar_width_m, last_gap_m)
     # The seed draws the fields' terrains; on the scenes it seeds only the noise (the shipped terrain every time).
-    return resolve(name, removed=removed, seed=seed if name in FIELDS else 0, height_m=height_m)
+    seed = seed if name in FIELDS else 0
+    if robot == DEFAULT_ROBOT and scale is None:  # the paper's scenes, as every Solo12 trial has always had them
+        return resolve(name, removed=removed, seed=seed, height_m=height_m)
+    from contactnet.registry import load_robot, terrain_for
+
+    return terrain_for(name, load_robot(robot), removed=removed, seed=seed, height_m=height_m, scale=scale)
 
 
 @functools.lru_cache(maxsize=64)
@@ -321,9 +332,11 @@ def trial_inputs(trial: Trial) -> dict:
         del settings["retarget"]  # as before the part existed (older logs resume)
     if trial.mismatch.neutral:
         del settings["mismatch"]
+    if trial.scale is None:
+        del settings["scale"]  # the robot's: named by the robot (older logs resume)
     del settings["sim"]  # named with its version below
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
-                              trial.height_m)
+                              trial.height_m, trial.robot, trial.scale)
     return {"trial": settings, "terrain": terrain, "gait": _gait_digest(trial.gait, trial.robot),
             "model": model, "code": code_identity(), "sim": f"{trial.sim} {engine_version(trial.sim)}"}
 

@@ -361,6 +361,30 @@ def by_name(name: str, removed: int | None = None, seed: int = 0, height_m: floa
                        f"{', '.join(_GENERATORS)}")
 
 
+#: A region's fields that are lengths (scaled with the scene); the rest (yaw, points, cols, rows, removed) are not.
+_LENGTH_FIELDS = ("center", "size", "radius", "outer_radius", "inner_radius", "vertices", "origin", "cell", "z")
+
+
+def scaled(terrain: Terrain, scale: float) -> Terrain:
+    """``terrain`` ``scale`` times larger: every length (positions, sizes, heights, the start and the goal) times
+    ``scale``; ``scale`` 1 is ``terrain`` itself. The paper's scenes at another robot's size (``--scale``)."""
+    value = finite_float(scale)
+    if value is None or not 0.1 <= value <= 10.0:
+        raise TerrainError(f"scale: expected a number in [0.1, 10], got {show(scale)}")
+    if value == 1.0:
+        return terrain
+
+    def times(v: Any) -> Any:
+        return [times(x) for x in v] if isinstance(v, list | tuple) else round(float(v) * value, 9)
+
+    data = terrain.to_dict()
+    data["regions"] = [{k: times(v) if k in _LENGTH_FIELDS else v for k, v in region.items()}
+                       for region in data["regions"]]
+    data.update(start=times(data["start"]), goal_x=times(data["goal_x"]), surface_z=times(data["surface_z"]),
+                description=f"{data.get('description', '')} (x{value:g})".strip())
+    return Terrain.from_dict(data, source=f"{terrain.name} x{value:g}")
+
+
 def terrains_dir() -> Path:
     """Directory of the shipped terrain files: $CONTACTNET_TERRAINS, else <repo>/terrains."""
     override = os.environ.get("CONTACTNET_TERRAINS")
@@ -374,10 +398,10 @@ def available() -> list[str]:
 
 
 def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, seed: int = 0,
-            height_m: float | None = None) -> Terrain:
+            height_m: float | None = None, scale: float = 1.0) -> Terrain:
     """Terrain from a CLI argument: a .json path, a height map or mesh (``.npy``, ``.png``, ``.stl``, ``.obj``, ``.ply``:
     ``contactnet.terrain.importing`` with its defaults), 'random' or 'random_heights' (with ``removed``/``seed``, the
-    latter with ``height_m``), or a shipped name.
+    latter with ``height_m``), or a shipped name; a scene (not a file) ``scale`` times larger (`scaled`).
 
     Order: an existing file or a name ending in .json is loaded; 'random' and 'random_heights' build
     their fields (and 'push_field' and 'raised_stones' with a non-zero ``seed`` build that variant);
@@ -385,6 +409,9 @@ def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, se
     else raises TerrainError listing the available names.
     """
     text = os.fspath(name_or_path)
+    if scale != 1.0:  # a named scene at another size; a file is what it says
+        terrain = resolve(text, removed=removed, seed=seed, height_m=height_m)
+        return terrain if _is_file_argument(text) else scaled(terrain, scale)
     from contactnet.terrain.importing import HEIGHT_MAP_SUFFIXES, MESH_SUFFIXES, import_terrain
 
     if text.lower().endswith(HEIGHT_MAP_SUFFIXES + MESH_SUFFIXES):  # a height map or a mesh, with the defaults
@@ -402,6 +429,13 @@ def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, se
         return _REGISTERED[text]()
     names = sorted({*available(), *_GENERATORS, *_FIELDS, *_REGISTERED})
     raise TerrainError(f"unknown terrain {show(text)}: expected a .json path or one of: {', '.join(names)}")
+
+
+def _is_file_argument(text: str) -> bool:
+    """Whether a ``--terrain`` value names a file (a terrain JSON, a height map, a mesh) rather than a scene."""
+    from contactnet.terrain.importing import HEIGHT_MAP_SUFFIXES, MESH_SUFFIXES
+
+    return text.lower().endswith((".json", *HEIGHT_MAP_SUFFIXES, *MESH_SUFFIXES)) or Path(text).is_file()
 
 
 SHIPPED: Mapping[str, Callable[[], Terrain]] = MappingProxyType({
