@@ -48,6 +48,10 @@ def test_an_oracle_that_stands_is_shown_standing(robot):
     assert f"stood {summary['stand_steps']}" in status_line(view)
     assert "**standing**" in details_markdown(view) and "retargeting off" in details_markdown(view)
     assert view.stand_history.all() and len(view.stand_history) == len(view.stance_history)
+    # Told to walk, a robot that stands a step is walking (the label does not flip step by step; "stood" counts).
+    walking = dataclasses.replace(view, snapshot=dataclasses.replace(view.snapshot, vel_cmd_xy=(0.05, 0.0)))
+    assert is_stand(walking.snapshot) and status_line(walking).startswith("walking · ")
+    assert f"stood {summary['stand_steps']}" in status_line(walking)
     assert view.planned_stand.all() and len(view.planned_stand) == len(view.planned_contact)
     past, planned = stand_chart(view)
     assert past.max() == 1.0 and planned.max() == 1.0  # the stand band: done and planned

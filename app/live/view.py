@@ -28,6 +28,8 @@ COM_PATH_STEP_M = 0.005
 TIMING_PLANS = 120
 #: The status line's state while the planner stands (a choice, unlike a pause).
 STANDING = "standing (planner's choice)"
+#: A command below this speed (m/s) asks the robot to stay: the status may say it stands.
+COMMAND_AT_REST_M_S = 1e-3
 
 
 @dataclass(frozen=True)
@@ -365,8 +367,10 @@ def status_line(view: LiveView) -> str:
         state = _done_text(s.done)
     elif s.paused:
         state = "paused"
-    else:
-        state = STANDING if is_stand(snap) else "walking"
+    else:  # a commanded robot that stands a step is still walking: the label does not flicker step by step ("stood
+        # N" counts those steps); it says standing when the robot is told to stay (a zero command) and stands
+        commanded = math.hypot(*snap.vel_cmd_xy) > COMMAND_AT_REST_M_S
+        state = STANDING if is_stand(snap) and not commanded else "walking"
     rank = snap.planned_steps[0].rank if snap.planned_steps else None
     parts = [state, f"t {snap.t_s:.1f} s", f"x {snap.q[0]:.2f} m ({100 * run.progress:.0f} %)", f"steps {snap.steps}"]
     if view.counts.stand_steps:
