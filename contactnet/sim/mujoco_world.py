@@ -27,7 +27,8 @@ from contactnet.robots.description import Robot
 from contactnet.sim.world import BodyContact, EngineBase, MassProperties, SimConfig, SimState, composite_of
 from contactnet.terrain import Terrain
 
-_XYZW = [4, 5, 6, 3]  # the free joint's quaternion (w, x, y, z in qpos[3:7]) as x, y, z, w
+_XYZW = [4, 5, 6, 3]
+_XYZ = np.arange(3)  # the free joint's quaternion (w, x, y, z in qpos[3:7]) as x, y, z, w
 
 
 @dataclass(frozen=True)
@@ -220,6 +221,7 @@ class MujocoSimulator(EngineBase):
                 self._leg_of_body.setdefault(body, slot)
                 body = model.body_parentid[body]
         self._force6 = np.zeros(6)
+        self._elliptic = mjc.cone == "elliptic"
 
     def _add_terrain(self, spec, friction: float, solref: list[float]) -> None:  # noqa: ANN001 - an MjSpec
         prisms = terrain_prisms(self.terrain, self.config.terrain_thickness_m)
@@ -335,13 +337,36 @@ class MujocoSimulator(EngineBase):
         return sign * (frame.T @ self._force6[0:3])
 
     def _foot_contacts(self) -> tuple[np.ndarray, np.ndarray]:
+        """Feet in contact (4,) and the force of the terrain on each foot (4, 3, world), read every tick. With the
+        elliptic cone, a contact's force in its frame is its three constraint forces (what ``mj_contactForce``
+        returns), read for all the feet's contacts at once; each foot's contacts are summed in order."""
         contact = np.zeros(4, dtype=bool)
         force = np.zeros((4, 3))
-        index, geoms, signs = self._terrain_contacts()
-        slots = self._foot_slot_of_geom[geoms]
-        for i, slot, sign in zip(index[slots >= 0], slots[slots >= 0], signs[slots >= 0], strict=True):
+        d = self.data
+        n = d.ncon
+        if n == 0:
+            return contact, force
+        contacts = d.contact
+        terrain, slot_of = self._terrain_list, self._slot_list
+        index, slots, signs = [], [], []
+        for i, (g1, g2) in enumerate(contacts.geom[:n].tolist()):  # a few contacts: Python ints are the fastest
+            if terrain[g1] != terrain[g2]:
+                slot = slot_of[g2 if terrain[g1] else g1]
+                if slot >= 0:
+                    index.append(i)
+                    slots.append(slot)
+                    signs.append(1.0 if terrain[g1] else -1.0)
+        if not index:
+            return contact, force
+        if self._elliptic:
+            local = d.efc_force[contacts.efc_address[index][:, None] + _XYZ]  # (k, 3): normal, two tangents
+            frames = contacts.frame[index].reshape(-1, 3, 3)
+            world = np.asarray(signs)[:, None] * np.einsum("kij,ki->kj", frames, local)  # frame.T @ local
+        else:
+            world = np.array([self._force_on_robot(i, sign) for i, sign in zip(index, signs, strict=True)])
+        for slot, value in zip(slots, world, strict=True):
             contact[slot] = True
-            force[slot] += self._force_on_robot(i, sign)
+            force[slot] += value
         return contact, force
 
     def foot_contact(self) -> np.ndarray:
