@@ -61,7 +61,4 @@ def cmd_robot(args: argparse.Namespace) -> int:
     return 0 if all(c.passed for c in checks) else 1
 
 
-
-
-
 __all__ = ["add_robot_parser", "cmd_robot"]
