@@ -104,10 +104,9 @@ class DatagenConfig:
 
     def inputs(self) -> dict:
         """Besides the settings, what determines the data: the gait's spec, the code and the engine's version."""
-        from contactnet.registry import gait_for, load_robot
+        from contactnet.registry import load_robot
 
-        spec = gait_by_name(self.gait) if self.robot == DEFAULT_ROBOT else gait_for(self.gait, load_robot(self.robot))
-        return {"gait_spec": digest(repr(spec)), "code": code_identity(),
+        return {"gait_spec": digest(repr(gait_for(self.gait, load_robot(self.robot)))), "code": code_identity(),
                 "sim_version": engine_version(self.sim)}
 
 

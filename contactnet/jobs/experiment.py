@@ -295,10 +295,8 @@ def _terrain_inputs(*args: object) -> dict:
 @functools.lru_cache(maxsize=64)
 def _gait_digest(gait: str, robot: str) -> str:
     """The digest of the gait as the trial's robot walks it (sized to it: Solo12's is the paper's spec)."""
-    from contactnet.registry import gait_by_name, gait_for, load_robot
+    from contactnet.registry import gait_for, load_robot
 
-    if robot == DEFAULT_ROBOT:
-        return digest(repr(gait_by_name(gait)))
     return digest(repr(gait_for(gait, load_robot(robot))))
 
 

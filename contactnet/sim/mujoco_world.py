@@ -27,8 +27,8 @@ from contactnet.robots.description import Robot
 from contactnet.sim.world import BodyContact, EngineBase, MassProperties, SimConfig, SimState, composite_of
 from contactnet.terrain import Terrain
 
-_XYZW = [4, 5, 6, 3]
-_XYZ = np.arange(3)  # the free joint's quaternion (w, x, y, z in qpos[3:7]) as x, y, z, w
+_XYZW = [4, 5, 6, 3]  # the free joint's quaternion (w, x, y, z in qpos[3:7]) as x, y, z, w
+_XYZ = np.arange(3)  # a contact's three constraint forces after its efc_address (elliptic cone)
 
 
 @dataclass(frozen=True)
@@ -342,22 +342,10 @@ class MujocoSimulator(EngineBase):
         returns), read for all the feet's contacts at once; each foot's contacts are summed in order."""
         contact = np.zeros(4, dtype=bool)
         force = np.zeros((4, 3))
-        d = self.data
-        n = d.ncon
-        if n == 0:
-            return contact, force
-        contacts = d.contact
-        terrain, slot_of = self._terrain_list, self._slot_list
-        index, slots, signs = [], [], []
-        for i, (g1, g2) in enumerate(contacts.geom[:n].tolist()):  # a few contacts: Python ints are the fastest
-            if terrain[g1] != terrain[g2]:
-                slot = slot_of[g2 if terrain[g1] else g1]
-                if slot >= 0:
-                    index.append(i)
-                    slots.append(slot)
-                    signs.append(1.0 if terrain[g1] else -1.0)
+        index, slots, signs = self._foot_terrain_contacts()
         if not index:
             return contact, force
+        d, contacts = self.data, self.data.contact
         if self._elliptic:
             local = d.efc_force[contacts.efc_address[index][:, None] + _XYZ]  # (k, 3): normal, two tangents
             frames = contacts.frame[index].reshape(-1, 3, 3)
@@ -369,18 +357,27 @@ class MujocoSimulator(EngineBase):
             force[slot] += value
         return contact, force
 
-    def foot_contact(self) -> np.ndarray:
-        """(4,) bool: which feet touch the terrain now (read every tick: Python ints over the few contacts)."""
-        contact = [False, False, False, False]
+    def _foot_terrain_contacts(self) -> tuple[list[int], list[int], list[float]]:
+        """The contacts between a foot and the terrain now: their indices, the feet's slots and the signs that turn
+        MuJoCo's contact force into the force on the foot (read every tick: Python ints over the few contacts)."""
+        index, slots, signs = [], [], []
         n = self.data.ncon
         if n:
             terrain, slot_of = self._terrain_list, self._slot_list
-            for g1, g2 in self.data.contact.geom[:n].tolist():
+            for i, (g1, g2) in enumerate(self.data.contact.geom[:n].tolist()):
                 if terrain[g1] != terrain[g2]:
                     slot = slot_of[g2 if terrain[g1] else g1]
                     if slot >= 0:
-                        contact[slot] = True
-        return np.array(contact)
+                        index.append(i)
+                        slots.append(slot)
+                        signs.append(1.0 if terrain[g1] else -1.0)
+        return index, slots, signs
+
+    def foot_contact(self) -> np.ndarray:
+        """(4,) bool: which feet touch the terrain now."""
+        contact = np.zeros(4, dtype=bool)
+        contact[self._foot_terrain_contacts()[1]] = True
+        return contact
 
     def foot_positions_world(self) -> np.ndarray:
         """(4, 3) true foot-ball centres."""

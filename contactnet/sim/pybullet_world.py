@@ -240,10 +240,11 @@ class Simulator(EngineBase):
                 rotations.append(np.array(c.getMatrixFromQuaternion(quat)).reshape(3, 3))
         return composite_of(np.array(masses), np.array(coms), np.array(rotations), np.array(moments))
 
-    def _base_pose(self) -> tuple:
-        """The base link's position and quaternion (x, y, z, w) in the world (PyBullet reports its CoM frame's)."""
+    def _base_pose(self, com_pose: tuple | None = None) -> tuple:
+        """The base link's position and quaternion (x, y, z, w) in the world, from PyBullet's base pose, which is its
+        CoM frame's (``com_pose``: that pose, already read)."""
         pb, cid = self._pb, self._cid
-        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
+        pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid) if com_pose is None else com_pose
         if self._com_in_base is None:
             return pos, quat
         return pb.multiplyTransforms(pos, quat, *self._base_in_com, physicsClientId=cid)
@@ -251,13 +252,12 @@ class Simulator(EngineBase):
     def _base_pose_and_velocity(self) -> tuple:
         """The base link's position, quaternion, linear velocity of its origin and angular velocity (world)."""
         pb, cid = self._pb, self._cid
+        com_pose = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
         lin, ang = pb.getBaseVelocity(self.robot_id, physicsClientId=cid)
         if self._com_in_base is None:
-            pos, quat = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
-            return pos, quat, lin, ang
-        com_pos, _ = pb.getBasePositionAndOrientation(self.robot_id, physicsClientId=cid)
-        pos, quat = self._base_pose()
-        lin = np.asarray(lin) - np.cross(ang, np.asarray(com_pos) - np.asarray(pos))  # the origin's, not the CoM's
+            return (*com_pose, lin, ang)
+        pos, quat = self._base_pose(com_pose)
+        lin = np.asarray(lin) - np.cross(ang, np.asarray(com_pose[0]) - np.asarray(pos))  # the origin's, not the CoM's
         return pos, quat, tuple(lin.tolist()), ang
 
     def _place_payload(self) -> None:

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +60,7 @@ class SegmentConfig:
     min_width_m: float = 0.02
 
     def __post_init__(self) -> None:
-        for name in ("max_roughness_m", "max_step_m", "max_spread_m", "max_drop_m", "min_width_m"):
+        for name in (f.name for f in fields(self)):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise TerrainError(f"{name} must be a finite number >= 0, got {value!r}")

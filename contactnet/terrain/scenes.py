@@ -409,15 +409,17 @@ def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, se
     else raises TerrainError listing the available names.
     """
     text = os.fspath(name_or_path)
-    if scale != 1.0:  # a named scene at another size; a file is what it says
-        terrain = resolve(text, removed=removed, seed=seed, height_m=height_m)
-        return terrain if _is_file_argument(text) else scaled(terrain, scale)
     from contactnet.terrain.importing import HEIGHT_MAP_SUFFIXES, MESH_SUFFIXES, import_terrain
 
     if text.lower().endswith(HEIGHT_MAP_SUFFIXES + MESH_SUFFIXES):  # a height map or a mesh, with the defaults
         return import_terrain(text)[0]
-    if text.endswith(".json") or Path(text).is_file():
+    if text.endswith(".json") or Path(text).is_file():  # a file is what it says, at any scale
         return Terrain.load(text)
+    return scaled(_scene(text, removed, seed, height_m), scale)
+
+
+def _scene(text: str, removed: int | None, seed: int, height_m: float | None) -> Terrain:
+    """`resolve` of a name that is not a file: a field, a shipped file by name, a generator, a registered terrain."""
     if text in _FIELDS or (text in _SEEDED and seed != 0):
         return by_name(text, removed=removed, seed=seed, height_m=height_m)
     shipped = terrains_dir() / f"{text}.json"
@@ -429,13 +431,6 @@ def resolve(name_or_path: str | os.PathLike[str], removed: int | None = None, se
         return _REGISTERED[text]()
     names = sorted({*available(), *_GENERATORS, *_FIELDS, *_REGISTERED})
     raise TerrainError(f"unknown terrain {show(text)}: expected a .json path or one of: {', '.join(names)}")
-
-
-def _is_file_argument(text: str) -> bool:
-    """Whether a ``--terrain`` value names a file (a terrain JSON, a height map, a mesh) rather than a scene."""
-    from contactnet.terrain.importing import HEIGHT_MAP_SUFFIXES, MESH_SUFFIXES
-
-    return text.lower().endswith((".json", *HEIGHT_MAP_SUFFIXES, *MESH_SUFFIXES)) or Path(text).is_file()
 
 
 SHIPPED: Mapping[str, Callable[[], Terrain]] = MappingProxyType({
