@@ -291,7 +291,8 @@ def test_user_files_live_in_the_data_folder_and_shipped_terrains_stay_read_only(
     assert client.put("/api/terrains/flat", json=flat | {"goal_x": 4.0}).status_code == 409
     response = client.put("/api/terrains/flat?overwrite=true", json=flat | {"goal_x": 4.0})
     assert response.status_code == 200
-    assert Path(response.json()["path"]).parent == app.terrains.store.directory  # the user's copy
+    assert response.json()["path"] == "flat.json"  # its name, never a folder of the machine
+    assert (app.terrains.store.directory / "flat.json").is_file()  # the user's copy
     assert client.get("/api/terrains/flat").json()["goal_x"] == 4.0  # shadows the shipped file
     assert {p.name: p.read_bytes() for p in terrains_dir().glob("*.json")} == shipped
     assert {t["name"]: t["shipped"] for t in client.get("/api/terrains").json()["terrains"]}["flat"] is True

@@ -7,17 +7,25 @@ excerpt of the bad input, never the input itself) or one line (a request that fi
 session: a terrain that is not valid, a bad command). `responses(...)` declares the codes a route returns
 with these models, so the schema tells the truth (schemathesis checks it).
 
+A file the tool cannot write, rename or delete (a read-only or full data folder: an OSError of the file
+system, `contactnet.atomic.StorageError`) is 507 when the disk is full, else 500, with one line naming the file
+and the system's reason, and one warning line in the log: no traceback. A client that hangs up before its body
+is read gets nothing more and logs nothing (at debug level: one line). A path with a control character (a
+newline, ...) matches no route: 404.
+
 Messages never show absolute paths of the machine: `one_line` keeps only a path's last component.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 import reprlib
 from collections.abc import Callable, Coroutine, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, HTTPException, Request, Response
@@ -26,6 +34,7 @@ from fastapi.responses import JSONResponse
 from fastapi.routing import APIRoute
 from pydantic import BaseModel, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.requests import ClientDisconnect
 from starlette.routing import Match
 
 from app.live.commands import CommandConflict
@@ -34,7 +43,10 @@ from app.live.settings import COMMAND_BODY_LIMIT_BYTES
 from app.live.terrain_files import StoredTerrainError
 from app.recordings.recorder import RecordingConflict
 from app.security.guards import is_json
+from contactnet.atomic import NO_SPACE
 from contactnet.strict_json import JsonInputError, JsonLimits, loads_strict
+
+log = logging.getLogger("contactnet.app.api")
 
 #: JSON limits of a command body (the terrain upload has its own, `app.live.terrain_files.UPLOAD_JSON_LIMITS`).
 COMMAND_JSON_LIMITS = JsonLimits(max_bytes=COMMAND_BODY_LIMIT_BYTES, max_depth=16, max_values=10_000)
@@ -73,9 +85,13 @@ DESCRIPTIONS = {
     415: "A request body that is not application/json",
     421: "Host header not one of the tool's names (DNS rebinding protection)",
     422: "Invalid request",
+    500: "A file could not be written (the data folder is read-only, ...): one line naming it and why",
     503: "The live session is not running",
     504: "The live session did not answer in time",
+    507: "No space left to write the file (the disk is full)",
 }
+#: The codes of a route that writes a user file (a terrain, a recording): `storage_status`.
+STORAGE_CODES = (500, 507)
 
 
 #: What each library error means to an HTTP client, most specific first: the one mapping every route uses
@@ -95,8 +111,27 @@ ERROR_STATUS: tuple[tuple[type[Exception], int], ...] = (
 _TIMEOUT_DETAIL = "the live session did not answer in time"
 
 
+def storage_status(exc: BaseException) -> int | None:
+    """507 (the disk is full) or 500 for an error of the file system (an OSError with an errno, other than a
+    missing file or a time-out); None for any other error."""
+    if not isinstance(exc, OSError) or exc.errno is None or isinstance(exc, FileNotFoundError | TimeoutError):
+        return None
+    return 507 if exc.errno in NO_SPACE else 500
+
+
+def storage_detail(exc: OSError) -> str:
+    """One line: the file system's reason, naming the file (a `StorageError` says it already)."""
+    if type(exc).__str__ is not OSError.__str__:  # a StorageError: its own line
+        return str(exc)
+    name = Path(str(exc.filename)).name if exc.filename else None
+    return f"{exc.strerror or type(exc).__name__}{f' ({name})' if name else ''}"
+
+
 def status_of(exc: BaseException) -> int | None:
-    """The HTTP status `ERROR_STATUS` gives this error, None when it is none of them."""
+    """The HTTP status of this error: `storage_status`, else `ERROR_STATUS`; None when it is none of them."""
+    storage = storage_status(exc)
+    if storage is not None:
+        return storage
     return next((status for kind, status in ERROR_STATUS if isinstance(exc, kind)), None)
 
 
@@ -112,6 +147,10 @@ def as_http_errors() -> Iterator[None]:
         status = status_of(exc)
         if status is None:
             raise
+        if status in STORAGE_CODES:
+            detail = one_line(storage_detail(exc))  # type: ignore[arg-type] - an OSError
+            log.warning("refused (%d): %s", status, detail)
+            raise HTTPException(status, detail) from None
         raise HTTPException(status, _TIMEOUT_DETAIL if status == 504 else str(exc)) from None
 
 
@@ -208,6 +247,13 @@ def install_error_handlers(api: FastAPI) -> None:
             return Response(status_code=exc.status_code, headers=headers)
         return JSONResponse(status_code=exc.status_code, content={"detail": one_line(exc.detail)}, headers=headers)
 
+    @api.exception_handler(ClientDisconnect)
+    async def client_gone(request: Request, exc: ClientDisconnect) -> Response:
+        # The client hung up while sending its body: nobody reads an answer; Starlette's default is a 58-line
+        # traceback per request (1 MB of log a second from a client that does it in a loop).
+        log.debug("%s %s: the client hung up before its body was read", request.method, request.url.path[:80])
+        return Response(status_code=400)
+
 
 def allowed_methods(request: Request) -> list[str]:
     """The methods of every route whose path matches the request's."""
@@ -220,9 +266,19 @@ def allowed_methods(request: Request) -> list[str]:
 
 
 # ---- strict JSON bodies -------------------------------------------------------------------------------------
+_CONTROL_CHARACTER = re.compile(r"[\x00-\x1f\x7f]")
+
+
 class StrictJsonRoute(APIRoute):
     """A route whose JSON body is read by `loads_strict` (size, depth, number length, duplicate keys) before
-    FastAPI validates it against the model: a refusal is a 422 field error at ``["body"]`` with one line."""
+    FastAPI validates it against the model: a refusal is a 422 field error at ``["body"]`` with one line.
+    A path with a control character matches no route (Starlette's ``$`` matches before a final newline:
+    ``/api/recordings/x.viser%0A`` would be ``x.viser``)."""
+
+    def matches(self, scope: Any) -> tuple[Match, dict[str, Any]]:
+        if _CONTROL_CHARACTER.search(scope.get("path", "")):
+            return Match.NONE, {}
+        return super().matches(scope)
 
     def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
         handler = super().get_route_handler()

@@ -103,8 +103,16 @@ def entry_of(info: RecordingInfo) -> RecordingEntry:
 class RecordingStatus(BaseModel):
     """The live recorder."""
 
-    recording: bool = Field(description="a recording is in progress")
+    recording: bool = Field(
+        description="a recording is in progress, or stopped but not saved yet (save_error says why; stop again to "
+        "save it)"
+    )
     name: str | None = Field(description="file name of the recording in progress")
     frames: int = Field(description="frames recorded so far")
     duration_s: float = Field(description="simulated time recorded so far, s")
     last_saved: str | None = Field(description="file name of the last recording saved")
+    save_error: str | None = Field(
+        None,
+        description="null, or why the recording could not be saved (it is kept: stop again) or its journal "
+        "cannot be written (a crash of the tool would lose it)",
+    )

@@ -10,7 +10,7 @@ from fastapi import Path as PathParam
 from fastapi.responses import FileResponse, HTMLResponse
 from starlette.convertors import Convertor, register_url_convertor
 
-from app.api.errors import ErrorCodes, as_http_errors, responses
+from app.api.errors import STORAGE_CODES, ErrorCodes, as_http_errors, responses
 from app.api.recording_models import (
     RecordingChange,
     RecordingEntry,
@@ -84,9 +84,11 @@ def add_recording_routes(
         "/api/recordings/stop",
         response_model=RecordingEntry,
         tags=["recordings"],
-        responses=responses(*changing, 409),
+        responses=responses(*changing, 409, *STORAGE_CODES),
     )
     def stop_recording() -> RecordingEntry:
+        """Stop and save the recording. When it cannot be written (500, or 507: the disk is full; the detail
+        says why) it is kept, stopped: stop again to save it once the folder can be written."""
         with as_http_errors():
             info = app.recorder.stop()
         return entry_of(info)
@@ -116,7 +118,7 @@ def add_recording_routes(
         "/api/recordings/{name:recording_file}",
         response_model=RecordingEntry,
         tags=["recordings"],
-        responses=responses(*changing, 404, 409, 422),
+        responses=responses(*changing, 404, 409, 422, *STORAGE_CODES),
     )
     def change_recording(name: RecordingName, body: RecordingChange) -> RecordingEntry:
         """Rename the recording's file (``name``; 409 when that name is taken) and/or set its title. 409 for
@@ -134,7 +136,7 @@ def add_recording_routes(
         status_code=204,
         response_class=Response,
         tags=["recordings"],
-        responses=responses(*changing, 404, 409),
+        responses=responses(*changing, 404, 409, *STORAGE_CODES),
     )
     def delete_recording(name: RecordingName) -> Response:
         """Delete the recording and its metadata. 409 for the recording in progress."""

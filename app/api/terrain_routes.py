@@ -8,7 +8,7 @@ from typing import Annotated, Any
 from fastapi import FastAPI, Query, Request
 from fastapi import Path as PathParam
 
-from app.api.errors import ErrorCodes, as_http_errors, responses
+from app.api.errors import STORAGE_CODES, ErrorCodes, as_http_errors, responses
 from app.api.models import (
     Saved,
     TerrainEntry,
@@ -46,7 +46,7 @@ def add_terrain_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: A
         "/api/terrains/{name}",
         response_model=Saved,
         tags=["terrains"],
-        responses=responses(*changing, 409, 422),
+        responses=responses(*changing, 409, 422, *STORAGE_CODES),
         openapi_extra={
             "requestBody": {
                 "required": True,
@@ -72,10 +72,12 @@ def add_terrain_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: A
     ) -> Saved:
         """Save a terrain as the user's file `name` (validated once, off the event loop; nothing is written if
         it is invalid). The shipped terrains are never changed: under a shipped name (confirmed with
-        ``overwrite``) the user's own copy is saved, and shadows the shipped file."""
+        ``overwrite``) the user's own copy is saved, and shadows the shipped file. The answer's ``path`` is the
+        file's name in the user's terrain folder. A file that cannot be written is 500 (507: the disk is full)
+        with one line saying why."""
         body = await request.body()  # at most MAX_UPLOAD_BYTES: RequestGuard refuses more while streaming
         job = app.validation_pool.submit(app.terrains.save_upload, body, name, overwrite)
         with as_http_errors():
             path = await asyncio.wrap_future(job)
-        return Saved(name=name, path=str(path))
+        return Saved(name=name, path=path.name)  # never the machine's folders
 

@@ -8,7 +8,8 @@
 - the user's folder (`ServeSettings.user_terrains_dir()`: ``$CONTACTNET_DATA/terrains``, by default
   ``~/.local/share/contactnet/terrains``), where every save goes.
 
-A user file shadows the shipped file of the same name. Saving under a shipped name (``flat``,
+A user file shadows the shipped file of the same name. Opening the library removes the temporary files a killed
+save left in the user's folder (`contactnet.atomic.remove_stale_temporaries`). Saving under a shipped name (``flat``,
 ``stepping_stones``, ...) needs ``overwrite=True`` and writes the user's own copy: the shipped file never
 changes, and deleting the copy brings it back. (Refusing such saves outright would also protect the
 shipped files, but editing a shipped terrain and keeping it under its name is what the editor is for.)
@@ -32,6 +33,7 @@ from app.live.editor import (
     is_shipped,
     validate_name,
 )
+from contactnet.atomic import remove_stale_temporaries, storage_error
 from contactnet.terrain import Terrain, TerrainError, terrains_dir, validate_terrain_bytes
 from contactnet.terrain.schema import loads_terrain_json
 
@@ -95,6 +97,7 @@ class TerrainLibrary:
         self.directory = Path(user_dir)  #: the user's folder, where saves go
         self.user = TerrainStore(self.directory)
         self.shipped = TerrainStore(Path(shipped_dir) if shipped_dir is not None else terrains_dir())
+        remove_stale_temporaries(self.directory)  # what a killed save left
 
     def names(self) -> list[str]:
         return sorted(set(self.user.names()) | set(self.shipped.names()))
@@ -129,12 +132,16 @@ class TerrainLibrary:
 
     def write(self, terrain: Terrain, name: str, overwrite: bool = False) -> Path:
         """Write a validated terrain (named ``name``) to the user's folder; ShippedTerrainError for a shipped
-        name without ``overwrite``."""
+        name without ``overwrite``, `contactnet.atomic.StorageError` (one line, naming the file) when the folder
+        refuses it (read-only, full, ...: the old file, if any, is unchanged)."""
         path = self.check_writable(name, overwrite)
         if terrain.name != name:
             raise ValueError(f"the terrain is named {terrain.name!r}, not {name!r}")
-        self.directory.mkdir(parents=True, exist_ok=True)
-        terrain.save(path)
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            terrain.save(path)
+        except OSError as exc:
+            raise storage_error(exc, f"cannot save {path.name} in your terrain folder") from None
         return path
 
     def save(self, data: Mapping[str, Any], name: str, overwrite: bool = False) -> Path:

@@ -1,5 +1,6 @@
-"""Recordings: ``recorder`` (the scene over time as .viser files, live recording, HTML export),
-``store`` (the folder of recordings), ``meta`` (their metadata), ``overlay`` (the status drawn on them).
+"""Recordings: ``recorder`` (the scene over time as .viser files, live recording), ``store`` (the folder of
+recordings), ``meta`` (their metadata), ``overlay`` (the status drawn on them), ``journal`` (a live recording on
+disk as it goes, recovered after a crash), ``viser_files`` (the .viser format: read, write, HTML export).
 """
 
 from __future__ import annotations

@@ -19,8 +19,9 @@ run ended: `SceneRecorder.meta`, `app.recordings.meta`) for the metadata file sa
 
 `RecordingStore` (`app.recordings.store`) lists, renames and deletes the files of the recordings folder
 with their metadata; `LiveRecorder` starts and stops recordings of the live session (from the GUI or
-REST), is fed by the viewer's update loop, and guards the recording in progress against renames and
-deletions. The viser client plays a file with `?playbackPath=URL` (play, pause, scrub);
+REST), is fed by the viewer's update loop, journals the recording as it goes (`app.recordings.journal`), keeps
+a recording whose save failed until a later stop saves it, and guards the recording in progress against renames
+and deletions. The viser client plays a file with `?playbackPath=URL` (play, pause, scrub);
 `viser_html(data)` wraps a recording into one HTML file that plays anywhere.
 
 `FileRecording` is what `contactnet simulate --record FILE.viser` uses: it checks the path and
@@ -32,7 +33,6 @@ after a long run), records frames as the loop goes, and replaces the target atom
 
 from __future__ import annotations
 
-import base64
 import contextlib
 import io
 import logging
@@ -41,19 +41,18 @@ import socket
 import tempfile
 import threading
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
-import msgspec
 import numpy as np
 import viser
-import zstandard
 
 from app.live.settings import RECORD_RATE_RANGE_HZ
 from app.live.view import LiveView, RunInfo, SessionStatus, ViewTracker
+from app.recordings.journal import JOURNAL_PERIOD_S, RecordingJournal
 from app.recordings.meta import MetaCollector, RecordingMeta, write_meta
 from app.recordings.overlay import StatusOverlay
-from app.recordings.store import RECORDING_NAME, RecordingInfo, RecordingStore
+from app.recordings.store import RECORDING_NAME, RecordingInfo, RecordingStore, StorageError
+from app.recordings.viser_files import RecordingContents, read_recording, viser_html
 from app.scene.live_scene import LiveScene
 from contactnet.atomic import atomic_write_bytes
 from contactnet.robots import DEFAULT_ROBOT, Robot, load_robot
@@ -65,7 +64,9 @@ __all__ = [  # the store's names are imported from here too
     "FileRecording",
     "LiveRecorder",
     "RecordingBusy",
+    "RecordingContents",
     "RecordingInfo",
+    "RecordingNotSaved",
     "RecordingStore",
     "SceneRecorder",
     "read_recording",
@@ -134,6 +135,11 @@ class SceneRecorder:
     @property
     def full(self) -> bool:
         return self.duration_s >= self.max_duration_s
+
+    @property
+    def serializer(self):  # noqa: ANN201 - viser's StateSerializer
+        """viser's scene serializer (None before the first frame and once finished): what a journal reads."""
+        return self._serializer if self._data is None else None
 
     def add(self, view: LiveView) -> bool:
         """Record `view` if a frame is due (every 1 / rate_hz s of simulated time); True if recorded."""
@@ -376,73 +382,6 @@ class FileRecording:
         self.close()
 
 
-@dataclass(frozen=True)
-class RecordingContents:
-    """What a .viser file holds (see `read_recording`)."""
-
-    duration_s: float
-    viser_version: str
-    messages: int
-    node_names: frozenset[str]  # scene nodes created in it
-    message_types: frozenset[str]
-
-
-def read_recording(data: bytes, max_size: int = 2**31) -> RecordingContents:
-    """Decode a .viser recording (viser's `StateSerializer.serialize` format: the payload size, then
-    zstd of [msgpack length, msgpack {durationSeconds, messages, viserVersion, binaryBufferLengths},
-    binary buffers]); ValueError if the bytes are not one."""
-    if len(data) < 16:
-        raise ValueError("not a .viser recording: too short")
-    inner_size = int.from_bytes(data[:8], "little")
-    if not 0 < inner_size <= max_size:
-        raise ValueError(f"not a .viser recording: payload size {inner_size}")
-    try:
-        inner = zstandard.ZstdDecompressor().decompress(data[8:], max_output_size=inner_size)
-    except zstandard.ZstdError as exc:
-        raise ValueError(f"not a .viser recording: {exc}") from None
-    if len(inner) != inner_size:
-        raise ValueError(f"not a .viser recording: payload is {len(inner)} bytes, header says {inner_size}")
-    header_size = int.from_bytes(inner[:8], "little")
-    try:
-        header = msgspec.msgpack.decode(inner[8 : 8 + header_size])
-    except msgspec.DecodeError as exc:
-        raise ValueError(f"not a .viser recording: {exc}") from None
-    if not isinstance(header, dict) or not {"durationSeconds", "messages", "viserVersion"} <= header.keys():
-        raise ValueError("not a .viser recording: header keys missing")
-    messages = header["messages"]
-    buffers = sum(header.get("binaryBufferLengths", ()))
-    if buffers > inner_size:
-        raise ValueError("not a .viser recording: binary buffers exceed the payload")
-    times = [t for t, _ in messages]
-    if any(b < a for a, b in zip(times, times[1:], strict=False)):
-        raise ValueError("not a .viser recording: message times go backwards")
-    return RecordingContents(
-        duration_s=float(header["durationSeconds"]),
-        viser_version=str(header["viserVersion"]),
-        messages=len(messages),
-        node_names=frozenset(
-            m["name"] for _, m in messages if m.get("type") not in ("RemoveSceneNodeMessage",) and "name" in m
-        ),
-        message_types=frozenset(m.get("type", "") for _, m in messages),
-    )
-
-
-def viser_html(data: bytes, dark_mode: bool = False) -> str:
-    """One self-contained HTML page that plays a .viser recording.
-
-    This is what viser's `StateSerializer.as_html()` does with the bytes of `serialize()` (the
-    client reads `window.__VISER_EMBED_DATA__`); the serializer can only serialize once, so we
-    build the page from the saved bytes instead, any time later.
-    """
-    client_html = (Path(viser.__file__).parent / "client" / "build" / "index.html").read_text()
-    script = (
-        f'<script>window.__VISER_EMBED_DATA__="{base64.b64encode(data).decode("ascii")}";'
-        f"window.__VISER_EMBED_CONFIG__={{darkMode:{'true' if dark_mode else 'false'}}};</script>"
-    )
-    head_end = client_html.index("</head>")
-    return client_html[:head_end] + script + client_html[head_end:]
-
-
 class RecordingConflict(RuntimeError):
     """Not possible in the recorder's current state (already recording, not recording, nothing recorded)."""
 
@@ -451,10 +390,20 @@ class RecordingBusy(RecordingConflict):
     """The recording is being made (or saved) right now: it cannot be renamed or deleted yet."""
 
 
+class RecordingNotSaved(StorageError):
+    """`LiveRecorder.stop` could not write the recording: it is kept (stop again to save it). One line saying
+    why; the errno of the file system's error (``ENOSPC``: the disk is full)."""
+
+
 class LiveRecorder:
     """Start/stop recordings of the live session (of ``robot``, default Solo12); `feed(view)` is called by
     the viewer's update loop. Renames, titles and deletions of the folder's recordings go through it too,
-    so that the recording in progress (not yet on disk) is never renamed over nor deleted (`RecordingBusy`)."""
+    so that the recording in progress (not yet on disk) is never renamed over nor deleted (`RecordingBusy`).
+
+    Nothing is lost when a write fails: a recording goes to its journal as it is made (`app.recordings.journal`:
+    a crash keeps all but the last seconds), and a `stop` whose save fails keeps the recording, stopped, in
+    memory (`RecordingNotSaved`; `status` says why): a later `stop` saves it, and at shut-down
+    (`save_in_progress`) it is saved in a folder of its own if the recordings folder still refuses it."""
 
     def __init__(self, store: RecordingStore, robot: Robot | None = None, rate_hz: float = DEFAULT_RATE_HZ):
         self.store = store
@@ -462,60 +411,119 @@ class LiveRecorder:
         self.rate_hz = rate_hz
         self._lock = threading.Lock()
         self._recorder: SceneRecorder | None = None
+        self._journal: RecordingJournal | None = None
+        self._next_journal = 0.0
         self._name: str | None = None
         self._title = ""
+        self._stopped = False  # stopped (no more frames), not saved yet
         self._saving: str | None = None  # the name being written by `stop`
-        self._started_wall = 0.0
+        self._save_error: str | None = None  # why the last save failed
         self.last_saved: str | None = None
 
     @property
     def recording(self) -> bool:
+        """A recording is in progress, or stopped and not saved yet (a `stop` saves it)."""
         return self._recorder is not None
+
+    @property
+    def stopped(self) -> bool:
+        """The recording is stopped but not saved (its save failed: `status` says why; a `stop` saves it)."""
+        return self._recorder is not None and self._stopped
 
     def status(self) -> dict:
         with self._lock:
             rec = self._recorder
+            journal = self._journal
             return {
                 "recording": rec is not None,
                 "name": self._name,
                 "frames": rec.frames if rec else 0,
                 "duration_s": rec.duration_s if rec else 0.0,
                 "last_saved": self.last_saved,
+                "save_error": self._save_error
+                or (f"journal not written ({journal.error}): a crash would lose it" if journal and journal.error else None),
             }
 
     def start(self, label: str = "", title: str = "") -> str:
         """Start recording into a new file named from the time and `label`; `title` goes in its metadata."""
         with self._lock:
             if self._recorder is not None:
+                if self._stopped:
+                    raise RecordingConflict(
+                        f"{self._name} is not saved yet ({self._save_error}): stop again to save it first"
+                    )
                 raise RecordingConflict(f"already recording {self._name}")
             self._recorder = SceneRecorder(robot=self.robot, rate_hz=self.rate_hz)
-            self._name = self.store.new_name(label, taken=(self._saving,))
+            self._name = name = self.store.reserve(label)
             self._title = title
-            self._started_wall = time.monotonic()
-            return self._name
+            self._stopped, self._save_error = False, None
+            self._journal = RecordingJournal(self.store.directory, name)
+            self._next_journal = time.monotonic() + JOURNAL_PERIOD_S
+            try:
+                self._journal.create()  # now: it also keeps the name from another tool on the same folder
+            except OSError as exc:  # recorded in memory all the same; `append` tries again
+                self._journal.error = exc.strerror or type(exc).__name__
+                log.warning("recording %s: no journal (%s): a crash of the tool would lose it", name, self._journal.error)
+            return name
 
     def feed(self, view: LiveView | None) -> None:
-        if view is None or self._recorder is None:
+        if view is None or self._recorder is None or self._stopped:
             return
         with self._lock:
-            if self._recorder is not None:
-                self._recorder.add(view)
+            recorder = self._recorder
+            if recorder is None or self._stopped or not recorder.add(view):
+                return
+            if self._journal is not None and time.monotonic() >= self._next_journal:
+                self._next_journal = time.monotonic() + JOURNAL_PERIOD_S
+                self._append_journal(recorder)
+
+    def _append_journal(self, recorder: SceneRecorder, force: bool = False) -> None:
+        if self._journal is not None and recorder.serializer is not None:
+            self._journal.append(recorder.serializer, recorder.meta(self._title), force=force)
 
     def stop(self) -> RecordingInfo:
-        """Stop and save the recording with its metadata."""
+        """Stop and save the recording with its metadata. `RecordingNotSaved` when it cannot be written: it is
+        then kept, stopped, and the next `stop` tries again."""
         with self._lock:
             recorder, name = self._recorder, self._name
             if recorder is None or name is None:
                 raise RecordingConflict("not recording")
-            self._recorder, self._name, self._saving = None, None, name
+            if self._saving is not None:
+                raise RecordingBusy(f"{name} is being saved")
+            if not self._stopped:
+                self._append_journal(recorder, force=True)  # the journal holds all of it until it is saved
+                self._stopped = True
+            self._saving = name
         try:
-            data = recorder.finish()
+            data = recorder.finish()  # (once: a later stop reuses the bytes)
+        except RecordingConflict:  # nothing recorded: nothing to keep
+            self._end(name)
+            raise
+        try:
             self.store.save(data, name, recorder.meta(self._title))
-        finally:
-            recorder.close()
-            self._saving = None
+        except Exception as exc:
+            with self._lock:
+                self._saving = None
+                self._save_error = str(exc) if isinstance(exc, OSError) else f"{type(exc).__name__}: {exc}"
+            raise RecordingNotSaved(
+                getattr(exc, "errno", None),
+                f"{self._save_error}; the recording is kept: stop again to save it once the folder can be written",
+            ) from None
+        self._end(name)
         self.last_saved = name
         return self.store.info(name)
+
+    def _end(self, name: str) -> None:
+        """The recording `name` is saved (or had nothing): forget it and its journal."""
+        with self._lock:
+            recorder, journal = self._recorder, self._journal
+            self._recorder = self._journal = self._name = self._saving = self._save_error = None
+            self._stopped = False
+        self.store.release(name)
+        if recorder is not None:
+            recorder.close()
+        if journal is not None:
+            journal.discard()
 
     def _check_idle(self, *names: str | None) -> None:
         for name in names:
@@ -539,20 +547,45 @@ class LiveRecorder:
             self._check_idle(name)
             self.store.delete(name)
 
-    def save_in_progress(self) -> str | None:
-        """At shut-down: save the recording in progress, if any. One line saying what happened (saved, with
-        its folder; or dropped, naming it and why), None when nothing was recording."""
-        name = self._name
-        if self._recorder is None or name is None:
+    def save_in_progress(self, fallback: Path | None = None) -> str | None:
+        """At shut-down: save the recording in progress (or stopped, not saved), if any. When the recordings
+        folder refuses it, it goes to ``fallback`` (default: ``contactnet-recordings`` in the temporary folder).
+        One line saying what happened (saved, with its folder; or what keeps it, or that it was dropped and
+        why), None when nothing was recording."""
+        name, recorder = self._name, self._recorder
+        if recorder is None or name is None:
             return None
         try:
             info = self.stop()
+        except RecordingNotSaved as exc:
+            return self._save_elsewhere(name, recorder, fallback, self._save_error or str(exc))
         except Exception as exc:  # noqa: BLE001 - reported, never raised at shut-down
             return f"dropped the recording in progress {name}: {exc}"
         return f"saved the recording in progress: {info.name} in {self.store.directory} ({info.size_bytes} bytes)"
 
+    def _save_elsewhere(self, name: str, recorder: SceneRecorder, fallback: Path | None, why: str) -> str:
+        folder = Path(fallback) if fallback is not None else Path(tempfile.gettempdir()) / "contactnet-recordings"
+        try:
+            store = RecordingStore(folder, recover=False)
+            name = store.free_name(name[: -len(".viser")])
+            store.save(recorder.finish(), name, recorder.meta(self._title))
+        except Exception as exc:  # noqa: BLE001 - reported, never raised at shut-down
+            journal = self._journal
+            kept = (
+                f"; its journal keeps {journal.records} part(s) of it: the next start recovers them"
+                if journal is not None and journal.records
+                else ""
+            )
+            return f"could not save the recording in progress {name} ({why}), nor in {folder} ({exc}){kept}"
+        self._end(self._name or name)
+        return f"saved the recording in progress: {name} in {folder} (the recordings folder refused it: {why})"
+
     def close(self) -> None:
+        """Drop the recorder; a recording not saved keeps its journal (the next start recovers it)."""
         with self._lock:
             if self._recorder is not None:
                 self._recorder.close()
                 self._recorder = None
+            if self._journal is not None:
+                self._journal.close()
+                self._journal = None

@@ -4,11 +4,18 @@ saved, renamed, retitled and deleted by name.
 A name is a file name of the folder, ``RECORDING_NAME`` (letters, digits, ``_``, ``-``, then ``.viser``),
 so no name reaches outside the folder. A recording and its sidecar move and go together. Errors are
 one-line exceptions that name recordings, never paths: ``ValueError`` (a bad name), ``FileNotFoundError``
-(no such recording), ``FileExistsError`` (a rename onto another recording).
+(no such recording), ``FileExistsError`` (a rename onto another recording), `StorageError` (the folder refused
+a write, a rename or a deletion: read-only, full, ...; its errno kept).
+
+Opening the store tidies the folder after a crash: temporary files a killed write left
+(`contactnet.atomic.remove_stale_temporaries`) go, and the journal of a recording that was in progress
+(`app.recordings.journal`) becomes a recording (`recovered` names them). Names being recorded are reserved
+(`reserve`), so two recorders of the same store (one per visitor) never pick the same one.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import re
@@ -17,10 +24,13 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from app.recordings import journal
 from app.recordings.meta import MetaRead, RecordingMeta, read_meta, retitled, sidecar_path, write_meta
-from contactnet.atomic import atomic_write_bytes
+from contactnet.atomic import StorageError, atomic_write_bytes, remove_stale_temporaries, storage_error
 
 log = logging.getLogger("contactnet.app.recordings")
+
+__all__ = ["RECORDING_NAME", "RecordingInfo", "RecordingStore", "StorageError"]
 
 RECORDING_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,99}\.viser$")
 
@@ -40,10 +50,15 @@ class RecordingInfo:
 class RecordingStore:
     """The .viser files of one folder and their sidecars. Safe to use from several threads."""
 
-    def __init__(self, directory: Path):
+    def __init__(self, directory: Path, recover: bool = True):
         self.directory = Path(directory)
         self._lock = threading.RLock()
         self._reported: dict[str, str] = {}  # name -> the sidecar problem already logged for it
+        self._reserved: set[str] = set()  # names being recorded (not yet files)
+        self.recovered: list[str] = []  #: recordings made from the journals a crash left (`recover`)
+        if recover:
+            remove_stale_temporaries(self.directory)
+            self.recovered = journal.recover_journals(self)
 
     def path(self, name: str) -> Path:
         if not isinstance(name, str) or not RECORDING_NAME.fullmatch(name):
@@ -89,21 +104,46 @@ class RecordingStore:
         return sorted(infos, key=lambda r: r.modified, reverse=True)
 
     def new_name(self, label: str = "", taken: tuple[str | None, ...] = ()) -> str:
-        """A free name from the time and `label` (``20250101-120000-label.viser``), none of `taken`."""
+        """A free name from the time and `label` (``20250101-120000-label.viser``), none of `taken`, of the
+        reserved names or of the journals of the folder."""
         stem = re.sub(r"[^A-Za-z0-9_-]+", "-", label).strip("-")[:40]
-        base = time.strftime("%Y%m%d-%H%M%S") + (f"-{stem}" if stem else "")
+        return self.free_name(time.strftime("%Y%m%d-%H%M%S") + (f"-{stem}" if stem else ""), taken)
+
+    def free_name(self, base: str, taken: tuple[str | None, ...] = ()) -> str:
+        """``base.viser``, else ``base-2.viser``, ...: the first name no recording, journal or reservation has."""
         name, k = f"{base}.viser", 1
-        while name in taken or (self.directory / name).exists():
-            k += 1
-            name = f"{base}-{k}.viser"
+        with self._lock:
+            while (
+                name in taken
+                or name in self._reserved
+                or (self.directory / name).exists()
+                or journal.journal_path(self.directory, name).exists()
+            ):
+                k += 1
+                name = f"{base}-{k}.viser"
         return name
+
+    def reserve(self, label: str = "") -> str:
+        """A new name (`new_name`) kept from every other `new_name` of this store until `release`."""
+        with self._lock:
+            name = self.new_name(label)
+            self._reserved.add(name)
+            return name
+
+    def release(self, name: str) -> None:
+        with self._lock:
+            self._reserved.discard(name)
 
     def save(self, data: bytes, name: str, meta: RecordingMeta | None = None) -> Path:
         """Write the recording (atomically), then its sidecar; a sidecar that cannot be written is logged
-        (the recording then lists without metadata), never lost with the recording."""
+        (the recording then lists without metadata), never lost with the recording. `StorageError` when the
+        recording cannot be written (nothing changed then)."""
         path = self.path(name)
         with self._lock:
-            atomic_write_bytes(path, data)
+            try:
+                atomic_write_bytes(path, data)
+            except OSError as exc:
+                raise storage_error(exc, f"cannot save {name} in the recordings folder") from None
             if meta is not None:
                 try:
                     write_meta(path, meta)
@@ -115,7 +155,10 @@ class RecordingStore:
         """Give recording `name` a title (kept in its sidecar; one is made if it had none)."""
         with self._lock:
             path = self._existing(name)
-            write_meta(path, retitled(self._read_meta(path).meta, title))
+            try:
+                write_meta(path, retitled(self._read_meta(path).meta, title))
+            except OSError as exc:
+                raise storage_error(exc, f"cannot save the title of {name}") from None
             return self.info(name)
 
     def rename(self, name: str, new_name: str) -> RecordingInfo:
@@ -125,13 +168,24 @@ class RecordingStore:
             target = self.path(new_name)
             if new_name == name:
                 return self.info(name)
-            if target.exists():
+            if target.exists() or new_name in self._reserved:
                 raise FileExistsError(f"a recording named {new_name!r} exists already")
-            os.replace(source, target)
+            doing = f"cannot rename {name} to {new_name}"
+            try:
+                os.replace(source, target)
+            except OSError as exc:
+                raise storage_error(exc, doing) from None
             try:
                 os.replace(sidecar_path(source), sidecar_path(target))
             except FileNotFoundError:
-                sidecar_path(target).unlink(missing_ok=True)  # a stale sidecar must not describe it
+                try:
+                    sidecar_path(target).unlink(missing_ok=True)  # a stale sidecar must not describe it
+                except OSError as exc:
+                    log.warning("recording %s: a stale metadata file is left (%s)", new_name, exc.strerror or exc)
+            except OSError as exc:  # the sidecar cannot follow: put the recording back, as it was
+                with contextlib.suppress(OSError):
+                    os.replace(target, source)
+                raise storage_error(exc, doing) from None
             self._reported.pop(name, None)
             return self.info(new_name)
 
@@ -139,6 +193,14 @@ class RecordingStore:
         """Delete recording `name` and its sidecar."""
         with self._lock:
             path = self._existing(name)
-            path.unlink()
-            sidecar_path(path).unlink(missing_ok=True)
+            try:
+                path.unlink()
+            except FileNotFoundError:
+                pass  # gone meanwhile: deleted all the same
+            except OSError as exc:
+                raise storage_error(exc, f"cannot delete {name}") from None
+            try:
+                sidecar_path(path).unlink(missing_ok=True)
+            except OSError as exc:  # the recording is gone; a sidecar alone never lists
+                log.warning("recording %s: its metadata file is left (%s)", name, exc.strerror or exc)
             self._reported.pop(name, None)

@@ -7,7 +7,7 @@ import logging
 import viser
 
 from app.live.view import LiveView
-from app.recordings.recorder import LiveRecorder
+from app.recordings.recorder import LiveRecorder, RecordingConflict
 from app.viewer.panels.common import ChangeTracker
 
 log = logging.getLogger("contactnet.app.panels.recording")
@@ -40,7 +40,10 @@ class RecordingPanel:
                 else:
                     self.recorder.start()
             except Exception as exc:  # noqa: BLE001 - shown to the user
-                log.exception("recording failed")
+                if isinstance(exc, OSError | RecordingConflict):  # a refusal (a folder that cannot be written): one line
+                    log.warning("recording: %s", exc)
+                else:
+                    log.exception("recording failed")
                 if event.client is not None:
                     event.client.add_notification("Recording", str(exc), color="red", auto_close_seconds=8)
             self._refresh_button()
@@ -54,7 +57,9 @@ class RecordingPanel:
         self._refresh_button()
         status = self.recorder.status()
         text = (
-            f"**recording** {status['name']}: {status['duration_s']:.1f} s, {status['frames']} frames"
+            f"**not saved** {status['name']}: {status['save_error']}. Stop recording again to save it."
+            if status["recording"] and status.get("save_error") and self.recorder.stopped
+            else f"**recording** {status['name']}: {status['duration_s']:.1f} s, {status['frames']} frames"
             if status["recording"]
             else (f"last saved: {status['last_saved']}" if status["last_saved"] else IDLE_TEXT)
         )
