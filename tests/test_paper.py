@@ -1,5 +1,6 @@
 """`contactnet experiment paper` and its report: the plan at scale 1 and 0.1, the Wilson interval, the report
-of stored trials (numbers, self-contained html), and a tiny real run end to end (layout, resume, report)."""
+of stored trials (numbers, self-contained html), and a tiny real run end to end (layout, resume, report); beyond the
+paper, `contactnet experiment frontier`: its plan, the difference interval, its report section, a tiny real run."""
 
 from __future__ import annotations
 
@@ -11,11 +12,18 @@ import pytest
 
 from contactnet.cli import main
 from contactnet.jobs.experiment import ExperimentError
-from contactnet.jobs.paper.plan import Section, plan_trials, scaled
+from contactnet.jobs.paper.plan import (
+    FRONTIER_SECTIONS,
+    Section,
+    frontier_sections,
+    plan_trials,
+    scaled,
+    share,
+)
 from contactnet.jobs.paper.report import write_report
 from contactnet.jobs.paper.results import outcome
 from contactnet.jobs.paper.run import run_paper
-from contactnet.jobs.paper.stats import wilson_interval
+from contactnet.jobs.paper.stats import difference_interval, wilson_interval
 
 
 # ---- Wilson interval -----------------------------------------------------------------------------
@@ -42,16 +50,30 @@ def test_wilson_interval_edges_and_scipy():
         assert wilson_interval(k, n) == pytest.approx((ci.low, ci.high), abs=1e-12)
 
 
+@pytest.mark.parametrize("a, n, b, m, low, high", [
+    # Newcombe (1998), Stat. Med. 17:873-890, Table II, method 10 (hybrid score, no continuity correction)
+    (56, 70, 48, 80, 0.0524, 0.3339), (9, 10, 3, 10, 0.1705, 0.8090), (6, 7, 2, 7, 0.0582, 0.8062),
+    (5, 56, 0, 29, -0.0381, 0.1926), (0, 10, 0, 20, -0.1611, 0.2775), (0, 10, 0, 10, -0.2775, 0.2775),
+])
+def test_difference_interval_known_values(a, n, b, m, low, high):
+    found = difference_interval(a, n, b, m)
+    assert found == pytest.approx((low, high), abs=6e-5)
+    assert difference_interval(b, m, a, n) == pytest.approx((-found[1], -found[0]), abs=1e-12)  # b - a: mirrored
+    assert difference_interval(3, 3, 0, 0) == (-1.0, 1.0)
+
+
 # ---- the plan ------------------------------------------------------------------------------------
+# The paper's Sec. IV, then the frontier (issue 32): the random field at n = 110..200 (7 points x 2 gaits x (3
+# planners x 100 seeds + the oracle x 20)) and narrow_map over 6 widths x 7 gaps x 2 planners x 4 seeds.
 FULL = {"fig5": 2400, "table2": 600, "push": 400, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
-        "raised_stones": 20, "random_heights": 80, "robustness": 1422}
+        "raised_stones": 20, "random_heights": 80, "robustness": 1422, "frontier": 4480, "frontier_narrow": 336}
 TENTH = {"fig5": 240, "table2": 60, "push": 40, "stepping_stones": 2, "narrow_stones": 2, "stairs": 4,
-         "raised_stones": 4, "random_heights": 8, "robustness": 162}
+         "raised_stones": 4, "random_heights": 8, "robustness": 162, "frontier": 448, "frontier_narrow": 84}
 
 
 def test_the_plan_has_the_papers_counts_and_scales_as_a_prefix():
     full, tenth, tiny = plan_trials(scale=1.0), plan_trials(scale=0.1), plan_trials(scale=1e-6)
-    assert {k: len(v) for k, v in full.items()} == FULL and sum(FULL.values()) == 4930
+    assert {k: len(v) for k, v in full.items()} == FULL and sum(FULL.values()) == 4930 + 4816
     assert {k: len(v) for k, v in tenth.items()} == TENTH
     fig5 = full["fig5"]
     assert {(t.gait, t.planner, t.noise) for t in fig5} == {(g, "contactnet", v) for g in ("walk", "trot")
@@ -74,6 +96,33 @@ def test_the_plan_has_the_papers_counts_and_scales_as_a_prefix():
         assert len(tiny[folder]) == len(cells)  # at least (and here exactly) one trial per cell
 
 
+def test_the_frontier_plan_has_its_points_and_fewer_oracle_seeds():
+    plan = plan_trials(FRONTIER_SECTIONS)
+    field, narrow = plan["frontier"], plan["frontier_narrow"]
+    assert sorted({t.removed for t in field}) == [110, 125, 140, 155, 170, 185, 200]
+    assert {(t.terrain, t.noise) for t in field} == {("random", 0.0)} and {t.gait for t in field} == {"walk", "trot"}
+    seeds = {p: {t.seed for t in field if t.planner == p and t.gait == "trot" and t.removed == 200}
+             for p in ("contactnet", "fixed", "heuristic", "oracle")}
+    assert seeds == {"contactnet": set(range(100)), "fixed": set(range(100)), "heuristic": set(range(100)),
+                     "oracle": set(range(20))}  # the slow oracle on the first 20 terrains only
+    assert sorted({round(100 * t.bar_width_m) for t in narrow}) == [2, 3, 4, 5, 6, 7]
+    assert sorted({round(100 * t.last_gap_m) for t in narrow}) == [12, 15, 18, 21, 24, 27, 30]
+    assert {(t.gait, t.planner, t.noise) for t in narrow} == {("walk", p, 0.01) for p in ("contactnet", "fixed")}
+    assert {t.seed for t in narrow} == set(range(4))
+    # --trials 3: 3 seeds per point, the oracle and narrow_map in proportion (at least 1)
+    three = plan_trials(FRONTIER_SECTIONS, scale=0.03)
+    assert len(three["frontier"]) == 7 * 2 * (3 * 3 + 1) and len(three["frontier_narrow"]) == 6 * 7 * 2
+    assert {t.key for t in three["frontier"]} <= {t.key for t in field}  # a prefix: the full run reuses it
+    assert len(plan_trials(FRONTIER_SECTIONS, scale=2.0)["frontier"]) == 7 * 2 * (3 * 200 + 40)  # --trials 200
+    # chosen gaits, planners, points and cells instead of the plan's; the oracle keeps its fewer seeds
+    mine = plan_trials(frontier_sections(("walk",), ("contactnet", "oracle"), (140, 170), (2.0,), (30.0,)))
+    assert {(t.planner, t.removed) for t in mine["frontier"]} == {(p, n) for p in ("contactnet", "oracle")
+                                                                 for n in (140, 170)}
+    assert len(mine["frontier"]) == 2 * (100 + 20)
+    assert {(t.terrain, t.planner) for t in mine["frontier_narrow"]} == {("narrow_stones_w2_g30", "contactnet"),
+                                                                         ("narrow_stones_w2_g30", "oracle")}
+
+
 def test_scaled_rounds_half_up_and_keeps_one():
     assert [scaled(100, 0.1), scaled(300, 0.1), scaled(5, 0.1), scaled(10, 0.05), scaled(100, 0.02)] == [10, 30, 1,
                                                                                                            1, 2]
@@ -82,6 +131,9 @@ def test_scaled_rounds_half_up_and_keeps_one():
         scaled(10, 0.0)
     with pytest.raises(ValueError, match="scale"):
         scaled(10, 1.5)
+    assert share(20, 0.03) == 1 and share(100, 2.0) == 200  # beyond 1: the frontier's --trials above 100
+    with pytest.raises(ValueError, match="scale"):
+        share(10, 0.0)
 
 
 def test_outcomes_name_the_kind_of_fall():
@@ -291,3 +343,111 @@ def test_a_tiny_paper_run_in_mujoco_says_so_and_keeps_to_its_folder(tmp_path):
     assert "run in MuJoCo" in (out / "report.md").read_text()
     with pytest.raises(ExperimentError, match="holds a run in mujoco"):  # one engine per folder: no mixed report
         run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY[2:], command="tiny")
+
+
+# ---- beyond the paper: the frontier ------------------------------------------------------------------
+def _stored_frontier(out: Path) -> None:
+    """A frontier folder written by hand (plan "frontier", scale 0.1): on the field, walk at n = 110 and 200
+    (ContactNet 10 and 7 of 10, the fixed gait 9 and 2, the oracle 2 and 0 of 2) and trot at n = 200 (ContactNet
+    4 of 10 behind the fixed gait's 6); narrow bars of 2 and 5 cm before last gaps of 12 and 30 cm, one seed."""
+    def trial(**kw):
+        return {"gait": "walk", "planner": "contactnet", "terrain": "random", "removed": None, "noise": 0.0,
+                "seed": 0, "push_force_xy": None, "push_t0_s": None, **kw}
+
+    crossed = {("walk", 110, "contactnet"): 10, ("walk", 200, "contactnet"): 7, ("walk", 110, "fixed"): 9,
+               ("walk", 200, "fixed"): 2, ("walk", 110, "oracle"): 2, ("walk", 200, "oracle"): 0,
+               ("trot", 200, "contactnet"): 4, ("trot", 200, "fixed"): 6}
+    field = [_record(f"random/{n}/seed{s}/{g}/{p}", trial(gait=g, removed=n, seed=s, planner=p), s < k,
+                     planner_ms=150.0 if p == "oracle" else 0.3)
+             for (g, n, p), k in crossed.items() for s in range(2 if p == "oracle" else 10)]
+    narrow = [_record(f"w{w}/g{g}/{p}", trial(terrain=f"narrow_stones_w{w}_g{g}", planner=p, noise=0.01,
+                                                bar_width_m=w / 100, last_gap_m=g / 100),
+                      (w, g) == (5, 12) or (p == "contactnet" and (w, g) != (2, 30)))
+              for p in ("contactnet", "fixed") for w in (2, 5) for g in (12, 30)]
+    header = {"format": "contactnet-paper-v1", "plan": "frontier", "scale": 0.1, "runs": [], "sections": []}
+    for folder, experiment, records in (("frontier", "random", field), ("frontier_narrow", "narrow_map", narrow)):
+        (out / folder).mkdir(parents=True)
+        (out / folder / "experiment.json").write_text(json.dumps(
+            {"format": "contactnet-experiment-v1", "experiment": experiment,
+             "trials": {r["key"]: r["fingerprint"] for r in records}}))
+        (out / folder / "trials.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+        header["sections"].append({"folder": folder, "experiment": experiment, "title": folder,
+                                   "trials": len(records), "trials_full": 10 * len(records)})
+    (out / "paper.json").write_text(json.dumps(header))
+
+
+def test_the_frontier_report_has_its_curves_gap_targets_and_narrow_bars(tmp_path):
+    _stored_frontier(tmp_path)
+    md_path, html_path = write_report(tmp_path)
+    md = md_path.read_text()
+    assert md.startswith("# ContactNet beyond the paper: the frontier") and "## Fig. 5" not in md
+    assert "## Beyond the paper: the frontier" in md and "**no upper bound**" in md
+    assert "`contactnet experiment frontier --out DIR`" in md
+    # one row per gait and n, a column per planner, ContactNet minus fixed with Newcombe's interval, the paired count
+    assert ("| walk | 200 | 7 / 10 (70.0 %, 39.7-89.2) | 2 / 10 (20.0 %, 5.7-51.0) | 0 / 2 (0.0 %, 0.0-65.8) "
+            "| +50.0 (+6.6 to +74.0) | 5 / 0 |") in md
+    assert "| trot | 200 | 4 / 10 (40.0 %, 16.8-68.7) | 6 / 10 " in md and "| -20.0 (-52.8 to +20.6) | 0 / 2 |" in md
+    assert "| ContactNet, walk, n = 200 | 7 / 10 (70.0 %, 39.7-89.2) | >= 90 % (goal) | (no) |" in md
+    assert "| ContactNet >= fixed gait, walk, every n | at all 2 n | at every n | (yes) |" in md
+    assert "| ContactNet >= fixed gait, trot, every n | behind at n = 200 | at every n | (no) |" in md
+    assert "| walk | oracle | 2 / 4 (50.0 %, 15.0-85.0) | base tilted over: 2 | 150.000 | 150.000 |" in md
+    assert "| 110 | 0.300 | 0.300 | 150.000 | - | - |" in md  # planner medians by n; trot ran at 200 only
+    # narrow bars: the README's grid (3-7 cm x 12-24 cm) apart, then the 2 cm bars and the 27-30 cm gaps
+    assert ("| walk | contactnet | 3 / 4 (75.0 %, 30.1-95.4) | 1 / 1 (100.0 %, 20.7-100.0) | 1 / 2 (50.0 %, 9.5-90.5) "
+            "| 1 / 2 (50.0 %, 9.5-90.5) | base tilted over: 1 |") in md
+    assert "| walk | fixed | 1 / 4 (25.0 %, 4.6-69.9) | 1 / 1 (100.0 %, 20.7-100.0) | 0 / 2 " in md
+    for name in ("frontier", "frontier_narrow", "times"):
+        assert (tmp_path / "report_plots" / f"{name}.png").stat().st_size > 5000
+    html = html_path.read_text()
+    _assert_self_contained(html)
+    assert "<title>ContactNet beyond the paper: the frontier</title>" in html
+    assert html.count("data:image/png;base64,") == 3
+
+
+def test_the_paper_report_ends_with_the_frontier_and_a_paper_run_refuses_frontier(tmp_path):
+    _stored_run(tmp_path)
+    md = write_report(tmp_path)[0].read_text()
+    assert md.index("## Table II") < md.index("## Beyond the paper: the frontier") < md.index("## Outcomes by reason")
+    assert "*Not in this run (no stored trials of `frontier`).*" in md  # a run made before the frontier was planned
+    with pytest.raises(ExperimentError, match="holds the paper's run"):
+        run_paper(tmp_path, 0.1, sections=FRONTIER_SECTIONS, plan="frontier")
+
+
+def test_frontier_options_errors_are_one_line(tmp_path, capsys):
+    out = str(tmp_path / "x")
+    for option, value in (("--noise", "0.01"), ("--robot", "go2"), ("--mass-scale", "1.2"), ("--height", "0.02")):
+        assert main(["experiment", "frontier", "--out", out, option, value]) == 2
+        assert f"drop {option}" in capsys.readouterr().err  # the plan fixes the noise, the robot, the terrains
+    assert main(["experiment", "frontier", "--out", out, "--trials", "3", "--scale", "0.1"]) == 2
+    assert "--scale or --trials, not both" in capsys.readouterr().err
+    assert main(["experiment", "paper", "--out", out, "--removed", "140"]) == 2  # the paper's plan stays fixed
+    assert "drop --removed" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_a_tiny_frontier_run_writes_its_section_and_resumes(tmp_path, capsys):
+    # The blind heuristic falls within a second or two at n = 200 and on 2 cm bars: two short PyBullet trials.
+    out = tmp_path / "frontier"
+    args = ["experiment", "frontier", "--out", str(out), "--trials", "1", "--gaits", "walk", "--planners",
+            "heuristic", "--removed", "200", "--widths-cm", "2", "--gaps-cm", "30", "--workers", "1", "--quiet"]
+    assert main(args) == 0
+    assert "2 trials run of 2" in capsys.readouterr().out
+    header = json.loads((out / "paper.json").read_text())
+    assert header["plan"] == "frontier" and header["scale"] == 0.01
+    assert [(s["folder"], s["trials"], s["trials_full"]) for s in header["sections"]] == [
+        ("frontier", 1, 100), ("frontier_narrow", 1, 4)]
+    assert header["runs"][0]["command"] == (f"contactnet experiment frontier --out {out} --trials 1 --gaits walk "
+                                            "--planners heuristic --removed 200 --widths-cm 2 --gaps-cm 30 --workers 1")
+    (field,) = [json.loads(line) for line in (out / "frontier" / "trials.jsonl").read_text().splitlines()]
+    (bars,) = [json.loads(line) for line in (out / "frontier_narrow" / "trials.jsonl").read_text().splitlines()]
+    assert field["key"] == "random/200/seed0/walk/heuristic/noise0" and not field["success"]
+    assert bars["key"] == "narrow_stones_w2_g30/seed0/walk/heuristic/noise0.01" and not bars["success"]
+    md = (out / "report.md").read_text()
+    assert "## Beyond the paper: the frontier" in md and "| walk | 200 | 0 / 1 (0.0 %, 0.0-79.3) |" in md
+    assert "### Narrow bars" in md and "| walk | heuristic | 0 / 1 (0.0 %, 0.0-79.3) | - | 0 / 1 " in md
+    assert (out / "report_plots" / "frontier.png").stat().st_size > 5000
+    assert main(args) == 0 and "0 trials run of 2" in capsys.readouterr().out  # resumed: nothing runs again
+    assert len((out / "frontier" / "trials.jsonl").read_text().splitlines()) == 1
+    # the paper's run may follow in the same folder (its plan holds the frontier); not the other way round
+    assert json.loads((out / "paper.json").read_text())["runs"][1]["trials_reused"] == 2

@@ -222,21 +222,21 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
     _check_engine(args)
     sims = _sims_of(args)
-    if args.name == "paper":
+    if args.name in ("paper", "frontier"):
         from contactnet.jobs.paper.run import paper_command
 
         if len(sims) > 1:
-            raise UserError("experiment paper runs in one engine: give each --sim its own --out")
+            raise UserError(f"experiment {args.name} runs in one engine: give each --sim its own --out")
         args.sim = sims[0]
-        return paper_command(args)
+        return paper_command(args, args.name)
     if args.scale is not None or args.report_only:
-        raise UserError("--scale and --report-only are options of experiment paper")
+        raise UserError("--scale and --report-only are options of experiment paper and frontier")
     model_dir = args.model_dir
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
     mismatch = _mismatch_of(args)
     try:
-        trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed, args.noise,
+        trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed or (80,), args.noise,
                            model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot,
                            height_m=DEFAULT_HEIGHT_M if args.height is None else args.height,
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
@@ -435,27 +435,34 @@ def build_parser() -> argparse.ArgumentParser:
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
     experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random", "stairs",
-                                             "raised_stones", "random_heights", "push", "robustness", "paper"],
+                                             "raised_stones", "random_heights", "push", "robustness", "paper",
+                                             "frontier"],
                             help="paper: the paper's whole Sec. IV (every experiment, its numbers of trials) and "
-                                 "a report in DIR")
+                                 "the frontier, and a report in DIR; frontier: beyond the paper, the random field "
+                                 "at n = 110..200 and narrow_map down to 2 cm bars and up to 30 cm gaps, and its "
+                                 "report in DIR")
     experiment.add_argument("--scale", type=bounded_float("--scale", 1e-6, 1.0), default=None,
-                            help="paper: run this share of every batch (at least 1 trial per cell; default 1)")
+                            help="paper, frontier: run this share of every batch (at least 1 trial per cell; "
+                                 "default 1)")
     experiment.add_argument("--report-only", action="store_true",
-                            help="paper: write DIR's report from its stored trials, run nothing")
+                            help="paper, frontier: write DIR's report from its stored trials, run nothing")
     experiment.add_argument("--trials", type=positive_int("--trials", 10**5),
                             help="seeds per setting (default: 20 on random and random_heights, 5 on raised_stones, "
-                                 "1 on the others)")
+                                 "1 on the others; frontier: seeds per point of the field, default 100, the "
+                                 "oracle and narrow_map's cells in proportion)")
     experiment.add_argument("--workers", type=positive_int("--workers", 256))
     experiment.add_argument("--out", required=True)
     experiment.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=registry.DEFAULT_ROBOT)
     experiment.add_argument("--gaits", type=choices("--gaits", registry.gait_names()), default=None,
                             help="comma-separated (default: walk; walk,trot on random and the terrains with "
-                                 "heights)")
+                                 "heights; frontier: walk,trot on the field, walk on the bars)")
     experiment.add_argument("--planners", type=choices("--planners", registry.planner_names()), default=None,
                             help="comma-separated (default: contactnet,fixed,heuristic; contactnet,fixed on the "
-                                 "terrains with heights)")
-    experiment.add_argument("--removed", type=number_list("--removed", 0, 300, int), default=(80,),
-                            help="squares removed on random and random_heights, comma-separated (default 80)")
+                                 "terrains with heights; frontier: contactnet,fixed,heuristic,oracle on the field, "
+                                 "contactnet,fixed on the bars)")
+    experiment.add_argument("--removed", type=number_list("--removed", 0, 300, int), default=None,
+                            help="squares removed on random and random_heights, comma-separated (default 80; "
+                                 "frontier: 110,125,...,200)")
     experiment.add_argument("--terrain-scale", type=bounded_float("--terrain-scale", 0.1, 10.0), default=None,
                             metavar="S", help=SCALE_HELP)
     experiment.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
@@ -470,9 +477,10 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--noise", type=bounded_float("--noise", 0.0, 1.0), default=0.0,
                             help="joint-velocity noise variance")
     experiment.add_argument("--widths-cm", type=number_list("--widths-cm", 1.0, 20.0), default=None,
-                            help="narrow_map: bar widths, comma-separated (default 3,4,5,6,7)")
+                            help="narrow_map: bar widths, comma-separated (default 3,4,5,6,7; frontier: 2,...,7)")
     experiment.add_argument("--gaps-cm", type=number_list("--gaps-cm", 0.0, 40.0), default=None,
-                            help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24)")
+                            help="narrow_map: gaps before the last bar, comma-separated (default 12,15,18,21,24; "
+                                 "frontier: 12,15,...,30)")
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)

@@ -3,26 +3,38 @@ and the same batches scaled down.
 
 Each `Section` is one `contactnet.jobs.experiment` batch run into ``DIR/<folder>``. At scale 1 its cells (gait x
 planner x removed squares x noise, or gait x push magnitude) get ``per_cell`` trials each, the paper's counts
-where it gives them; ``scale`` keeps ``scaled(per_cell, scale)`` of them (at least 1). Trial i of a cell has
-seed i (push: the i-th sampled push, ``contactnet.jobs.pushes``), so a scaled plan is a prefix of the full one: a
-full run after a scaled one reuses its trials.
+where it gives them (a slow planner may get fewer: ``fewer``); ``scale`` keeps ``share(per_cell, scale)`` of them
+(at least 1). Trial i of a cell has seed i (push: the i-th sampled push, ``contactnet.jobs.pushes``), so a scaled plan
+is a prefix of the full one: a full run after a scaled one reuses its trials.
+
+Beyond the paper, `FRONTIER_SECTIONS` (``contactnet experiment frontier``, and the last sections of the paper's
+plan): the random field from 110 to 200 squares removed, where the paper's benchmark stops telling planners apart
+(issue 32), and ``narrow_map`` extended to bars of 2 cm and last gaps of 30 cm.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from contactnet.jobs.experiment import DEFAULT_HEIGHT_M, Trial, trials_of
 
 FIG5_REMOVED = (50, 60, 70, 80, 90, 100)
+#: The frontier: n = 110, 125, ..., 200 squares removed of 300 (37-67 %).
+FRONTIER_REMOVED = tuple(range(110, 201, 15))
+FRONTIER_SEEDS = 100  # per point at full scale (`contactnet experiment frontier --trials N`: N of them)
+ORACLE_SEEDS = 20  # the oracle's per point (the cost evaluated online: hundreds of times slower a plan than ContactNet)
+#: ``narrow_map`` extended: the README's 3-7 cm bars x 12-24 cm last gaps, and 2 cm bars and 27-30 cm gaps.
+FRONTIER_WIDTHS_CM = (2.0, 3.0, 4.0, 5.0, 6.0, 7.0)
+FRONTIER_GAPS_CM = (12.0, 15.0, 18.0, 21.0, 24.0, 27.0, 30.0)
 
 
 @dataclass(frozen=True)
 class Section:
     """One sub-experiment: ``experiment`` (a `contactnet.jobs.experiment` name) run into ``DIR/<folder>`` with these
-    gaits, planners, removed squares, joint-velocity noise variances and push forces, ``per_cell`` trials per
-    cell at scale 1 (seeds; push: sampled pushes)."""
+    gaits, planners, removed squares, joint-velocity noise variances and push forces (``narrow_map``: bar widths
+    and last gaps, default its own grid), ``per_cell`` trials per cell at scale 1 (seeds; push: sampled pushes),
+    except the planners named in ``fewer`` (planner, trials per cell at scale 1)."""
 
     folder: str
     experiment: str
@@ -34,20 +46,32 @@ class Section:
     noises: tuple[float, ...] = (0.0,)
     forces_n: tuple[float, ...] = (5.0,)
     height_m: float = DEFAULT_HEIGHT_M
+    widths_cm: tuple[float, ...] | None = None
+    gaps_cm: tuple[float, ...] | None = None
+    fewer: tuple[tuple[str, int], ...] = ()
+
+    def per_planner(self, scale: float = 1.0) -> dict[str, int]:
+        """Trials per cell of each planner at ``scale``."""
+        fewer = dict(self.fewer)
+        return {p: share(fewer.get(p, self.per_cell), scale) for p in self.planners}
 
     def trials(self, scale: float = 1.0, model_dir: str | None = None, sim: str = "pybullet") -> list[Trial]:
         """The section's trials at ``scale`` (with the models of ``model_dir``, default the shipped ones) in the
         physics engine ``sim``."""
-        n = scaled(self.per_cell, scale)
+        groups: dict[int, list[str]] = {}  # planners by trials per cell (one group unless some have fewer)
+        for planner, n in self.per_planner(scale).items():
+            groups.setdefault(n, []).append(planner)
         out: list[Trial] = []
         for noise in self.noises:
-            out += trials_of(self.experiment, n, self.gaits, self.planners, self.removed, noise,
-                             model_dir=model_dir, height_m=self.height_m, forces_n=self.forces_n, sims=(sim,))
+            for n, planners in groups.items():
+                out += trials_of(self.experiment, n, self.gaits, tuple(planners), self.removed, noise,
+                                 model_dir=model_dir, widths_cm=self.widths_cm, gaps_cm=self.gaps_cm,
+                                 height_m=self.height_m, forces_n=self.forces_n, sims=(sim,))
         return out
 
 
-#: The paper's Sec. IV (and our terrains with heights), in the order of the report.
-PAPER_SECTIONS = (
+#: The paper's Sec. IV (and our terrains with heights and model mismatch), in the order of the report.
+SEC4_SECTIONS = (
     Section("fig5", "random", "Fig. 5: random field, success vs squares removed", 100, ("walk", "trot"),
             ("contactnet",), removed=FIG5_REMOVED, noises=(0.0, 0.01)),
     Section("table2", "random", "Table II: acyclic vs fixed gait, 110 squares removed", 300, ("walk",),
@@ -67,12 +91,45 @@ PAPER_SECTIONS = (
             100, ("walk", "trot"), ("contactnet",)),
 )
 
+#: Beyond the paper: where its benchmark stops telling planners apart (``contactnet experiment frontier``).
+FRONTIER_SECTIONS = (
+    Section("frontier", "random", "Beyond the paper: the random field from 110 to 200 squares removed",
+            FRONTIER_SEEDS, ("walk", "trot"), ("contactnet", "fixed", "heuristic", "oracle"),
+            removed=FRONTIER_REMOVED, fewer=(("oracle", ORACLE_SEEDS),)),
+    Section("frontier_narrow", "narrow_map", "Beyond the paper: narrow bars 2-7 cm wide x last gaps 12-30 cm, "
+            "noise 0.01", 4, ("walk",), ("contactnet", "fixed"), noises=(0.01,), widths_cm=FRONTIER_WIDTHS_CM,
+            gaps_cm=FRONTIER_GAPS_CM),
+)
+#: The whole plan of ``contactnet experiment paper``: the paper's Sec. IV, then the frontier.
+PAPER_SECTIONS = SEC4_SECTIONS + FRONTIER_SECTIONS
+
+
+def frontier_sections(gaits: tuple[str, ...] | None = None, planners: tuple[str, ...] | None = None,
+                      removed: tuple[int, ...] | None = None, widths_cm: tuple[float, ...] | None = None,
+                      gaps_cm: tuple[float, ...] | None = None) -> tuple[Section, ...]:
+    """`FRONTIER_SECTIONS` with the gaits, planners (each section), squares removed (the field) or bar widths and
+    last gaps (the narrow bars) given instead of the plan's; a planner of ``fewer`` keeps its fewer trials."""
+    field, narrow = FRONTIER_SECTIONS
+    both = {k: v for k, v in (("gaits", gaits), ("planners", planners)) if v}
+    field = replace(field, **both, **({"removed": tuple(removed)} if removed else {}))
+    narrow = replace(narrow, **both, **({"widths_cm": tuple(widths_cm)} if widths_cm else {}),
+                     **({"gaps_cm": tuple(gaps_cm)} if gaps_cm else {}))
+    return field, narrow
+
+
+def share(per_cell: int, scale: float) -> int:
+    """How many of a cell's ``per_cell`` trials run at ``scale`` (> 0; above 1: more than the plan's):
+    rounded half up, at least 1."""
+    if not 0.0 < scale < math.inf:
+        raise ValueError(f"scale must be a positive number, got {scale}")
+    return max(1, math.floor(per_cell * scale + 0.5))
+
 
 def scaled(per_cell: int, scale: float) -> int:
-    """How many of a cell's ``per_cell`` trials run at ``scale``: rounded half up, at least 1."""
+    """`share` with ``scale`` in (0, 1]: the paper's ``--scale``."""
     if not 0.0 < scale <= 1.0:
         raise ValueError(f"scale must be in (0, 1], got {scale}")
-    return max(1, math.floor(per_cell * scale + 0.5))
+    return share(per_cell, scale)
 
 
 def plan_trials(sections: tuple[Section, ...] = PAPER_SECTIONS, scale: float = 1.0,
@@ -81,4 +138,5 @@ def plan_trials(sections: tuple[Section, ...] = PAPER_SECTIONS, scale: float = 1
     folders = [s.folder for s in sections]
     if len(set(folders)) != len(folders):
         raise ValueError("two sections have the same folder")
+    share(1, scale)  # a bad scale is an error even without sections
     return {s.folder: s.trials(scale, model_dir, sim) for s in sections}

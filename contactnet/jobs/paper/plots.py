@@ -1,6 +1,7 @@
 """The report's figures (matplotlib, Agg), each written to a PNG file: Fig. 5's success curves with their
-95 % Wilson intervals, Table I's planner times, Table II's rates beside the paper's, and the distributions
-of the planner's and the optimizer's times per call."""
+95 % Wilson intervals, Table I's planner times, Table II's rates beside the paper's, the distributions
+of the planner's and the optimizer's times per call, and beyond the paper the frontier's success curves per
+planner and its narrow bars' success maps."""
 
 from __future__ import annotations
 
@@ -12,6 +13,8 @@ from contactnet.jobs.paper import reference
 from contactnet.jobs.paper.results import Rate, SectionResult, group, rate_of, samples
 
 COLORS = {"walk": "#1f6fd1", "trot": "#d1641f"}
+PLANNER_STYLES = {"contactnet": ("#1f6fd1", "o"), "fixed": ("#d1641f", "s"), "heuristic": ("#7f7f7f", "v"),
+                  "oracle": ("#2a9d4b", "D")}
 
 
 def _pyplot():
@@ -144,3 +147,54 @@ def plot_times(sections: list[SectionResult], path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def _per_point(counts: set[int]) -> str:
+    """"100 per point", "1-3 per point"."""
+    low, high = min(counts), max(counts)
+    return f"{low} per point" if low == high else f"{low}-{high} per point"
+
+
+def plot_frontier(section: SectionResult, path: Path) -> None:
+    """Beyond the paper: success (%) vs squares removed, one panel per gait, one curve per planner (shifted a
+    little along n so that the bars do not hide each other), 95 % Wilson bars; the top axis in % of the field."""
+    plt = _pyplot()
+    cells = group(section.records, lambda t: (t["gait"], t["planner"], t["removed"]))
+    gaits = list(dict.fromkeys(g for g, _, _ in cells))
+    planners = list(dict.fromkeys(p for _, p, _ in cells))
+    ns = sorted({n for _, _, n in cells})
+    step = min(np.diff(ns), default=10)
+    fig, axes = plt.subplots(1, len(gaits), figsize=(5.0 * len(gaits), 4.0), squeeze=False, sharey=True)
+    for ax, gait in zip(axes[0], gaits, strict=True):
+        for i, planner in enumerate(planners):
+            xs = sorted(n for g, p, n in cells if (g, p) == (gait, planner))
+            if not xs:
+                continue
+            rates = [rate_of(cells[gait, planner, n]) for n in xs]
+            shift = (i - (len(planners) - 1) / 2) * 0.07 * step
+            color, marker = PLANNER_STYLES.get(planner, (None, "o"))
+            ax.errorbar(np.asarray(xs, dtype=float) + shift, [100 * r.rate for r in rates], yerr=_errors(rates),
+                        marker=marker, markersize=4, capsize=3, color=color,
+                        label=f"{planner}, {_per_point({r.trials for r in rates})}")
+        ax.set_title(gait)
+        ax.set_xticks(ns)
+        ax.set_xlabel("squares removed n (of 300)")
+        top = ax.secondary_xaxis("top", functions=(lambda n: n / 3.0, lambda share: 3.0 * share))
+        top.set_xlabel("% of the field removed", fontsize=8)
+        top.tick_params(labelsize=8)
+        ax.set_ylim(-3, 104)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="lower left", fontsize=8)
+    axes[0][0].set_ylabel("success %")
+    fig.suptitle("Beyond the paper: random field, success vs squares removed, 95 % Wilson intervals", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_narrow_map(section: SectionResult, path: Path) -> None:
+    """The narrow bars: one bar width x last gap success map per gait and planner (the experiment's own
+    ``success.png``, `contactnet.jobs.summary.plot_success`)."""
+    from contactnet.jobs.summary import plot_success, summarize
+
+    plot_success(summarize("narrow_map", section.records), path)

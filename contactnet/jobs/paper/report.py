@@ -3,7 +3,8 @@ self-contained page (the figures embedded as base64 PNG, the style inline, no li
 
 Every number comes from the stored trials (`contactnet.jobs.paper.results`): `write_report` runs nothing and can be
 called again at any time (``contactnet report DIR``). Each result stands beside the paper's; success rates carry
-their 95 % Wilson score interval.
+their 95 % Wilson score interval. A run of ``contactnet experiment frontier`` (``"plan": "frontier"`` in paper.json)
+gets the frontier's section alone, with the run, the outcomes and the times.
 """
 
 from __future__ import annotations
@@ -18,6 +19,10 @@ import numpy as np
 from contactnet.atomic import atomic_write_text
 from contactnet.jobs.outcome import falls_text
 from contactnet.jobs.paper import plots, reference
+from contactnet.jobs.paper.frontier import frontier_section
+from contactnet.jobs.paper.markdown import Report as _Report
+from contactnet.jobs.paper.markdown import ms as _ms
+from contactnet.jobs.paper.markdown import table
 from contactnet.jobs.paper.results import (
     SectionResult,
     group,
@@ -31,17 +36,7 @@ from contactnet.jobs.paper.results import (
 )
 from contactnet.sim.world import ENGINE_NAMES
 
-PLOTS = "report_plots"
 UNEVEN = ("stairs", "raised_stones", "random_heights")
-
-
-def table(headers: list[str], rows: list[list[object]]) -> list[str]:
-    """A markdown table (cells as text, pipes escaped)."""
-    def cell(value: object) -> str:
-        return str(value).replace("|", "\\|").replace("\n", " ")
-
-    return ["| " + " | ".join(map(cell, headers)) + " |", "|" + "---|" * len(headers),
-            *("| " + " | ".join(map(cell, row)) + " |" for row in rows), ""]
 
 
 def _paper_table2(planner: str) -> str:
@@ -52,10 +47,6 @@ def _paper_table2(planner: str) -> str:
     low, high = rate.interval
     return (f"{rate.successes} / {rate.trials} ({reference.TABLE2_PERCENT[planner]:.1f} %, "
             f"{100 * low:.1f}-{100 * high:.1f})")
-
-
-def _ms(value: float) -> str:
-    return "-" if value is None or np.isnan(value) else f"{value:.3f}"
 
 
 def _load(load: dict | None) -> str:
@@ -69,54 +60,28 @@ def _seconds(s: float) -> str:
     return f"{s / 3600:.2f} h" if s >= 3600 else f"{s / 60:.1f} min" if s >= 60 else f"{s:.0f} s"
 
 
-class _Report:
-    """The markdown being written, with the plots it refers to."""
-
-    def __init__(self, out: Path, header: dict, sections: dict[str, SectionResult]):
-        self.out, self.header, self.sections = out, header, sections
-        self.lines: list[str] = []
-        (out / PLOTS).mkdir(exist_ok=True)
-
-    @property
-    def scaled(self) -> bool:
-        return self.header.get("scale", 1.0) < 1.0
-
-    def met(self, ok: bool) -> str:
-        """"yes" / "no"; in parentheses on a scaled run."""
-        word = "yes" if ok else "no"
-        return f"({word})" if self.scaled else word
-
-    def add(self, *lines: str) -> None:
-        self.lines.extend(lines)
-
-    def figure(self, name: str, caption: str, draw) -> None:  # noqa: ANN001
-        path = self.out / PLOTS / f"{name}.png"
-        draw(path)
-        self.add(f"![{caption}]({PLOTS}/{name}.png)", "")
-
-    def section(self, folder: str) -> SectionResult | None:
-        found = self.sections.get(folder)
-        return found if found is not None and found.records else None
-
-    def missing(self, folder: str) -> None:
-        self.add(f"*Not in this run (no stored trials of `{folder}`).*", "")
-
-
 # ---- the parts ---------------------------------------------------------------------------------
 def _intro(r: _Report) -> None:
     planned = sum(s.planned for s in r.sections.values())
     stored = sum(len(s.records) for s in r.sections.values())
     full = sum(s.full for s in r.sections.values())
     scale = r.header.get("scale", 1.0)
-    r.add("# ContactNet: the paper's evaluation (Sec. IV), reproduced", "",
-          "The experiments of Bratta et al., *ContactNet: Online Multi-Contact Planning for Acyclic Legged Robot "
-          f"Locomotion*, Sec. IV, run in {ENGINE_NAMES.get(r.header.get('sim', 'pybullet'), 'PyBullet')} "
-          f"{r.header.get('sim_version', '')} by `contactnet experiment paper`, each result beside the paper's. "
-          "A success rate reads *successes / trials (rate, 95 % Wilson score interval)*.", "")
+    engine = f"{ENGINE_NAMES.get(r.header.get('sim', 'pybullet'), 'PyBullet')} {r.header.get('sim_version', '')}"
+    if r.plan == "frontier":
+        r.add(f"# {FRONTIER_TITLE}", "",
+              f"Beyond the paper's evaluation: where its benchmark stops telling planners apart, run in {engine} by "
+              "`contactnet experiment frontier` (also the last section of `contactnet experiment paper`). A success "
+              "rate reads *successes / trials (rate, 95 % Wilson score interval)*.", "")
+    else:
+        r.add(f"# {PAPER_TITLE}", "",
+              "The experiments of Bratta et al., *ContactNet: Online Multi-Contact Planning for Acyclic Legged Robot "
+              f"Locomotion*, Sec. IV, run in {engine} by `contactnet experiment paper`, each result beside the "
+              "paper's, and beyond it the frontier. A success rate reads *successes / trials (rate, 95 % Wilson "
+              "score interval)*.", "")
     if scale < 1.0:
-        r.add(f"**Scaled run**: scale {scale:g}, {planned} of the full plan's {full} trials (the paper's numbers of "
-              "attempts are those at scale 1): the intervals are wide and the targets are not yet judged at the "
-              "paper's scale.", "")
+        whose = "the paper's numbers of attempts" if r.plan == "paper" else "the plan's numbers of trials"
+        r.add(f"**Scaled run**: scale {scale:g}, {planned} of the full plan's {full} trials ({whose} are those at "
+              "scale 1): the intervals are wide and the targets are not yet judged at the full scale.", "")
     if stored < planned:
         r.add(f"**Incomplete**: {stored} of the {planned} planned trials are stored (an interrupted run); run the "
               "same command again to finish.", "")
@@ -451,10 +416,17 @@ def _times(r: _Report) -> None:
                   "simulated / loop wall time"], rows))
 
 
+PAPER_TITLE = "ContactNet: the paper's evaluation (Sec. IV), reproduced"
+FRONTIER_TITLE = "ContactNet beyond the paper: the frontier"
+
+
 def build_markdown(out: Path, header: dict, sections: dict[str, SectionResult]) -> str:
     """The report's markdown (its figures written to ``out/report_plots``)."""
     r = _Report(out, header, sections)
-    for part in (_intro, _summary, _run, _fig5, _table1, _table2, _push, _robustness, _stones, _uneven, _outcomes, _times):
+    parts = ((_intro, _run, frontier_section, _outcomes, _times) if r.plan == "frontier" else
+             (_intro, _summary, _run, _fig5, _table1, _table2, _push, _robustness, _stones, _uneven, frontier_section,
+              _outcomes, _times))
+    for part in parts:
         part(r)
     return "\n".join(r.lines).rstrip() + "\n"
 
@@ -477,7 +449,7 @@ def to_html(markdown: str, out: Path) -> str:
         return f'src="data:image/png;base64,{data}"'
 
     body = re.sub(r'src="(report_plots/[^"]+\.png)"', embed, body)
-    title = "ContactNet: the paper's evaluation"
+    title = FRONTIER_TITLE if markdown.startswith(f"# {FRONTIER_TITLE}") else "ContactNet: the paper's evaluation"
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
             f"<style>{STYLE}</style></head><body>\n{body}</body></html>\n")
 

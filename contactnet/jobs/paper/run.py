@@ -10,6 +10,11 @@ touched every section. ``DIR/paper.json`` (the folder's header) holds the scale,
 per invocation (command, start, wall and CPU time, trials run, load average, code version, machine); each trial
 record names the invocation that ran it (``paper_run``: its index there). The report
 (`contactnet.jobs.paper.report`) is written at the end and again by ``contactnet report DIR``.
+
+``contactnet experiment frontier --out DIR`` runs the plan's frontier sections alone (`FRONTIER_SECTIONS`) the same
+way, into the same layout (``paper.json`` names the plan: ``"plan": "frontier"``), with a report of that section
+only. ``experiment paper`` may later run in the same DIR (the frontier is part of its plan: its trials are reused);
+``experiment frontier`` is refused in a DIR of the paper's run (it would hide the paper's sections from the report).
 """
 
 from __future__ import annotations
@@ -33,10 +38,12 @@ from contactnet.jobs.experiment import (
     run_trial,
 )
 from contactnet.jobs.paper.layout import HEADER_FORMAT, HEADER_NAME, read_header
-from contactnet.jobs.paper.plan import PAPER_SECTIONS, Section, plan_trials
+from contactnet.jobs.paper.plan import FRONTIER_SEEDS, PAPER_SECTIONS, Section, frontier_sections, plan_trials
 from contactnet.jobs.paper.provenance import code_version, machine
 from contactnet.jobs.runner import ENGINES, Job, run_jobs
 from contactnet.sim.engines import engine_version
+
+PLANS = ("paper", "frontier")  # paper: the paper's Sec. IV and the frontier; frontier: the frontier alone
 
 
 def _cpu_s() -> float:
@@ -64,23 +71,29 @@ def _order(trial: Trial) -> tuple[int, float]:
 def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = None, engine: str = "local",
               progress: bool = True, model_dir: str | None = None, address: str | None = None,
               sections: tuple[Section, ...] = PAPER_SECTIONS, command: str = "", report: bool = True,
-              sim: str = "pybullet") -> dict:
+              sim: str = "pybullet", plan: str = "paper") -> dict:
     """Run (or resume) the ``sections`` at ``scale`` into ``out_dir`` with ``workers`` processes on ``engine``
     (Ray: on the cluster at ``address``, else a local one) and write the report; returns ``{"trials", "ran", "wall_s", "summaries": {folder: summary}}``. On Ctrl-C
-    the finished trials stay logged, the run is recorded in paper.json and KeyboardInterrupt is re-raised."""
+    the finished trials stay logged, the run is recorded in paper.json and KeyboardInterrupt is re-raised.
+    ``plan`` ("paper" or "frontier") names the plan in paper.json: the report's title and parts follow it."""
     if engine not in ENGINES:
         raise ExperimentError(f"unknown engine {engine!r}: choose one of {', '.join(ENGINES)}")
+    if plan not in PLANS:
+        raise ExperimentError(f"unknown plan {plan!r}: choose one of {', '.join(PLANS)}")
     out = Path(out_dir)
     header = read_header(out) or {"format": HEADER_FORMAT, "runs": []}
     if header.get("sim", "pybullet") != sim and header["runs"]:
         raise ExperimentError(f"{out} holds a run in {header.get('sim', 'pybullet')}: give the {sim} run another --out")
+    if plan == "frontier" and header.get("plan", "paper") == "paper" and header["runs"]:
+        raise ExperimentError(f"{out} holds the paper's run (the frontier is one of its sections: experiment paper "
+                              "runs it there); give experiment frontier another --out")
     try:
-        plan = plan_trials(sections, scale, model_dir, sim)
+        planned = plan_trials(sections, scale, model_dir, sim)
     except ValueError as exc:
         raise ExperimentError(str(exc)) from None
-    batches = {s.folder: open_batch(s.experiment, out / s.folder, plan[s.folder]) for s in sections}
-    header.update(scale=scale, model_dir=model_dir, sim=sim, sim_version=engine_version(sim), sections=[
-        {"folder": s.folder, "experiment": s.experiment, "title": s.title, "trials": len(plan[s.folder]),
+    batches = {s.folder: open_batch(s.experiment, out / s.folder, planned[s.folder]) for s in sections}
+    header.update(plan=plan, scale=scale, model_dir=model_dir, sim=sim, sim_version=engine_version(sim), sections=[
+        {"folder": s.folder, "experiment": s.experiment, "title": s.title, "trials": len(planned[s.folder]),
          "trials_full": len(s.trials(1.0, model_dir, sim))} for s in sections])
     atomic_write_text(out / HEADER_NAME, json.dumps(header, indent=1))
 
@@ -128,41 +141,65 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
 
 # ---- the command line's part (contactnet.cli calls these) --------------------------------------
 #: experiment options that the paper's plan fixes, with their defaults
-_FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed": (80,), "height": None,
+_FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed": None, "height": None,
                       "force": None, "impulse": None, "push_seed": 0, "noise": 0.0, "widths_cm": None,
                       "gaps_cm": None, "robot": "solo12", "mass_scale": 1.0, "payload": None, "friction": None,
                       "torque_scale": 1.0, "orientation_noise": 0.0, "velocity_noise": 0.0, "gyro_noise": 0.0,
-                      "delay_ms": 0.0, "observer": True, "retarget": False}  # the plan runs the defaults (any --sim)
+                      "delay_ms": 0.0, "observer": True, "retarget": False,
+                      "terrain_scale": None}  # the plan runs the defaults (any --sim)
+#: ... and those the frontier's plan lets one choose (its own defaults otherwise)
+_FRONTIER_OPTIONS = ("trials", "gaits", "planners", "removed", "widths_cm", "gaps_cm")
 
 
-def _command(args: argparse.Namespace, scale: float) -> str:
-    words = ["contactnet", "experiment", "paper", "--out", str(args.out), "--scale", f"{scale:g}"]
+def _command(args: argparse.Namespace, scale: float, plan: str = "paper") -> str:
+    words = ["contactnet", "experiment", plan, "--out", str(args.out)]
+    if plan == "frontier" and getattr(args, "trials", None) is not None:
+        words += ["--trials", str(args.trials)]
+    else:
+        words += ["--scale", f"{scale:g}"]
     defaults = {"engine": "local", "sim": "pybullet"}  # not written when they are these
-    for option in ("workers", "engine", "address", "model_dir", "sim"):
+    for option in (*(_FRONTIER_OPTIONS[1:] if plan == "frontier" else ()), "workers", "engine", "address",
+                   "model_dir", "sim"):
         value = getattr(args, option, None)
+        if isinstance(value, tuple | list):
+            value = ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value)
         if value is not None and value != defaults.get(option):
             words += [f"--{option.replace('_', '-')}", str(value)]
     return " ".join(words)
 
 
-def paper_command(args: argparse.Namespace) -> int:
-    """``contactnet experiment paper --out DIR [--scale S] [--workers N] [--model-dir D] [--report-only]``."""
-    bad = [name for name, default in _FIXED_BY_THE_PLAN.items() if getattr(args, name, default) != default]
+def paper_command(args: argparse.Namespace, plan: str = "paper") -> int:
+    """``contactnet experiment paper --out DIR [--scale S] [--workers N] [--model-dir D] [--report-only]``; with
+    ``plan="frontier"``, ``contactnet experiment frontier --out DIR [--scale S | --trials N] [--gaits G]
+    [--planners P] [--removed N,...] [--widths-cm W,...] [--gaps-cm G,...]`` (``--trials N``: N seeds per point of
+    the field, the other cells in proportion: scale N / 100)."""
+    free = _FRONTIER_OPTIONS if plan == "frontier" else ()
+    bad = [name for name, default in _FIXED_BY_THE_PLAN.items()
+           if name not in free and getattr(args, name, default) != default]
     if bad:
         option = bad[0].replace("_", "-")
         option = f"no-{option}" if _FIXED_BY_THE_PLAN[bad[0]] is True else option  # a switch that is on by default
-        raise ExperimentError(f"experiment paper runs the paper's own settings: drop --{option}")
+        raise ExperimentError(f"experiment {plan} runs {'the paper' if plan == 'paper' else 'its plan'}'s own "
+                              f"settings: drop --{option}")
     out = Path(args.out)
     if args.report_only:
         return report_command(out)
     if args.model_dir is not None and not Path(args.model_dir).is_dir():
         raise ExperimentError(f"--model-dir {args.model_dir}: not a directory")
+    sections = PAPER_SECTIONS
     scale = 1.0 if args.scale is None else args.scale
+    if plan == "frontier":
+        trials = getattr(args, "trials", None)
+        if trials is not None and args.scale is not None:
+            raise ExperimentError("experiment frontier: give --scale or --trials, not both")
+        scale = scale if trials is None else trials / FRONTIER_SEEDS
+        sections = frontier_sections(args.gaits, args.planners, args.removed, args.widths_cm, args.gaps_cm)
     engine = getattr(args, "engine", None) or "local"
     try:
         result = run_paper(out, scale, workers=args.workers, engine=engine, progress=not args.quiet,
-                           model_dir=args.model_dir, command=_command(args, scale),
-                           address=getattr(args, "address", None), sim=getattr(args, "sim", None) or "pybullet")
+                           model_dir=args.model_dir, command=_command(args, scale, plan), sections=sections,
+                           address=getattr(args, "address", None), sim=getattr(args, "sim", None) or "pybullet",
+                           plan=plan)
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished trials are kept in {out}: run the same command to resume "
               f"(contactnet report {out} writes the report of the trials so far)", file=sys.stderr)
