@@ -76,14 +76,16 @@ function showLive() {
   if (lastState) Overlays.render(lastState, sceneActions);
 }
 
-/** The 3D view again, for a server that restarted or came back (its viser port may have changed). */
-async function reconnectViewer(restarted) {
+/** The 3D view again, for a server that restarted or came back, or a session that was reclaimed (its viser port
+ *  may have changed). */
+async function reconnectViewer(restarted, reclaimed = false) {
   let info;
   try { info = await api("/api/info"); } catch (e) { return; }
   liveUrl = viewerUrl(info);
   $("viewer-full").href = liveUrl;
   if (!playing()) $("viewer").src = liveUrl;  // a new load, even when the address is the same
-  Toasts.show(restarted ? "The server restarted: the 3D view reconnected to the new session"
+  Toasts.show(reclaimed ? "Your live session had been closed while the page was away: this is a new one"
+    : restarted ? "The server restarted: the 3D view reconnected to the new session"
     : "The live session is back: the 3D view reconnected", "info");
 }
 
@@ -168,6 +170,15 @@ async function pollState() {
   } catch (e) {
     // No answer at all (fetch's TypeError): the server stopped or is restarting. A slow answer or an error
     // status comes from a server that is there: its 3D view needs no reload.
+    if (Visits.gone(e.message)) {  // this browser's session was reclaimed, or the server restarted: a new one
+      reachable = true;
+      const why = await Visits.rejoin(e.message, api);
+      if (why) {
+        sessionId = null;  // the next state names the new session: no second "restarted"
+        await reconnectViewer(why === "restarted", why === "reclaimed");
+      }
+      return;
+    }
     const down = e instanceof TypeError;
     if (down) reachable = false;
     $("status-line").textContent = down ? "live session unreachable" : "live session not answering";
@@ -424,8 +435,14 @@ function wireControls() {
 }
 
 async function main() {
+  const watching = Visits.watchId();
+  if (watching) {
+    await Visits.watch(watching, api, viewerUrl);
+    return;
+  }
   Overlays.wire();
   wireControls();  // before the first request: a click while the page loads already works
+  Visits.wire(api);
   const info = await api("/api/info");
   if (info.robot) $("subtitle").textContent = `acyclic contact planning for ${info.robot}`;
   sessionId = info.session_id || null;

@@ -92,6 +92,41 @@ def test_the_service_says_what_a_save_would_replace(tmp_path, stones):
         service.exists("../outside")
 
 
+def test_a_bigger_robot_gets_the_shipped_scenes_at_its_size_and_your_files_as_they_are(tmp_path, stones):
+    """serve --robot go2: the shipped stones, the random field and the generators at Go2's size (1.313 x Solo12's
+    lengths), a file of the user's own unscaled, stone_grid (absolute sizes) unscaled."""
+    from app.live.commands import SetTerrain
+    from app.live.editing import TerrainService
+    from app.live.terrain_files import TerrainLibrary
+    from contactnet.robots import load_robot
+    from contactnet.terrain import by_name, random_field, terrains_dir
+
+    class Session:  # the live session's side of a load: the SetTerrain command it is given
+        view = None
+
+        def __init__(self):
+            self.terrains = []
+
+        def call(self, command, timeout=None):  # noqa: ANN001, ANN202
+            assert isinstance(command, SetTerrain)
+            self.terrains.append(command.terrain)
+
+    scale = load_robot("go2").description.size_scale
+    assert scale == pytest.approx(1.313, abs=0.002)
+    session = Session()
+    service = TerrainService(session, TerrainLibrary(tmp_path / "user"), scale=scale)
+    service.load("stepping_stones")
+    solo = Terrain.load(terrains_dir() / "stepping_stones.json")
+    assert session.terrains[-1].goal_x == pytest.approx(scale * solo.goal_x)
+    service.load("random", removed=80, seed=3)
+    assert session.terrains[-1].goal_x == pytest.approx(scale * random_field(80, 3).goal_x)
+    service.load("stone_grid")
+    assert session.terrains[-1].goal_x == pytest.approx(by_name("stone_grid").goal_x)
+    TerrainLibrary(tmp_path / "user").save(stones, "mine")
+    service.load("mine")
+    assert session.terrains[-1].goal_x == pytest.approx(stones["goal_x"])
+
+
 def test_an_imported_upload_names_the_file_on_a_bad_one(monkeypatch):
     import io
 

@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 from helpers import default_sigint
@@ -88,6 +89,12 @@ def test_resume_key_helpers(tmp_path):
     identity = jobs.code_identity()
     assert identity["sources"] == jobs.sources_digest() and len(identity["sources"]) == 64
     assert set(identity["packages"]) == set(jobs.RESULT_PACKAGES) and identity["packages"]["torch"]
+    # every part left out of the digest exists (the command line became a package once, and "cli.py" left it in)
+    import contactnet
+
+    root = Path(contactnet.__file__).resolve().parent
+    for excluded in jobs._NOT_RESULT_SOURCES:
+        assert (root / excluded.rstrip("/")).exists(), f"{excluded} is not a part of the package"
     assert jobs.digest({"b": 1, "a": [1.5]}) == jobs.digest({"a": [1.5], "b": 1}) != jobs.digest({"a": [1.5]})
     assert jobs.differences({"a": 1, "b": 2}, {"a": 1, "b": 3, "c": 0}) == ["b", "c"]
     path = tmp_path / "f.bin"

@@ -383,6 +383,32 @@ class Info(BaseModel):
     version: str = Field(description="contactnet's version")
     robot: str = Field(description="the robot's registry name")
     sim: str = Field("pybullet", description="the physics engine the server started with (serve --sim)")
+    watch_id: str = Field("", description="your session's public id: /?watch=ID shows it read-only to others")
+    shared: bool = Field(False, description="serve --shared: every visitor drives the one default session")
+
+
+class VisitEntry(BaseModel):
+    watch_id: str = Field(description="the session's public id (never its cookie)")
+    yours: bool = Field(description="the session this request acts on")
+    default: bool = Field(description="the default session (requests without the visit cookie act on it)")
+    terrain: str
+    status: str = Field(description="its state in one sentence")
+    viewers: int = Field(description="browsers with its 3D view open (watchers not counted)")
+    idle_s: float = Field(description="seconds since its visitor last showed up (0 while its page is open)")
+    watch_url: str = Field(description="the page that shows it read-only")
+
+
+class VisitList(BaseModel):
+    sessions: list[VisitEntry]
+    max_sessions: int = Field(description="serve --max-sessions: at most this many at once, the default included")
+    shared: bool = Field(description="serve --shared: one session for every visitor")
+    idle_timeout_s: float = Field(description="a session is reclaimed this long after its page was closed")
+
+
+class WatchInfo(BaseModel):
+    watch_id: str
+    viser_port: int = Field(description="port of the read-only 3D view's websocket (viser, no control panel)")
+    viewer_url: str = Field(description="the 3D view's page (give it ?websocket=ws://host:viser_port)")
 
 
 def _result(r: Any) -> RunResult:

@@ -1,5 +1,5 @@
 """The web server: a FastAPI app (front page, REST API with OpenAPI docs, recordings) next to a
-viser server (the 3D view and its control panel), around one live session.
+viser server (the 3D view and its control panel), around the live sessions (one per visitor: `app/api/visits.py`).
 
 viser cannot be mounted inside FastAPI (it is its own websocket server), so it runs on its own
 port; the front page embeds viser's client (served here at /viewer/) with `?websocket=` pointing
@@ -33,6 +33,8 @@ from app.api.models import (
 from app.api.recording_routes import add_recording_routes
 from app.api.session_routes import add_session_routes
 from app.api.terrain_routes import add_terrain_routes
+from app.api.visit_routes import add_visit_routes
+from app.api.visits import CURRENT_VISIT, Visit, VisitPool, VisitRouting, default_max_sessions
 from app.live.editing import TerrainService
 from app.live.editor import MAX_UPLOAD_BYTES
 from app.live.planners import default_planner_factory
@@ -45,8 +47,9 @@ from app.live.terrain_files import TerrainLibrary
 from app.recordings.recorder import LiveRecorder, RecordingStore
 from app.security.guards import AccessPolicy, RequestGuard
 from app.viewer.live_viewer import Viewer
-from contactnet.robots import load_robot
-from contactnet.terrain import Terrain, resolve
+from contactnet import registry
+from contactnet.robots import Robot, load_robot
+from contactnet.terrain import Terrain
 
 log = logging.getLogger("contactnet.app.server")
 
@@ -56,36 +59,20 @@ VISER_CLIENT = Path(__import__("viser").__file__).parent / "client" / "build" / 
 
 # ---- the application ----------------------------------------------------------------------------
 class ContactnetApp:
-    """The whole tool: live session, viser viewer, terrain service, recorder and the FastAPI app."""
+    """The whole tool: the visits (a live session, viser viewer, terrain service and recorder per visitor:
+    `app.api.visits`), the shared recordings store and the FastAPI app.
+
+    `session`, `terrains`, `recorder`, `viewer` and `state()` are those of the visit the current request acts on
+    (its cookie's, else the default visit's); outside a request, the default visit's."""
 
     def __init__(self, settings: ServeSettings):
         self.settings = settings
         self.policy = AccessPolicy(settings)
-        terrain, label = self._initial_terrain(settings.terrain)
-        self.session = LiveSession(
-            settings,
-            terrain,
-            label,
-            planner_factory=functools.partial(default_planner_factory, model_dir=settings.models_dir),
-        ).start()
-        try:
-            self.robot = load_robot(settings.robot)  # for drawing (the session thread has its own)
-            self.terrains = TerrainService(self.session, TerrainLibrary(settings.user_terrains_dir()))
-            self.recordings = RecordingStore(settings.recordings_folder())
-            self.recorder = LiveRecorder(self.recordings, self.robot, rate_hz=settings.record_hz)
-            self.viewer = Viewer(
-                self.session,
-                self.terrains,
-                self.recorder,
-                self.robot,
-                host=settings.host,
-                port=settings.viser_port,
-                scene_hz=settings.scene_hz,
-                policy=self.policy,
-            )
-        except BaseException:
-            self.session.stop()
-            raise
+        self.robot = load_robot(settings.robot)  # for drawing (each session thread has its own)
+        self.recordings = RecordingStore(settings.recordings_folder())
+        self._library = TerrainLibrary(settings.user_terrains_dir())
+        max_sessions = settings.max_sessions if settings.max_sessions is not None else default_max_sessions()
+        self.visits = VisitPool(self._new_visit, max_sessions, settings.session_idle_s, shared=settings.shared)
         # Terrain uploads are validated here, never on the event loop (two at a time; more wait their turn).
         self.validation_pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="terrain-upload")
         self.api = create_api(self)
@@ -94,33 +81,81 @@ class ContactnetApp:
         # the middle of a terrain upload (every thread, /api/state included, waited); now ~0.05 s.
         gc.freeze()
 
+    def _new_visit(self, default: bool) -> Visit:
+        """A live session with its viewer, terrain service and recorder; the default one on ``serve --viser-port``,
+        the others on ports the OS picks."""
+        settings = self.settings
+        terrain, label = self._initial_terrain(settings.terrain, self.robot)
+        session = LiveSession(
+            settings,
+            terrain,
+            label,
+            planner_factory=functools.partial(default_planner_factory, model_dir=settings.models_dir),
+        ).start()
+        try:
+            terrains = TerrainService(session, self._library, scale=self.robot.description.size_scale)
+            recorder = LiveRecorder(self.recordings, self.robot, rate_hz=settings.record_hz)
+            viewer = Viewer(
+                session,
+                terrains,
+                recorder,
+                self.robot,
+                host=settings.host,
+                port=settings.viser_port if default else 0,
+                scene_hz=settings.scene_hz,
+                policy=self.policy,
+            )
+        except BaseException:
+            session.stop()
+            raise
+        return Visit(session, terrains, recorder, viewer, default=default)
+
     @staticmethod
-    def _initial_terrain(spec: str) -> tuple[Terrain, str]:
-        terrain = resolve(spec)
+    def _initial_terrain(spec: str, robot: Robot) -> tuple[Terrain, str]:
+        """``serve --terrain``: a file as it is, a scene at the robot's size (`registry.terrain_for`)."""
+        terrain = registry.terrain_for(spec, robot)
         label = Path(spec).stem if spec.endswith(".json") else spec
         return terrain, label
+
+    # ---- the visit of the current request ---------------------------------------------------------------
+    def visit(self) -> Visit:
+        return CURRENT_VISIT.get() or self.visits.default
+
+    @property
+    def session(self) -> LiveSession:
+        return self.visit().session
+
+    @property
+    def terrains(self) -> TerrainService:
+        return self.visit().terrains
+
+    @property
+    def recorder(self) -> LiveRecorder:
+        return self.visit().recorder
+
+    @property
+    def viewer(self) -> Viewer:
+        return self.visit().viewer
 
     @property
     def viser_port(self) -> int:
         return self.viewer.port
 
     def state(self) -> State:
-        view = self.session.view
+        visit = self.visit()
+        view = visit.session.view
         if view is None:
             raise HTTPException(503, "the live session is starting")
-        return state_of(view, self.viser_port, self.recorder.recording)
+        return state_of(view, visit.viewer.port, visit.recorder.recording)
 
     def close(self) -> str | None:
-        """Stop everything; a recording in progress is saved. Returns one line about that recording (saved
-        where, or dropped and why), None when nothing was recording."""
-        self.viewer.close()  # no more frames fed to the recorder
+        """Stop everything; recordings in progress are saved. One line about those recordings (saved where, or
+        dropped and why), None when nothing was recording."""
         try:
-            note = self.recorder.save_in_progress()
+            notes = self.visits.close()
         finally:
-            self.recorder.close()
             self.validation_pool.shutdown(wait=False, cancel_futures=True)
-            self.session.stop()
-        return note
+        return "; ".join(notes) or None
 
 
 def body_limit(method: str, path: str) -> int:
@@ -141,13 +176,12 @@ def create_api(app: ContactnetApp) -> FastAPI:
     api.router.route_class = StrictJsonRoute  # every JSON body read by contactnet.strict_json.loads_strict
     api.state.access_policy = app.policy
     install_error_handlers(api)
+    api.add_middleware(VisitRouting, pool=app.visits)  # inside the guard: refused requests never reach a visit
     api.add_middleware(RequestGuard, policy=app.policy, body_limit=body_limit)
     codes = ErrorCodes.of(app.policy)
 
     # ---- pages ------------------------------------------------------------------------------------
-    @api.get("/", include_in_schema=False)
-    def index() -> FileResponse:
-        return FileResponse(STATIC_DIR / "index.html", media_type="text/html")
+    add_visit_routes(api, app, codes, STATIC_DIR / "index.html")
 
     @api.get("/favicon.ico", include_in_schema=False)
     def favicon() -> FileResponse:  # what browsers ask for before they read the page's <link rel="icon">

@@ -66,6 +66,8 @@ def add_session_routes(api: FastAPI, app, codes: ErrorCodes) -> None:  # noqa: A
             version="0.1.0",
             robot=app.settings.robot,
             sim=app.settings.sim,
+            watch_id=app.visit().watch_id,
+            shared=app.visits.shared,
         )
 
     @api.get("/api/state", response_model=State, tags=["session"], responses=responses(*everywhere, 503))

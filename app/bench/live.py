@@ -2,6 +2,7 @@
 
     contactnet bench live                  (the defaults below)
     python -m app.bench.live [--seconds 60] [--cases 0,1:normal,1:idle,5:idle,1:idle:compare] [--json]
+    contactnet bench live --sessions 1,2,3,4   (a robot per visitor: N sessions at once, `run_sessions`)
 
 Each case starts the whole tool (FastAPI + viser + live session; flat terrain, walk, vx 0.05 m/s,
 scene updates at 30 Hz), opens N headless chromium pages of the front page (playwright, Debian
@@ -96,6 +97,7 @@ def run_case(
             wait_for_viewer=False,
             viser_port=free_port(),
             recordings_dir=workdir / "recordings",
+            shared=True,  # the N browsers watch one session (its cost per browser); --sessions measures visitors
         )
     )
     port = free_port()
@@ -184,6 +186,68 @@ def run_case(
 DEFAULT_CASES = "0,1:normal,1:idle,5:idle,1:idle:compare"
 
 
+def run_sessions(n_sessions: int, seconds: float, workdir: Path) -> dict:
+    """N visitors at once (a robot each: `app.api.visits`), each through the front page with its own cookie jar,
+    all walking; every session's real-time factor over ``seconds``. No browser draws (their CPU is the visitors'
+    machines'); each session's scene is still updated at 30 Hz for its viser server."""
+    from statistics import median
+
+    from fastapi.testclient import TestClient
+
+    from app.api.server import ContactnetApp
+    from app.live.commands import Reset
+    from app.live.settings import ServeSettings
+    from app.recordings.recorder import free_port
+
+    app = ContactnetApp(ServeSettings(terrain="flat", gait="walk", vx_m_s=0.05, wait_for_viewer=False,
+                                      viser_port=free_port(), recordings_dir=workdir / "recordings",
+                                      terrains_dir=workdir / "terrains", max_sessions=n_sessions))
+    try:
+        t0 = time.monotonic()
+        for _ in range(n_sessions):
+            page = TestClient(app.api, base_url="http://127.0.0.1:8000").get("/")
+            if page.status_code != 200:
+                raise RuntimeError(f"visitor {len(app.visits) + 1} of {n_sessions} got {page.status_code}")
+        start_s = time.monotonic() - t0
+        visits = app.visits.visits()
+        for visit in visits:
+            visit.session.call(Reset())
+        time.sleep(2.0)
+        before = [(v.session.stats.running_sim_s, v.session.stats.running_wall_s, v.session.stats.lag_resets)
+                  for v in visits]
+        cpu0, t0 = cpu_seconds([os.getpid()]), time.monotonic()
+        time.sleep(seconds)
+        server_cpu = (cpu_seconds([os.getpid()]) - cpu0) / (time.monotonic() - t0)
+        rtfs, resets = [], 0
+        for visit, (sim0, wall0, resets0) in zip(visits, before, strict=True):
+            stats = visit.session.stats
+            rtfs.append((stats.running_sim_s - sim0) / max(stats.running_wall_s - wall0, 1e-9))
+            resets += stats.lag_resets - resets0
+        return {
+            "sessions": n_sessions,
+            "rtf_min": round(min(rtfs), 3),
+            "rtf_median": round(median(rtfs), 3),
+            "target": ">= 0.95 each",
+            "ok": min(rtfs) >= 0.95,
+            "server_cpu_cores": round(server_cpu, 2),
+            "cpu_per_session": round(server_cpu / n_sessions, 2),
+            "lag_resets": resets,
+            "sessions_start_s": round(start_s, 1),
+        }
+    finally:
+        app.close()
+
+
+def bench_sessions(counts: str = "1,2,3,4", seconds: float = 30.0) -> list[dict]:
+    """One row per session count of ``counts`` (comma-separated): can this machine keep them all in real time?"""
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i, count in enumerate(counts.split(",")):
+            rows.append(run_sessions(int(count), seconds, Path(tmp) / str(i)))
+            print(f"done: {rows[-1]}", file=sys.stderr, flush=True)
+    return rows
+
+
 def bench_live(seconds: float = 60.0, cases: str = DEFAULT_CASES, viewport: str = "960x600") -> list[dict]:
     """One row per case of ``cases`` (comma-separated ``N[:normal|idle][:compare]``: browser counts, their
     priority, compare mode)."""
@@ -213,9 +277,13 @@ def main() -> int:
         help="comma-separated N[:normal|idle][:compare] browser counts, priorities, compare mode",
     )
     parser.add_argument("--viewport", default="960x600")
+    parser.add_argument("--sessions", help="comma-separated numbers of visitors' sessions at once (instead of --cases)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
-    rows = bench_live(args.seconds, args.cases, args.viewport)
+    if args.sessions:
+        rows = bench_sessions(args.sessions, args.seconds)
+    else:
+        rows = bench_live(args.seconds, args.cases, args.viewport)
     if args.json:
         print(json.dumps({"benchmark": "live", "rows": rows}, indent=2))
     else:

@@ -26,7 +26,8 @@ from app.live.editor import EditError
 from app.live.session import LiveSession
 from app.live.terrain_files import TerrainLibrary, validate_upload
 from app.live.view import LiveView
-from contactnet.terrain import Terrain, TerrainError, by_name, random_field
+from contactnet.registry import ABSOLUTE_SCENES
+from contactnet.terrain import Terrain, TerrainError, by_name, random_field, scaled
 
 log = logging.getLogger("contactnet.app.editing")
 
@@ -34,9 +35,12 @@ log = logging.getLogger("contactnet.app.editing")
 class TerrainService:
     """Loading, editing and saving the live session's terrain (the session keeps it; see the module doc)."""
 
-    def __init__(self, session: LiveSession, store: TerrainLibrary):
+    def __init__(self, session: LiveSession, store: TerrainLibrary, scale: float = 1.0):
+        """``scale``: the robot's size over Solo12's (`RobotDescription.size_scale`): the shipped scenes (files and
+        generators, the random field) are built at the robot's size; the user's own files load as they are."""
         self.session = session
         self.store = store
+        self.scale = scale
         self._lock = threading.RLock()  # one service operation at a time (save reads, then renames)
         self._listeners: list[Callable[[], None]] = []
 
@@ -88,22 +92,27 @@ class TerrainService:
                 if removed is None:
                     raise EditError("random terrain needs 'removed' (0..300)")
                 try:
-                    terrain = random_field(removed, seed)
+                    terrain = scaled(random_field(removed, seed), self.scale)
                 except TerrainError as exc:
                     raise EditError(str(exc)) from None
                 label = f"random (removed {removed}, seed {seed})"
-            elif name in self.store.names():
+            elif name in self.store.user.names():  # the user's own file, as it is
                 terrain, label = self.store.load(name), name
+            elif name in self.store.names():  # a shipped scene, at the robot's size
+                terrain, label = self._at_robot_size(name, self.store.load(name)), name
             else:  # a generator of a shipped terrain (flat, stepping_stones, ...) without its file
                 editor.validate_name(name)
                 try:
-                    terrain = by_name(name)
+                    terrain = self._at_robot_size(name, by_name(name))
                 except TerrainError as exc:
                     raise FileNotFoundError(f"no terrain named {name!r}") from exc
                 label = name
             self.session.call(SetTerrain(terrain, label), timeout=timeout)
             self._changed()
             return terrain
+
+    def _at_robot_size(self, name: str, terrain: Terrain) -> Terrain:
+        return terrain if name in ABSOLUTE_SCENES else scaled(terrain, self.scale)
 
     def load_dict(self, data: dict[str, Any], label: str, timeout: float = 60.0) -> Terrain:
         """Switch the session to an uploaded terrain dict (validated; nothing changes if invalid)."""

@@ -78,6 +78,11 @@ class ServeSettings:
     #: access token required by the API and the 3D view when `host` is not a loopback address (None: a new
     #: random one, printed at start-up); on loopback no token is asked for
     token: str | None = None
+    #: a robot per visitor (`app.api.visits`): at most this many live sessions at once, the default one included
+    #: (None: `app.api.visits.default_max_sessions()`, from a session's measured CPU cost)
+    max_sessions: int | None = None
+    session_idle_s: float = 120.0  #: a visitor's session is reclaimed after this long without its page open
+    shared: bool = False  #: every visitor drives the one default session (no per-visitor sessions)
 
     def __post_init__(self) -> None:
         from contactnet import registry
@@ -97,6 +102,13 @@ class ServeSettings:
         low, high = SIM_SPEED_RANGE
         if not (_finite(self.sim_speed) and low <= self.sim_speed <= high):
             fail("sim_speed", f"in [{low}, {high}]")
+        if self.max_sessions is not None and not (
+            isinstance(self.max_sessions, int) and not isinstance(self.max_sessions, bool)
+            and 1 <= self.max_sessions <= 64
+        ):
+            fail("max_sessions", "None or a number of sessions in 1..64")
+        if not (_finite(self.session_idle_s) and 1.0 <= self.session_idle_s <= 86400.0):
+            fail("session_idle_s", "in [1, 86400] s")
         for field in ("viewer_start_delay_s", "loop_delay_s"):
             value = getattr(self, field)
             if not (_finite(value) and 0.0 <= value <= 600.0):
@@ -199,6 +211,9 @@ CLI_FIELDS = {
     "wait": "wait_for_viewer",
     "loop": "loop",
     "sim": "sim",
+    "max_sessions": "max_sessions",
+    "session_idle": "session_idle_s",
+    "shared": "shared",
 }
 
 

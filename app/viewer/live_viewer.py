@@ -28,6 +28,7 @@ from app.security.guards import AccessPolicy, guard_viser, prepare_viser_guard
 from app.viewer.gui import ControlPanel
 from app.viewer.panels.common import submit
 from app.viewer.panels.notices import close_software_webgl_toast
+from app.viewer.watch import WatchView
 from contactnet.robots import Robot
 
 log = logging.getLogger("contactnet.app.viewer")
@@ -60,22 +61,17 @@ class Viewer:
         scene_hz: float = 30.0,
         policy: AccessPolicy | None = None,
     ):
-        """``policy``: who may connect (Host, Origin, token: `app.security.guards`); None accepts everyone."""
+        """``policy``: who may connect (Host, Origin, token: `app.security.guards`); None accepts everyone.
+        ``port`` 0: one the OS picks (`port` says which)."""
         self.session = session
         self.recorder = recorder
-        if policy is not None:
-            prepare_viser_guard(policy)
-        with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner even when not verbose
-            self.server = viser.ViserServer(host=host, port=port, verbose=False)
-        if policy is not None:
-            guard_viser(self.server, policy)
-        view = session.view
-        if view is not None:
-            position, look_at = default_camera(view)
-            self.server.initial_camera.position = tuple(position)
-            self.server.initial_camera.look_at = tuple(look_at)
-            self.server.initial_camera.up = (0.0, 0.0, 1.0)
+        self.robot = robot
+        self.host = host
+        self.policy = policy
+        self.server = self._new_server(port)
         self.scene = LiveScene(self.server, robot)
+        self._watch_lock = threading.Lock()
+        self._watch: WatchView | None = None  # the read-only view (`watch_port`), made on first use
         self.panel = ControlPanel(self.server, session, terrains, recorder, self.scene)
         self.server.on_client_connect(self._on_connect)
         self.scene_period = 1.0 / scene_hz
@@ -83,6 +79,38 @@ class Viewer:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._loop, name="viewer-update", daemon=True)
         self._thread.start()
+
+    def _new_server(self, port: int) -> viser.ViserServer:
+        if self.policy is not None:
+            prepare_viser_guard(self.policy)
+        with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner even when not verbose
+            server = viser.ViserServer(host=self.host, port=port, verbose=False)
+        if self.policy is not None:
+            guard_viser(server, self.policy)
+        view = self.session.view
+        if view is not None:
+            position, look_at = default_camera(view)
+            server.initial_camera.position = tuple(position)
+            server.initial_camera.look_at = tuple(look_at)
+            server.initial_camera.up = (0.0, 0.0, 1.0)
+        return server
+
+    def clients(self) -> int:
+        """Browsers with the 3D view (with its control panel) open."""
+        return len(self.server.get_clients())
+
+    def watch_port(self) -> int:
+        """The port of this session's read-only view: a second viser server with the same scene and no control
+        panel (made on the first call; its scene follows the session from then on)."""
+        with self._watch_lock:
+            if self._watch is None:
+                server = self._new_server(0)
+                try:
+                    self._watch = WatchView(server, self.robot)
+                except BaseException:
+                    stop_quietly(server)
+                    raise
+            return self._watch.port
 
     def _on_connect(self, client: viser.ClientHandle) -> None:
         close_software_webgl_toast(client)
@@ -107,12 +135,16 @@ class Viewer:
                     last_seq = view.seq
                     cpu0 = time.thread_time()
                     self.scene.update(view)
+                    if self._watch is not None:
+                        self._watch.update(view)
                     self.panel.observe(view)
                     self.stats.add(time.thread_time() - cpu0)
                 self.recorder.feed(view)  # cheap when no frame is due (also records a paused scene once)
                 if view is not None and now >= next_camera:
                     next_camera = now + 0.1
                     self.panel.camera.step(view)
+                    if self._watch is not None:
+                        self._watch.step_cameras(view)
                 if view is not None and now >= next_panel:
                     next_panel = now + 0.2
                     self.panel.refresh(view)
@@ -124,3 +156,5 @@ class Viewer:
         self._stop.set()
         self._thread.join(5.0)
         stop_quietly(self.server)
+        if self._watch is not None:
+            stop_quietly(self._watch.server)

@@ -67,13 +67,23 @@ def _sims_of(args: argparse.Namespace) -> tuple[str, ...]:
     return sims
 
 
+def session_counts(text: str) -> str:
+    """``--sessions``: comma-separated counts in 1..16."""
+    parts = text.split(",")
+    if not all(p.strip().isdigit() and 1 <= int(p) <= 16 for p in parts):
+        raise argparse.ArgumentTypeError(f"expected comma-separated session counts in 1..16, got {text!r}")
+    return ",".join(str(int(p)) for p in parts)
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from contactnet.bench import format_table, run
 
+    if args.sessions is not None and args.what != "live":
+        raise UserError("--sessions is an option of bench live")
     if args.what == "live":  # the web tool's benchmarks live with the web tool
-        from app.bench.live import bench_live
+        from app.bench.live import bench_live, bench_sessions
 
-        rows = bench_live()
+        rows = bench_sessions(args.sessions) if args.sessions is not None else bench_live()
     elif args.what == "upload":
         from app.bench.upload import bench_upload
 
@@ -370,6 +380,13 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--no-loop", dest="loop", action="store_false", default=None,
                        help="stay at the end of a run (default: the next run starts a few seconds after the "
                             "goal or a fall)")
+    serve.add_argument("--max-sessions", type=bounded_int("--max-sessions", 1, 64), default=None, metavar="N",
+                       help="a robot per visitor: at most N live sessions at once (default: as many as one process "
+                            "runs in real time, see docs/web-tool.md)")
+    serve.add_argument("--session-idle", type=bounded_float("--session-idle", 1.0, 86400.0), default=None,
+                       metavar="S", help="reclaim a visitor's session S seconds after its page closed (default 120)")
+    serve.add_argument("--shared", action="store_true", default=None,
+                       help="one robot for everyone: every visitor drives the default session")
     serve.set_defaults(func=cmd_serve)
 
     sim = sub.add_parser("simulate", help="run one simulation headless")
@@ -506,6 +523,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("what", choices=["planner", "trajopt", "sim", "cost", "terrain", "locomotion", "live", "upload"])
     bench.add_argument("--robot", type=robot_argument, metavar=ROBOT_METAVAR, default=None,
                        help="the robot of the benchmarks that run one (default solo12)")
+    bench.add_argument("--sessions", metavar="N[,N...]", type=session_counts, default=None,
+                       help="bench live: N visitors' sessions at once (each count a row: all in real time?)")
     bench.add_argument("--json", action="store_true")
     bench.set_defaults(func=cmd_bench)
 

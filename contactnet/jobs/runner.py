@@ -175,7 +175,7 @@ def _local_engine(call: Callable[[Any], Any], items: Sequence[Any], workers: int
 RESULT_PACKAGES = ("numpy", "torch", "pybullet", "pin", "example-robot-data", "casadi", "piqp", "numba")
 #: Package sources that cannot change a result: the command line, the benchmarks and the paper run (its plan
 #: is in the trials' settings; the rest writes reports).
-_NOT_RESULT_SOURCES = ("cli.py", "__main__.py", "bench/", "jobs/paper/")
+_NOT_RESULT_SOURCES = ("cli/", "__main__.py", "bench/", "jobs/paper/")
 
 
 def digest(value: Any) -> str:
