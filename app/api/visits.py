@@ -48,10 +48,11 @@ if TYPE_CHECKING:
 log = logging.getLogger("contactnet.app.visits")
 
 VISIT_COOKIE = "contactnet_visit"
-#: CPU cores one live session takes at real time (walk, ContactNet, flat, scene at 30 Hz, no browser):
-#: 0.33 measured with `contactnet bench live --sessions 1` (docs/benchmarks.md).
+#: CPU cores one live session takes at real time (walk, ContactNet, flat, scene at 30 Hz, no browser): 0.34 alone,
+#: 0.31-0.36 each with 2 or 3 at once (`contactnet bench live --sessions 1,2,3,4`, docs/web-tool.md).
 SESSION_CPU_CORES = 0.33
-#: The sessions' simulations share one Python process (and its GIL): about one core in all, whatever the machine.
+#: The sessions' simulations share one Python process (and its GIL): about one core in all, whatever the machine
+#: (measured: 3 sessions kept real time on 0.92 cores; 4 took 1.05 cores and ran at 0.70-0.74 of real time).
 PROCESS_CPU_CORES = 1.0
 DEFAULT_IDLE_S = 120.0
 REAP_PERIOD_S = 5.0
@@ -59,8 +60,8 @@ REAP_PERIOD_S = 5.0
 
 def default_max_sessions() -> int:
     """How many live sessions one server runs in real time by default: the cores one process can use (one, the
-    GIL) over a session's cost, with a fifth kept for the web and viser threads."""
-    return max(1, int(0.8 * PROCESS_CPU_CORES / SESSION_CPU_CORES))
+    GIL) over a session's cost (3, as measured)."""
+    return max(1, int(PROCESS_CPU_CORES / SESSION_CPU_CORES))
 
 
 def _new_id(nbytes: int) -> str:
