@@ -194,6 +194,18 @@ def test_experiment_argument_errors(args, message, capsys):
     assert message in capsys.readouterr().err
 
 
+def test_every_experiment_is_a_choice_of_the_command_line():
+    """The command line lists the experiments by hand (importing the jobs would slow every command's start):
+    stone_grid was once left out."""
+    from contactnet.cli import build_parser
+    from contactnet.jobs.experiment import EXPERIMENTS
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command" or getattr(a, "choices", None)
+               and "experiment" in a.choices)
+    choices = next(a.choices for a in sub.choices["experiment"]._actions if a.dest == "name")
+    assert set(choices) == {*EXPERIMENTS, "paper", "frontier"}
+
+
 def test_experiment_with_a_missing_model_dir_fails_before_running(tmp_path, capsys):
     code = main(["experiment", "narrow_stones", "--out", str(tmp_path / "out"), "--model-dir", str(tmp_path / "no")])
     assert code == EXIT_USER_ERROR

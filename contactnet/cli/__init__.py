@@ -252,7 +252,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
                            retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch,
-                           sims=sims, scale=args.terrain_scale)
+                           sims=sims, scale=args.terrain_scale, vx=args.vx)
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
@@ -452,8 +452,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
     experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random", "stairs",
-                                             "raised_stones", "random_heights", "push", "robustness", "paper",
-                                             "frontier"],
+                                             "raised_stones", "random_heights", "push", "robustness", "stone_grid",
+                                             "paper", "frontier"],
                             help="paper: the paper's whole Sec. IV (every experiment, its numbers of trials) and "
                                  "the frontier, and a report in DIR; frontier: beyond the paper, the random field "
                                  "at n = 110..200 and narrow_map down to 2 cm bars and up to 30 cm gaps, and its "
@@ -482,6 +482,8 @@ def build_parser() -> argparse.ArgumentParser:
                                  "frontier: 110,125,...,200)")
     experiment.add_argument("--terrain-scale", type=bounded_float("--terrain-scale", 0.1, 10.0), default=None,
                             metavar="S", help=SCALE_HELP)
+    experiment.add_argument("--vx", type=bounded_float("--vx", -VELOCITY_LIMIT_M_S, VELOCITY_LIMIT_M_S), default=0.05,
+                            metavar="M_S", help="the commanded forward velocity (default 0.05 m/s, the paper's)")
     experiment.add_argument("--height", type=bounded_float("--height", 0.0, 0.5), default=None, metavar="H",
                             help=HEIGHT_HELP)
     experiment.add_argument("--force", type=number_list("--force", 0.1, 100.0), default=None, metavar="N,...",

@@ -35,6 +35,9 @@ from contactnet.paths import default_cache_dir
 #: The leg length (m) the paper's gaits are sized for: Solo12's hip flexion joint to knee to foot centre, 0.3245 m
 #: (``RobotDescription.leg_reach_m``; ``contactnet.motion.gait.SIZE_RULE``).
 REFERENCE_LEG_M = 0.3245
+#: The weight (N) the ranking cost's force term is tuned for: Solo12's, 2.5 kg (``RobotDescription.weight_n`` to
+#: 0.01 N; ``contactnet.planning.cost.ranking_trajopt_weights``).
+REFERENCE_WEIGHT_N = 24.53
 #: Canonical leg order and names of every quadruped here (a robot's own prefixes map onto these).
 LEG_NAMES: tuple[str, ...] = ("FL", "FR", "HL", "HR")
 
