@@ -154,3 +154,24 @@ def served(app):  # noqa: ANN001, ANN201
         yield port
     finally:
         web.stop()
+
+
+@contextlib.contextmanager
+def served_flat_tool(data):  # noqa: ANN001, ANN201 - a Path
+    """The tool on flat ground (heuristic planner, standing still, walking at once) with its terrains and recordings
+    in ``data``, its API served on a free loopback port while in the block; yields (app, port)."""
+    from app.api.server import ContactnetApp
+    from app.live.settings import ServeSettings
+    from app.recordings.recorder import free_port
+
+    (data / "recordings").mkdir(parents=True, exist_ok=True)
+    (data / "terrains").mkdir(parents=True, exist_ok=True)
+    app = ContactnetApp(
+        ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, wait_for_viewer=False, viser_port=free_port(),
+                      terrains_dir=data / "terrains", recordings_dir=data / "recordings")
+    )
+    try:
+        with served(app) as port:
+            yield app, port
+    finally:
+        app.close()

@@ -15,9 +15,8 @@ from pathlib import Path
 
 import httpx
 import pytest
-from helpers import served, wait_for
+from helpers import served_flat_tool, wait_for
 
-from app.api.server import ContactnetApp
 from app.live.settings import ServeSettings
 from app.recordings.recorder import free_port, read_recording
 from contactnet.terrain import Terrain, terrains_dir
@@ -29,14 +28,8 @@ REPO = Path(__file__).resolve().parent.parent
 
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
-    data = tmp_path_factory.mktemp("data")
-    app = ContactnetApp(
-        ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, wait_for_viewer=False, viser_port=free_port(),
-                      terrains_dir=data / "terrains", recordings_dir=data / "recordings")
-    )
-    with served(app) as port:
-        yield app, port
-    app.close()
+    with served_flat_tool(tmp_path_factory.mktemp("data")) as live:
+        yield live
 
 
 @pytest.fixture(scope="module")

@@ -28,17 +28,14 @@ from pathlib import Path
 
 import httpx
 import pytest
-from helpers import served, wait_for
+from helpers import served_flat_tool, wait_for
 
-from app.api.server import ContactnetApp
-from app.live.settings import ServeSettings
 from app.live.terrain_files import TerrainLibrary
 from app.recordings import journal
 from app.recordings.meta import read_meta
 from app.recordings.recorder import (
     LiveRecorder,
     RecordingNotSaved,
-    free_port,
     quiet_viser_server,
     read_recording,
     stop_quietly,
@@ -154,16 +151,8 @@ def server_log():
 # ---- the live tool ---------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def live(tmp_path_factory):
-    data = tmp_path_factory.mktemp("data")
-    (data / "recordings").mkdir()
-    (data / "terrains").mkdir()
-    app = ContactnetApp(
-        ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, wait_for_viewer=False, viser_port=free_port(),
-                      terrains_dir=data / "terrains", recordings_dir=data / "recordings")
-    )
-    with served(app) as port:
-        yield app, port
-    app.close()
+    with served_flat_tool(tmp_path_factory.mktemp("data")) as live:
+        yield live
 
 
 @pytest.fixture(scope="module")
