@@ -70,10 +70,11 @@ function viewerUrl(info) {
 }
 
 function showLive() {
+  Playback.close();  // playback.js: the recording's timeline and plots go; the header is the live session's again
   $("viewer").src = liveUrl;
   $("playback-bar").hidden = true;
   $("live-link").classList.add("active");
-  if (lastState) Overlays.render(lastState, sceneActions);
+  if (lastState) renderState(lastState);
 }
 
 /** The 3D view again, for a server that restarted or came back, or a session that was reclaimed (its viser port
@@ -145,9 +146,11 @@ function showNotices(s) {
 }
 
 function renderState(s) {
-  $("status-line").replaceChildren(...statusLine(s));
-  $("status-detail").textContent = statusDetail(s);
-  $("status").title = [s.status_text, s.planner_note].filter(Boolean).join("\n");
+  if (!playing()) {  // while a recording plays, the header shows its frame (playback.js)
+    $("status-line").replaceChildren(...statusLine(s));
+    $("status-detail").textContent = statusDetail(s);
+    $("status").title = [s.status_text, s.planner_note].filter(Boolean).join("\n");
+  }
   const button = $("record-button");
   button.textContent = s.recording ? "Stop recording" : "Start recording";
   button.classList.toggle("recording", s.recording);
@@ -284,6 +287,8 @@ function playRecording(r) {
   $("playback-name").textContent = r.title || r.name;
   $("playback-bar").hidden = false;
   $("live-link").classList.remove("active");
+  Overlays.hide();
+  Playback.open(r, $("viewer"));  // playback.js: timeline in simulated time, markers, plots; header and progress
 }
 
 /** The inline form that renames recording `r` (title and file name) in its list item `li`. */

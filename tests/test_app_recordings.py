@@ -179,7 +179,8 @@ def test_rename_and_retitle(client, app, folder):
     assert changed.status_code == 200
     assert changed.json()["name"] == "first-walk.viser" and changed.json()["title"] == "First walk"
     assert changed.json()["download_url"] == "/api/recordings/first-walk.viser"
-    assert sorted(p.name for p in folder.iterdir()) == ["first-walk.viser", "first-walk.viser.json"]
+    assert sorted(p.name for p in folder.iterdir()) == ["first-walk.viser", "first-walk.viser.json",
+                                                       "first-walk.viser.track.json"]
     both = client.patch("/api/recordings/first-walk.viser", json={"name": "walk-2.viser", "title": ""})
     assert both.status_code == 200 and both.json()["name"] == "walk-2.viser" and both.json()["title"] == ""
     assert client.get("/api/recordings/first-walk.viser").status_code == 404

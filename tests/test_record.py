@@ -3,6 +3,7 @@ tool draws it, in a file the web tool's recordings page plays back."""
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 from pathlib import Path
@@ -66,7 +67,8 @@ def test_record_writes_a_viser_recording(tmp_path, capsys):
     x = robot_x(data)
     assert len(x) >= 15  # one pose per frame, 12 frames per simulated second
     assert x[-1] - x[0] > 0.05 and np.all(np.diff(x) > -0.01)  # it walks forward over time
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.viser", "walk.viser.json"]  # no temporary file
+    # no temporary file; the metadata and the data track (app.recordings.track) next to the recording
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.viser", "walk.viser.json", "walk.viser.track.json"]
     assert oct(path.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
     # the metadata the recordings list shows, next to the file (app.recordings.meta)
     meta = read_meta(path).meta
@@ -105,7 +107,7 @@ def test_the_web_tool_lists_and_plays_a_cli_recording(tmp_path):
 
     from app.api.server import ContactnetApp
     from app.live.settings import ServeSettings
-    from app.recordings.recorder import free_port, viser_html
+    from app.recordings.recorder import free_port
 
     folder = tmp_path / "recordings"
     folder.mkdir()
@@ -123,7 +125,9 @@ def test_the_web_tool_lists_and_plays_a_cli_recording(tmp_path):
         download = client.get(entry["download_url"])
         assert download.content == (folder / "cli-demo.viser").read_bytes()
         html = client.get(entry["html_url"]).text
-        assert html == viser_html(download.content)
+        # the one-file player: viser's client with the recording, and the timeline and plots of its track
+        assert base64.b64encode(download.content).decode() in html and "CONTACTNET_RECORDING" in html
+        assert client.get(entry["track_url"]).json()["frames"]["sim_t"][-1] == pytest.approx(0.5, abs=0.1)
     finally:
         app.close()
 

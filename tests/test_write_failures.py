@@ -206,7 +206,7 @@ def test_a_refused_stop_keeps_the_recording_and_a_later_stop_saves_it(client, ap
     assert entry["name"] == name and entry["frames"] == kept["frames"]
     assert read_recording((recordings / name).read_bytes()).duration_s > 0.1
     assert not client.get("/api/recordings/status").json()["recording"]
-    assert sorted(p.name for p in recordings.iterdir()) == [name, f"{name}.json"]  # no journal, no temporary file
+    assert sorted(p.name for p in recordings.iterdir()) == [name, f"{name}.json", f"{name}.track.json"]  # no journal
     assert "Traceback" not in server_log.text
 
 
@@ -338,7 +338,7 @@ def test_a_journal_in_use_or_already_saved_is_not_recovered(tmp_path, every_fram
     assert not path.exists()
     path.write_bytes(copy)  # a crash between the save and the journal's removal
     assert RecordingStore(tmp_path).recovered == [] and not path.exists()
-    assert sorted(p.name for p in tmp_path.iterdir()) == [name, f"{name}.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name, f"{name}.json", f"{name}.track.json"]
 
 
 @pytest.mark.slow
@@ -397,7 +397,8 @@ def test_a_journal_that_cannot_be_written_is_said_and_the_recording_still_saves(
     finally:
         stop_quietly(server)
     info = recorder.stop()
-    assert info.name == name and sorted(p.name for p in tmp_path.iterdir()) == [name, f"{name}.json"]
+    assert info.name == name and sorted(p.name for p in tmp_path.iterdir()) == [
+        name, f"{name}.json", f"{name}.track.json"]
 
 
 def test_at_shut_down_a_refused_recording_goes_elsewhere(tmp_path, monkeypatch):

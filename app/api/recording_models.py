@@ -51,6 +51,11 @@ class RecordingEntry(BaseModel):
     download_url: str = Field(description="the .viser file")
     html_url: str = Field(description="one HTML file that plays the recording anywhere")
     play_url: str = Field(description="the 3D viewer playing the recording")
+    track_url: str | None = Field(
+        None,
+        description="its data track (simulated time, events, plans, velocities: the player's timeline and plots); "
+        "null for a recording made before tracks were kept (it plays without them)",
+    )
     title: str = Field("", description="the user's title ('' when none: show the name)")
     robot: str | None = Field(None, description="robot name")
     terrain: str | None = Field(None, description="terrain; 'a → b' when it changed while recording")
@@ -95,6 +100,7 @@ def entry_of(info: RecordingInfo) -> RecordingEntry:
         download_url=url,
         html_url=f"{url}/html",
         play_url=f"/viewer/?playbackPath={url}",
+        track_url=f"{url}/track" if info.track else None,
         metadata_note=None if meta is not None else info.meta_note,
         **described,
     )

@@ -1,5 +1,5 @@
-"""The REST API's recordings routes: list, start, stop, download, HTML export, rename or retitle (PATCH),
-delete (`add_recording_routes`)."""
+"""The REST API's recordings routes: list, start, stop, download, data track, HTML export (a one-file player
+with the timeline and plots), rename or retitle (PATCH), delete (`add_recording_routes`)."""
 
 # No `from __future__ import annotations`: FastAPI reads the annotations of the route functions.
 from pathlib import Path
@@ -7,7 +7,7 @@ from typing import Annotated
 
 from fastapi import FastAPI, HTTPException, Response
 from fastapi import Path as PathParam
-from fastapi.responses import FileResponse, HTMLResponse
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
 from starlette.convertors import Convertor, register_url_convertor
 
 from app.api.errors import STORAGE_CODES, ErrorCodes, as_http_errors, responses
@@ -18,7 +18,9 @@ from app.api.recording_models import (
     RecordingStatus,
     entry_of,
 )
-from app.recordings.recorder import RECORDING_NAME, viser_html
+from app.recordings.player import player_html
+from app.recordings.recorder import RECORDING_NAME
+from app.recordings.track import TrackError, read_track
 
 RecordingName = Annotated[str, PathParam(pattern=RECORDING_NAME.pattern, description="a recording's file name")]
 
@@ -151,7 +153,37 @@ def add_recording_routes(
         responses=responses(*everywhere, 404, 422, json_route=False),
     )
     def recording_html(name: RecordingName, download: bool = True) -> Response:
-        """One self-contained HTML file that plays the recording in any browser."""
-        html = viser_html(recording_path(name).read_bytes())
+        """One self-contained HTML file that plays the recording in any browser, offline: the 3D view with the
+        timeline in simulated seconds, its markers and the plots of the data track (when it has one)."""
+        path = recording_path(name)
+        info = app.recordings.info(name)
+        try:
+            track = read_track(path)
+        except (FileNotFoundError, TrackError):
+            track = None
+        title = (info.meta.title if info.meta is not None else "") or name
+        html = player_html(path.read_bytes(), track, title=title, meta=info.meta, name=name)
         headers = {"Content-Disposition": f'attachment; filename="{name[:-6]}.html"'} if download else {}
         return HTMLResponse(html, headers=headers)
+
+    @api.get(
+        "/api/recordings/{name:recording_file}/track",
+        tags=["recordings"],
+        responses={
+            **responses(*everywhere, 404, 422, 500),
+            200: {"content": {"application/json": {"schema": {"type": "object"}}}},
+        },
+    )
+    def recording_track(name: RecordingName) -> Response:
+        """The recording's data track (`app.recordings.track`): per frame the recording time and the simulated
+        time, x, progress, commanded and measured velocity, steps, rank, run and state; per plan the planner's and
+        optimizer's milliseconds, the rank chosen and stands; events (push, stand, fall, goal, end, restart). 404
+        for a recording made before tracks were kept (it plays without one)."""
+        path = recording_path(name)
+        try:
+            track = read_track(path)
+        except FileNotFoundError as exc:
+            raise HTTPException(404, str(exc)) from None
+        except TrackError as exc:
+            raise HTTPException(500, f"the data track of {name} cannot be read: {exc}") from None
+        return JSONResponse(track)

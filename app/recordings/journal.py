@@ -11,9 +11,10 @@ journal. A journal left behind is a recording that was in progress when the tool
 
 Format: the 8 bytes ``JOURNAL_MAGIC``, then records, each ``[4 bytes length][4 bytes CRC-32][payload]`` (little
 endian), the payload zstd-compressed msgpack ``{"t": the recording's clock (s), "messages": [[t, message],
-...], "buffers": [bytes, ...], "meta": RecordingMeta.to_dict()}``: the serializer's messages and binary buffers
-added since the previous record (a message's binary placeholders index the buffers of the whole recording, so
-the records simply concatenate) and the metadata so far. Reading stops at the first record that is cut short
+...], "buffers": [bytes, ...], "meta": RecordingMeta.to_dict(), "track": TrackCollector.chunk()}``: the serializer's
+messages and binary buffers added since the previous record (a message's binary placeholders index the buffers of
+the whole recording, so the records simply concatenate), the metadata so far, and the rows of the data track
+(`app.recordings.track`) added since the previous record (a journal without them recovers without a track). Reading stops at the first record that is cut short
 or does not match its CRC: where the crash was. An open journal is locked (``flock``), so a second tool on the
 same folder never recovers a journal that is being written.
 
@@ -40,6 +41,7 @@ import msgspec
 import zstandard
 
 from app.recordings.meta import MetaError, RecordingMeta, read_meta
+from app.recordings.track import TrackCollector
 from app.recordings.viser_files import viser_bytes
 
 try:
@@ -95,6 +97,7 @@ class RecordingJournal:
         self._size = 0  # bytes of whole records written
         self._messages = 0  # the serializer's messages and buffers already in the journal
         self._buffers = 0
+        self._track_marks = (0, 0, 0, 0, 0)  # the data track's rows already in the journal
         self._retry_at = 0.0
         self._disabled = False
 
@@ -114,10 +117,13 @@ class RecordingJournal:
                 self.path.unlink()
             raise
         self._file, self._size, self._messages, self._buffers, self.records = handle, len(JOURNAL_MAGIC), 0, 0, 0
+        self._track_marks = (0, 0, 0, 0, 0)
 
-    def append(self, serializer: Any, meta: RecordingMeta, force: bool = False) -> bool:
-        """Append the serializer's new messages and buffers (and the metadata so far); True if the journal is
-        now up to date. After a failure nothing is tried before `RETRY_S`, unless ``force``."""
+    def append(self, serializer: Any, meta: RecordingMeta, force: bool = False,
+               track: TrackCollector | None = None) -> bool:
+        """Append the serializer's new messages and buffers (and the metadata so far, and the data track's new
+        rows); True if the journal is now up to date. After a failure nothing is tried before `RETRY_S`, unless
+        ``force``."""
         if self._disabled or (not force and time.monotonic() < self._retry_at):
             return False
         try:
@@ -127,10 +133,15 @@ class RecordingJournal:
             return self._disable("this viser has no scene serializer state to read")
         if not new_messages and not new_buffers and self.records:
             return True
+        record_dict = {"t": clock, "messages": new_messages, "buffers": new_buffers, "meta": meta.to_dict()}
+        track_marks = self._track_marks
+        if track is not None:
+            if self._file is None or not self.records:
+                track_marks = (0, 0, 0, 0, 0)  # a journal started over holds the whole track again
+            record_dict["track"] = track.chunk(track_marks)
+            track_marks = track.marks()
         try:
-            payload = msgspec.msgpack.encode(
-                {"t": clock, "messages": new_messages, "buffers": new_buffers, "meta": meta.to_dict()}
-            )
+            payload = msgspec.msgpack.encode(record_dict)
         except (TypeError, msgspec.EncodeError) as exc:
             return self._disable(f"a scene message could not be encoded ({exc})")
         record = zstandard.ZstdCompressor(level=3).compress(payload)
@@ -156,6 +167,7 @@ class RecordingJournal:
         self._size += _HEADER.size + len(record)
         self._messages += len(new_messages)
         self._buffers += len(new_buffers)
+        self._track_marks = track_marks
         self.records += 1
         if self.error is not None:
             log.info("recording %s: its journal is written again", self.name)
@@ -210,6 +222,7 @@ class JournalContents:
     meta: RecordingMeta | None
     records: int
     torn: bool  # it ends with a record cut short or garbled (the crash)
+    track: dict | None = None  # the data track's rows joined (`TrackCollector.to_dict`); None in an older journal
 
 
 def _records(data: bytes) -> Iterator[bytes]:
@@ -231,6 +244,7 @@ def read_journal(data: bytes) -> JournalContents:
     messages: list = []
     buffers: list[bytes] = []
     clock, meta, records, used = 0.0, None, 0, len(JOURNAL_MAGIC)
+    chunks: list[dict] = []
     decompressor = zstandard.ZstdDecompressor()
     for record in _records(data):
         try:
@@ -241,11 +255,14 @@ def read_journal(data: bytes) -> JournalContents:
             break
         messages.extend(new_messages)
         buffers.extend(bytes(b) for b in new_buffers)
+        if isinstance(chunk.get("track"), dict):
+            chunks.append(chunk["track"])
         clock, records = t, records + 1
         used += _HEADER.size + len(record)
         with contextlib.suppress(MetaError):
             meta = RecordingMeta.from_dict(meta_dict)
-    return JournalContents(messages, buffers, clock, meta, records, torn=used < len(data))
+    track = TrackCollector.from_chunks(chunks).to_dict(clock) if chunks else None
+    return JournalContents(messages, buffers, clock, meta, records, torn=used < len(data), track=track)
 
 
 def recover_journals(store: Any) -> list[str]:  # an app.recordings.store.RecordingStore
@@ -288,7 +305,7 @@ def _recover(store: Any, path: Path, name: str) -> str | None:
             name = store.free_name(name[: -len(".viser")] + "-recovered")
         meta = contents.meta or RecordingMeta()
         meta = replace(meta, result=RECOVERED, duration_s=round(contents.duration_s, 3))
-        store.save(viser_bytes(contents.messages, contents.buffers, contents.duration_s), name, meta)
+        store.save(viser_bytes(contents.messages, contents.buffers, contents.duration_s), name, meta, contents.track)
     _remove(path)
     log.warning(
         "recovered the recording %s (%.1f s, %s frames) that was in progress when the tool stopped%s",

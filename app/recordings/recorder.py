@@ -52,6 +52,7 @@ from app.recordings.journal import JOURNAL_PERIOD_S, RecordingJournal
 from app.recordings.meta import MetaCollector, RecordingMeta, write_meta
 from app.recordings.overlay import StatusOverlay
 from app.recordings.store import RECORDING_NAME, RecordingInfo, RecordingStore, StorageError
+from app.recordings.track import TrackCollector, write_track
 from app.recordings.viser_files import RecordingContents, read_recording, viser_html
 from app.scene.live_scene import LiveScene
 from contactnet.atomic import atomic_write_bytes
@@ -122,6 +123,7 @@ class SceneRecorder:
         self.scene = LiveScene(self.server, robot)
         self.overlay = StatusOverlay(self.server, robot.description.leg_names) if overlay else None
         self.collector = MetaCollector()
+        self.track = TrackCollector()  # what a viewer studies: events, plans, velocities (app.recordings.track)
         self.rate_hz = rate_hz
         self.max_duration_s = max_duration_s
         self._serializer = None
@@ -161,6 +163,7 @@ class SceneRecorder:
             if self._last_t is not None and 0.0 <= t - self._last_t < 1.0 / self.rate_hz - FRAME_SLACK_S:
                 if self._last_view is not None and _outcome(view) != _outcome(self._last_view):
                     self._pending = view  # a fall or the goal between two frames: `finish` draws it if last
+                self.track.observe(view)  # a push, a plan or a fall between two frames is on the track all the same
                 return False
             self._sleep_until(t)
             self._draw(view)
@@ -177,6 +180,7 @@ class SceneRecorder:
         self._last_t, self._last_view, self._pending = t, view, None
         self.frames += 1
         self.collector.add(view)
+        self.track.frame(view, self.duration_s, 1.0 / self.rate_hz)
 
     def _draw(self, view: LiveView) -> None:
         self.scene.update(view)
@@ -187,6 +191,10 @@ class SceneRecorder:
     def meta(self, title: str = "") -> RecordingMeta:
         """What this recording shows so far (terrain, gait, planner, duration, how the run ended)."""
         return self.collector.meta(self.duration_s, self.frames, title)
+
+    def track_data(self) -> dict:
+        """The data track so far (`app.recordings.track`): frames, plans and events in simulated time."""
+        return self.track.to_dict(self.duration_s)
 
     def finish(self) -> bytes:
         """The .viser bytes (call once; stops an owned server). A run that ended (fell, reached the goal) after the
@@ -365,6 +373,7 @@ class FileRecording:
         self._tmp.unlink(missing_ok=True)
         try:  # what the recordings list shows (app.recordings.meta); the recording itself is saved
             write_meta(self.path, self._recorder.meta())
+            write_track(self.path, self._recorder.track_data())  # what the player plots (app.recordings.track)
         except OSError as exc:
             log.warning("recording %s: metadata not saved (%s)", self.path.name, exc.strerror or exc)
         self.size_bytes = len(data)
@@ -479,7 +488,7 @@ class LiveRecorder:
 
     def _append_journal(self, recorder: SceneRecorder, force: bool = False) -> None:
         if self._journal is not None and recorder.serializer is not None:
-            self._journal.append(recorder.serializer, recorder.meta(self._title), force=force)
+            self._journal.append(recorder.serializer, recorder.meta(self._title), force=force, track=recorder.track)
 
     def stop(self) -> RecordingInfo:
         """Stop and save the recording with its metadata. `RecordingNotSaved` when it cannot be written: it is
@@ -500,7 +509,7 @@ class LiveRecorder:
             self._end(name)
             raise
         try:
-            self.store.save(data, name, recorder.meta(self._title))
+            self.store.save(data, name, recorder.meta(self._title), recorder.track_data())
         except Exception as exc:
             with self._lock:
                 self._saving = None
@@ -568,7 +577,7 @@ class LiveRecorder:
         try:
             store = RecordingStore(folder, recover=False)
             name = store.free_name(name[: -len(".viser")])
-            store.save(recorder.finish(), name, recorder.meta(self._title))
+            store.save(recorder.finish(), name, recorder.meta(self._title), recorder.track_data())
         except Exception as exc:  # noqa: BLE001 - reported, never raised at shut-down
             journal = self._journal
             kept = (

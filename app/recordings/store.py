@@ -2,7 +2,7 @@
 saved, renamed, retitled and deleted by name.
 
 A name is a file name of the folder, ``RECORDING_NAME`` (letters, digits, ``_``, ``-``, then ``.viser``),
-so no name reaches outside the folder. A recording and its sidecar move and go together. Errors are
+so no name reaches outside the folder. A recording and its sidecars (metadata, data track: `app.recordings.track`) move and go together. Errors are
 one-line exceptions that name recordings, never paths: ``ValueError`` (a bad name), ``FileNotFoundError``
 (no such recording), ``FileExistsError`` (a rename onto another recording), `StorageError` (the folder refused
 a write, a rename or a deletion: read-only, full, ...; its errno kept).
@@ -26,6 +26,7 @@ from pathlib import Path
 
 from app.recordings import journal
 from app.recordings.meta import MetaRead, RecordingMeta, read_meta, retitled, sidecar_path, write_meta
+from app.recordings.track import track_path, write_track
 from contactnet.atomic import StorageError, atomic_write_bytes, remove_stale_temporaries, storage_error
 
 log = logging.getLogger("contactnet.app.recordings")
@@ -45,6 +46,7 @@ class RecordingInfo:
     modified: float
     meta: RecordingMeta | None = None
     meta_note: str | None = None
+    track: bool = False  # it has a data track (`app.recordings.track`: timeline markers and plots)
 
 
 class RecordingStore:
@@ -78,7 +80,7 @@ class RecordingStore:
         path = self._existing(name)
         stat = path.stat()
         read = self._read_meta(path)
-        return RecordingInfo(path.name, stat.st_size, stat.st_mtime, read.meta, read.note)
+        return RecordingInfo(path.name, stat.st_size, stat.st_mtime, read.meta, read.note, track_path(path).is_file())
 
     def _read_meta(self, path: Path) -> MetaRead:
         read = read_meta(path)
@@ -134,10 +136,10 @@ class RecordingStore:
         with self._lock:
             self._reserved.discard(name)
 
-    def save(self, data: bytes, name: str, meta: RecordingMeta | None = None) -> Path:
-        """Write the recording (atomically), then its sidecar; a sidecar that cannot be written is logged
-        (the recording then lists without metadata), never lost with the recording. `StorageError` when the
-        recording cannot be written (nothing changed then)."""
+    def save(self, data: bytes, name: str, meta: RecordingMeta | None = None, track: dict | None = None) -> Path:
+        """Write the recording (atomically), then its sidecars (metadata, data track); a sidecar that cannot be
+        written is logged (the recording then lists without it), never lost with the recording. `StorageError`
+        when the recording cannot be written (nothing changed then)."""
         path = self.path(name)
         with self._lock:
             try:
@@ -149,6 +151,11 @@ class RecordingStore:
                     write_meta(path, meta)
                 except OSError as exc:
                     log.warning("recording %s: metadata not saved (%s)", name, exc.strerror or exc)
+            if track is not None:
+                try:
+                    write_track(path, track)
+                except OSError as exc:
+                    log.warning("recording %s: data track not saved (%s)", name, exc.strerror or exc)
         return path
 
     def set_title(self, name: str, title: str) -> RecordingInfo:
@@ -186,6 +193,19 @@ class RecordingStore:
                 with contextlib.suppress(OSError):
                     os.replace(target, source)
                 raise storage_error(exc, doing) from None
+            try:
+                os.replace(track_path(source), track_path(target))
+            except FileNotFoundError:
+                try:
+                    track_path(target).unlink(missing_ok=True)  # a stale track must not describe it
+                except OSError as exc:
+                    log.warning("recording %s: a stale data track is left (%s)", new_name, exc.strerror or exc)
+            except OSError as exc:  # the track cannot follow: put the recording and its sidecar back
+                with contextlib.suppress(OSError):
+                    os.replace(target, source)
+                with contextlib.suppress(OSError):
+                    os.replace(sidecar_path(target), sidecar_path(source))
+                raise storage_error(exc, doing) from None
             self._reported.pop(name, None)
             return self.info(new_name)
 
@@ -203,4 +223,8 @@ class RecordingStore:
                 sidecar_path(path).unlink(missing_ok=True)
             except OSError as exc:  # the recording is gone; a sidecar alone never lists
                 log.warning("recording %s: its metadata file is left (%s)", name, exc.strerror or exc)
+            try:
+                track_path(path).unlink(missing_ok=True)
+            except OSError as exc:
+                log.warning("recording %s: its data track is left (%s)", name, exc.strerror or exc)
             self._reported.pop(name, None)
