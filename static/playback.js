@@ -372,10 +372,13 @@ const Playback = (() => {
       if (!s.track) renderHeader(0, null);
       return;
     }
-    if (now.max && Math.abs(now.max - s.duration) > 1e-3 && !s.trackDuration) {
-      s.duration = now.max;  // a recording without a track: the player knows its length
+    if (now.max && Math.abs(now.max - s.duration) > 1e-3) {
+      s.duration = now.max;  // the timeline spans the player's length (the track's ends one frame earlier)
+      draw();
+      return;
     }
-    if (!force && s.t === now.t) return;
+    const header = el("status-line");
+    if (!force && s.t === now.t && header && header.querySelector(".pb-badge")) return;  // (a live poll may write it)
     s.t = now.t;
     s.panel.dataset.t = String(now.t);
     if (!s.track) {
@@ -461,7 +464,6 @@ const Playback = (() => {
       t: null,
       frame: -1,
       duration: track ? Math.max(track.duration_s, ...track.frames.rec_t.slice(-1), 1e-3) : 1,
-      trackDuration: Boolean(track),
       events: track ? track.events : [],
       segments: track ? segmentsOf(track, track.duration_s) : [],
       cursors: {},

@@ -1,0 +1,217 @@
+"""Playing a recording to study it, in a real headless browser (Debian chromium, playwright): a short run of the
+live session with a push from the API is recorded, then played on the front page: the timeline in simulated
+seconds marks the push, the plots' cursor follows viser's own scrubber (a click on it) and a click on the push
+marker moves the player there; the header and progress bar show the recording's frame, not the live session; the
+exported HTML (one file, opened from file://) does the same; a recording made before tracks says it has none.
+Screenshots in artifacts/ (browser_playback.png, browser_playback_export.png)."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import time
+
+import httpx
+import pytest
+from helpers import ARTIFACTS, browser_marks, chromium, served, wait_for
+
+pytestmark = browser_marks()
+
+PUSH = {"fx": 0.0, "fy": 3.0, "duration": 0.3}
+
+
+@pytest.fixture(scope="module")
+def live(tmp_path_factory):
+    """The tool walking on flat ground with ContactNet; a recording of about 3 simulated s pushed in the middle,
+    and an old recording (no data track, no metadata)."""
+    from app.api.server import ContactnetApp
+    from app.live.settings import ServeSettings
+    from app.recordings.recorder import free_port
+    from contactnet.cli import main
+
+    folder = tmp_path_factory.mktemp("recordings")
+    cli = tmp_path_factory.mktemp("cli")
+    assert main(["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--vx", "0.1",
+                 "--duration", "1.0", "--record", str(cli / "run.viser")]) == 0
+    shutil.copy(cli / "run.viser", folder / "old.viser")  # as made before data tracks: the .viser file alone
+    app = ContactnetApp(ServeSettings(terrain="flat", planner="contactnet", vx_m_s=0.1, wait_for_viewer=False,
+                                      viser_port=free_port(), recordings_dir=folder))
+    with served(app) as port:
+        url = f"http://127.0.0.1:{port}"
+        with httpx.Client(base_url=url, timeout=60) as client:  # no cookie: the default session
+            state = lambda: client.get("/api/state").json()  # noqa: E731
+            wait_for(lambda: state()["t_s"] > 0.5, what="the robot walking", timeout=120)
+            client.post("/api/recordings/start", json={"label": "pushed", "title": "Pushed sideways"})
+            started = state()["t_s"]
+            wait_for(lambda: state()["t_s"] > started + 1.2, what="1.2 s recorded", timeout=120)
+            pushed = client.post("/api/push", json=PUSH)
+            assert pushed.status_code == 200, pushed.text
+            wait_for(lambda: state()["t_s"] > pushed.json()["t_s"] + 1.5, what="1.5 s more", timeout=120)
+            entry = client.post("/api/recordings/stop").json()
+            track = client.get(entry["track_url"]).json()
+        yield app, url, entry, track
+    app.close()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with chromium() as browser:
+        yield browser
+
+
+@pytest.fixture(scope="module")
+def page(live, browser):
+    _, url, _, _ = live
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page.goto(url + "/")
+    page.locator("body[data-ready]").wait_for(timeout=90_000)
+    yield page
+    page.close()
+
+
+def panel_time(page) -> float | None:
+    value = page.locator("#playback-panel").get_attribute("data-t")
+    return None if value is None else float(value)
+
+
+def scrubber(frame) -> tuple[float, float]:  # noqa: ANN001 - a playwright FrameLocator
+    """viser's scrubber: (time, length) of the recording it plays, as its slider says."""
+    slider = frame.locator(".mantine-Slider-root [role=slider]")
+    return float(slider.get_attribute("aria-valuenow")), float(slider.get_attribute("aria-valuemax"))
+
+
+def header_t(page) -> float:
+    """The simulated time the page's header shows (``t 1.2 s``)."""
+    match = re.search(r"· t (-?[0-9.]+) s", page.locator("#status-line").inner_text())
+    assert match, page.locator("#status-line").inner_text()
+    return float(match.group(1))
+
+
+def stopped(frame) -> float | None:  # noqa: ANN001 - a playwright FrameLocator
+    """The scrubber's time when it stands still (paused) over 0.4 s, else None."""
+    t = scrubber(frame)[0]
+    time.sleep(0.4)
+    return t if scrubber(frame)[0] == t else None
+
+
+def click_scrubber(page, frame, fraction: float) -> float:  # noqa: ANN001 - playwright objects
+    """Click viser's scrubber at ``fraction`` of its width; the time it pauses at. A click the busy renderer lost
+    (no pause within 20 s) is repeated, twice at most."""
+    bar = frame.locator(".mantine-Slider-root")
+    seen = []
+    for _ in range(3):
+        box = bar.bounding_box()
+        page.mouse.click(box["x"] + fraction * box["width"], box["y"] + box["height"] / 2)
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            t = stopped(frame)
+            if t is not None:
+                return t
+            seen.append(scrubber(frame)[0])
+    raise AssertionError(f"the scrubber never paused after a click: it read {seen[-8:]}")
+
+
+def cursor_at(page, t: float, duration: float) -> None:
+    """The timeline's cursor stands at recording time ``t`` (within 2 px)."""
+    geometry = page.evaluate("""() => {
+        const svg = document.querySelector('#playback-panel .pb-timeline');
+        const lane = svg.querySelector('.pb-lane');
+        return {x: parseFloat(svg.querySelector('.pb-cursor').getAttribute('x1')),
+                left: parseFloat(lane.getAttribute('x')), width: parseFloat(lane.getAttribute('width'))};
+    }""")
+    assert geometry["x"] == pytest.approx(geometry["left"] + geometry["width"] * t / duration, abs=2.0)
+
+
+def check_player(page, frame, track: dict, screenshot: str) -> None:  # noqa: ANN001 - playwright objects
+    """What both players show: markers, the cursor following viser's scrubber and the push marker's seek."""
+    panel = page.locator("#playback-panel")
+    panel.wait_for(timeout=60_000)
+    assert panel.get_attribute("data-track") == "yes"
+    frame.locator(".mantine-Slider-root").wait_for(timeout=120_000)  # the player has loaded the recording
+    wait_for(lambda: panel_time(page) is not None, what="the panel following the player", timeout=60)
+    # the timeline's markers: the push where it was, no fall, no goal
+    pushes = [e for e in track["events"] if e["kind"] == "push"]
+    markers = page.locator(".pb-marker[data-kind=push]")
+    assert markers.count() == len(pushes) == 1
+    assert float(markers.first.get_attribute("data-rec-t")) == pytest.approx(pushes[0]["rec_t"], abs=1e-3)
+    assert page.locator(".pb-marker[data-kind=fall]").count() == 0
+    assert page.locator(".pb-marker[data-kind=stand]").count() == sum(e["kind"] == "stand" for e in track["events"])
+    assert page.locator(".pb-tick-label").count() >= 3
+    # viser's own scrubber, clicked at 25 % and 75 % (a click seeks and pauses there): the cursor of the timeline
+    # and of the plots follows it
+    _, duration = scrubber(frame)
+    seen = []
+    for fraction in (0.25, 0.75):
+        t = click_scrubber(page, frame, fraction)
+        assert all(abs(t - other) > 0.05 * duration for other in seen)  # it moved
+        seen.append(t)
+        wait_for(lambda t=t: panel_time(page) == pytest.approx(t, abs=1e-6), what="the panel at the scrubber", timeout=30)
+        cursor_at(page, t, duration)  # the timeline spans the player's length
+        xs = page.evaluate("() => [...document.querySelectorAll('#playback-panel .pb-cursor')].map(l => l.getAttribute('x1'))")
+        assert len(xs) == 4 and len(set(xs)) == 1  # timeline, rank, velocity, planner: one time
+        i = int(page.locator("#playback-panel").get_attribute("data-frame"))
+        sim = track["frames"]["sim_t"][i]
+        assert track["frames"]["rec_t"][i] <= t + 1e-6
+        assert header_t(page) == pytest.approx(sim, abs=0.051)
+    # a click on the push marker: the player goes there (and stays, paused)
+    markers.first.dispatch_event("click")
+    wait_for(lambda: abs(scrubber(frame)[0] - pushes[0]["rec_t"]) < 0.01, what="the player at the push", timeout=60)
+    wait_for(lambda: "push (+0.0, +3.0) N" in page.locator(".pb-event").inner_text(), what="the push named", timeout=30)
+    time.sleep(2.0)  # the 3D view draws the frame (software rendering)
+    assert abs(scrubber(frame)[0] - pushes[0]["rec_t"]) < 0.01  # paused there
+    status = page.locator("#status-line").inner_text()
+    assert status.startswith("▶ recording") and header_t(page) == pytest.approx(pushes[0]["sim_t"], abs=0.1)
+    page.screenshot(path=str(ARTIFACTS / screenshot))
+
+
+def test_playback_shows_the_recording_with_markers_and_synced_plots(live, page):
+    app, url, entry, track = live
+    page.locator("#recordings-toggle").dispatch_event("click")
+    item = page.locator("#recording-list li", has_text="Pushed sideways")
+    item.wait_for(timeout=60_000)
+    item.get_by_role("link", name="Play").dispatch_event("click")
+    page.locator("#recordings-close").dispatch_event("click")
+    check_player(page, page.frame_locator("#viewer"), track, "browser_playback.png")
+    # the header and progress bar are the recording's while it plays: the live session walks on meanwhile
+    progress = page.locator("#tracks .track")
+    assert progress.count() == 1 and "pb-track" in progress.get_attribute("class")
+    assert "recording" in progress.locator(".track-detail").inner_text()
+    live_t = httpx.get(url + "/api/state").json()["t_s"]
+    assert live_t > track["frames"]["sim_t"][-1]  # the live robot is further on than the recording ever got
+    time.sleep(2.5)  # two polls of the live state: the header is not overwritten
+    assert page.locator("#status-line").inner_text().startswith("▶ recording")
+    page.locator("#back-to-live").dispatch_event("click")
+    wait_for(lambda: page.locator("#playback-panel").count() == 0, what="the panel gone")
+    wait_for(lambda: "▶ recording" not in page.locator("#status-line").inner_text(), what="the live header again")
+
+
+def test_a_recording_without_a_track_says_so(live, page):
+    page.locator("#recordings-toggle").dispatch_event("click")
+    item = page.locator("#recording-list li", has_text="old.viser")
+    item.wait_for(timeout=60_000)
+    item.get_by_role("link", name="Play").dispatch_event("click")
+    page.locator("#recordings-close").dispatch_event("click")
+    panel = page.locator("#playback-panel")
+    panel.wait_for(timeout=60_000)
+    assert panel.get_attribute("data-track") == "no"
+    assert "no data track" in panel.locator(".pb-note").inner_text()
+    assert page.locator(".pb-marker").count() == 0
+    wait_for(lambda: "▶ recording" in page.locator("#status-line").inner_text(), what="the header", timeout=60)
+    page.locator("#back-to-live").dispatch_event("click")
+
+
+def test_the_exported_html_plays_the_same_offline(live, browser, tmp_path):
+    _, url, entry, track = live
+    path = tmp_path / "pushed.html"
+    path.write_text(httpx.get(url + entry["html_url"], timeout=60).text)
+    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    requests = []
+    page.on("request", lambda request: requests.append(request.url))
+    try:
+        page.goto(path.as_uri())
+        page.locator("body[data-ready]").wait_for(timeout=60_000)
+        check_player(page, page.frame_locator("#viewer"), track, "browser_playback_export.png")
+        assert page.title().startswith("Pushed sideways")
+    finally:
+        page.close()
+    assert not [u for u in requests if u.startswith(("http:", "https:"))]  # nothing from a network
