@@ -100,7 +100,7 @@ const Playback = (() => {
     const segments = [];
     let i0 = 0;
     for (let i = 1; i <= n; i += 1) {
-      if (i === n || f.sim_t[i] < f.sim_t[i - 1] - 1e-6 || f.run[i] !== f.run[i - 1]) {
+      if (i === n || f.sim_t[i] < f.sim_t[i - 1] - 1e-6) {
         segments.push({ i0, i1: i - 1, rec0: f.rec_t[i0], sim0: f.sim_t[i0], rec1: i < n ? f.rec_t[i] : duration });
         i0 = i;
       }
@@ -246,9 +246,12 @@ const Playback = (() => {
        { x: p.rec_t, y: p.stand.map((stand) => (stand ? 0 : null)), kind: "dots", cls: "pb-stand-dot", r: 2.2 }],
       0, rankMax, String);
     // velocity: the command and the base's measured velocity, forward (x) and sideways (y), heading frame
-    const all = [...f.vx_cmd, ...f.vx, ...f.vy_cmd, ...f.vy].filter(Number.isFinite);
-    const vLo = Math.min(0, ...all);
-    const vHi = Math.max(0.05, ...all);
+    // (its range leaves out the 2 % most extreme measurements, e.g. a fall's: they stand at the edge)
+    const measured = [...f.vx, ...f.vy].filter(Number.isFinite).sort((a, b) => a - b);
+    const pick = (q) => (measured.length ? measured[Math.floor(q * (measured.length - 1))] : 0);
+    const commands = [...f.vx_cmd, ...f.vy_cmd].filter(Number.isFinite);
+    const vLo = Math.min(0, pick(0.02), ...commands);
+    const vHi = Math.max(0.05, pick(0.98), ...commands);
     drawPlot(s.plots.velocity, "velocity m/s: vx, vx commanded (dashed), vy (light)", [
       { x: f.rec_t, y: f.vy, kind: "line", cls: "pb-vy", breaks },
       { x: f.rec_t, y: f.vx_cmd, kind: "line", cls: "pb-cmd", breaks },

@@ -97,6 +97,8 @@ def test_a_restart_and_a_fall_are_on_the_track(robot):
     back = [i for i in range(1, len(frames["sim_t"])) if frames["sim_t"][i] < frames["sim_t"][i - 1]]
     assert len(back) == 1 and frames["rec_t"][back[0]] == pytest.approx(restart["rec_t"], abs=1e-3)
     assert track["states"][frames["state"][-1]].startswith("FELL")
+    assert frames["run"][0] == 1 and frames["run"][-1] == 2 == frames["run"][back[0]]  # counted at the restart
+    assert restart["text"] == "restart: run 2"
     assert np.all(np.diff(frames["rec_t"]) > 0)
 
 

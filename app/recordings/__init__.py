@@ -1,6 +1,8 @@
 """Recordings: ``recorder`` (the scene over time as .viser files, live recording), ``store`` (the folder of
-recordings), ``meta`` (their metadata), ``overlay`` (the status drawn on them), ``journal`` (a live recording on
-disk as it goes, recovered after a crash), ``viser_files`` (the .viser format: read, write, HTML export).
+recordings), ``meta`` (their metadata), ``track`` (their data track: events, plans and velocities in simulated time,
+for the player's timeline and plots), ``overlay`` (the status drawn on them), ``journal`` (a live recording on
+disk as it goes, recovered after a crash), ``viser_files`` (the .viser format: read, write, HTML export),
+``player`` (the one-file HTML player with the timeline and plots).
 """
 
 from __future__ import annotations

@@ -15,7 +15,9 @@ headless server on a free loopback port is enough, so a plain loop can record to
 
 A recording holds the 3D scene only, so the recorder also draws the status line and the gait schedule
 into it (`app.recordings.overlay`), and keeps what it recorded (terrain, gait, planner, duration, how the
-run ended: `SceneRecorder.meta`, `app.recordings.meta`) for the metadata file saved next to the recording.
+run ended: `SceneRecorder.meta`, `app.recordings.meta`) for the metadata file saved next to the recording, and
+its data track (`SceneRecorder.track_data`, `app.recordings.track`: per frame and per plan, in simulated time, with
+the pushes, stands, falls, goal and restarts) for the player's timeline and plots, saved next to it too.
 
 `RecordingStore` (`app.recordings.store`) lists, renames and deletes the files of the recordings folder
 with their metadata; `LiveRecorder` starts and stops recordings of the live session (from the GUI or

@@ -95,6 +95,7 @@ class TrackCollector:
         self._force_on = False  # a push force acted at the last view
         self._done: str | None = None
         self._rate_period_s = 1.0 / 12.0
+        self._run = 1  # runs seen: 1 + restarts (a plain loop's views count no runs of their own)
 
     # ---- feeding ----------------------------------------------------------------------------------------------
     def observe(self, view: LiveView, rec_t: float | None = None) -> None:
@@ -116,7 +117,8 @@ class TrackCollector:
                 rec_t = self._frame_rec_t + (t - self._frame_t)
         rec_t = max(float(rec_t), self._last_rec_t)
         if restart:
-            self._event("restart", rec_t, t, f"restart: run {view.run.runs + 1}")
+            self._run += 1
+            self._event("restart", rec_t, t, f"restart: run {max(view.run.runs + 1, self._run)}")
             # a new run: its pushes so far are scheduled ones (`simulate --push`), counted when their force comes on
             self._plan_t, self._pushes, self._done, self._force_on = -math.inf, view.status.pushes, None, False
         self._last_t, self._last_rec_t = t, rec_t
@@ -183,7 +185,7 @@ class TrackCollector:
             "vx_cmd": _r(snap.vel_cmd_xy[0]), "vy_cmd": _r(snap.vel_cmd_xy[1]), "vx": _r(vx), "vy": _r(vy),
             "steps": int(snap.steps), "stood": int(view.counts.stand_steps),
             "rank": None if rank is None else int(rank),
-            "run": int(run.runs + (0 if status.done else 1)),
+            "run": max(int(run.runs + (0 if status.done else 1)), self._run),  # the live header's "run N"
             "state": self._text_index("states", state), "scene": self._text_index("scenes", scene),
         }
         for key in FRAME_KEYS:
