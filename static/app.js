@@ -1,8 +1,11 @@
 // contactnet front page: embeds viser's client (served at /viewer/) connected to the viser port,
 // shows the session status and the recordings. Everything goes through the REST API.
-// The other scripts of the page: toasts.js (Toasts), scenario.js (shareable links), overlays.js (progress
-// bars and the cards over the 3D view). The page polls /api/state; when the server's session_id changes
-// (a restart) or the server comes back after being unreachable, the 3D view is loaded again.
+// The other scripts of the page: toasts.js (Toasts), keys.js (the keys and the help overlay with its glossary),
+// embed.js (the loading view over the 3D view, viser's toasts hidden in it), scenario.js (shareable links),
+// overlays.js (progress bars and the cards over the 3D view). The page follows the session's state as the server
+// sends it (GET /api/state/stream, server-sent events: the header and cards are as fresh as the 3D view, whatever
+// the renderer does to the page's timers) and polls /api/state while the stream is down; when the server's
+// session_id changes (a restart) or the server comes back after being unreachable, the 3D view is loaded again.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
@@ -13,6 +16,9 @@ let lastNotice = null;  // highest notice seq already shown (null: no state seen
 let lastState = null;
 const POLL_MS = 1000;
 const POLL_BUSY_MS = 500;  // while a count-down runs or the server is away
+let stream = null;  // the EventSource of /api/state/stream while it is open
+let streamAt = 0;  // performance.now() of its last state
+const STREAM_FRESH_MS = 5000;  // the stream sends a state at least every 2 s: older means it is down
 
 function wsHost() {
   const h = location.hostname;
@@ -47,7 +53,8 @@ function post(path, body) {
 async function act(label, request) {
   try {
     const answer = await request();
-    pollState();
+    if (answer && answer.status_text !== undefined) handleState(answer);  // the State after the command
+    else pollState();
     return answer;
   } catch (e) {
     Toasts.show(`${label}: ${e.message}`, "error");
@@ -71,7 +78,7 @@ function viewerUrl(info) {
 
 function showLive() {
   Playback.close();  // playback.js: the recording's timeline and plots go; the header is the live session's again
-  $("viewer").src = liveUrl;
+  Embed.load(liveUrl);  // behind the loading view until the scene is drawn (embed.js)
   $("playback-bar").hidden = true;
   $("live-link").classList.add("active");
   if (lastState) renderState(lastState);
@@ -84,7 +91,7 @@ async function reconnectViewer(restarted, reclaimed = false) {
   try { info = await api("/api/info"); } catch (e) { return; }
   liveUrl = viewerUrl(info);
   $("viewer-full").href = liveUrl;
-  if (!playing()) $("viewer").src = liveUrl;  // a new load, even when the address is the same
+  if (!playing()) Embed.load(liveUrl, reclaimed ? "Opening a new live session" : "Reconnecting the 3D view");
   Toasts.show(reclaimed ? "Your live session had been closed while the page was away: this is a new one"
     : restarted ? "The server restarted: the 3D view reconnected to the new session"
     : "The live session is back: the 3D view reconnected", "info");
@@ -99,7 +106,25 @@ const sceneActions = {
   loopOn: () => act("Loop", () => post("/api/settings", { loop: true })),
 };
 
+/** What the keys do (keys.js): the same as the 3D view's hotkeys (app/viewer/panels/drive.py), through the API. */
+const keyActions = {
+  nudge: (dvx, dvy) => act("Key", () => post("/api/command/nudge", { dvx, dvy })),
+  stop: () => act("Stop (X)", () => post("/api/command", { vx: 0, vy: 0 })),
+  pause: () => act("Pause (P)", () => post("/api/pause/toggle")),
+  restart: () => act("Restart (R)", () => post("/api/reset")),
+  escape: () => {  // Esc closes the end-of-run card
+    if ($("run-card").hidden) return false;
+    $("run-close").click();
+    return true;
+  },
+};
+
+/** The colour class of the status sentence's state word: from State.status_kind (a walking robot's stand horizons
+ *  keep it "walking": no blinking), else from the flags (an older server). */
 function stateClass(s) {
+  const KIND = { error: "error", fell: "fell", done: "fell", goal: "goal", waiting: "starting", starting: "starting",
+                 paused: "paused", standing: "standing", walking: "running" };
+  if (s.status_kind && KIND[s.status_kind]) return `state-${KIND[s.status_kind]}`;
   if (s.error) return "state-error";
   if (s.fell) return "state-fell";
   if (s.reached_goal) return "state-goal";
@@ -114,11 +139,29 @@ function statusLine(s) {
   const text = s.status_text
     ?? `${s.error ? "ERROR: " + s.error : s.fell ? "FELL: " + s.fall_reason : s.reached_goal ? "GOAL REACHED"
       : s.paused ? "paused" : "walking"} · t ${s.t_s.toFixed(1)} s · x ${s.base_position[0].toFixed(2)} m`;
-  const cut = text.indexOf(" · ");
+  const [state, ...rest] = text.split(" · ");
   const span = document.createElement("span");
   span.className = stateClass(s);
-  span.textContent = cut < 0 ? text : text.slice(0, cut);
-  return cut < 0 ? [span] : [span, document.createTextNode(text.slice(cut))];
+  span.textContent = state;
+  span.title = Keys.explain(state);
+  return [span, ...termParts(rest, true)];
+}
+
+/** The parts of a status sentence as text with each term's explanation as its tooltip (keys.js: the glossary, also
+ *  in the help overlay, ?). `leading`: a separator before the first part too. */
+function termParts(parts, leading = false) {
+  const nodes = [];
+  parts.forEach((part, i) => {
+    if (leading || i) nodes.push(document.createTextNode(" · "));
+    const title = Keys.explain(part);
+    if (!title) { nodes.push(document.createTextNode(part)); return; }
+    const term = document.createElement("span");
+    term.className = "term";
+    term.title = title;
+    term.textContent = part;
+    nodes.push(term);
+  });
+  return nodes;
 }
 
 /** The second line of the header: what runs (terrain, gait, planner) and how. */
@@ -148,7 +191,7 @@ function showNotices(s) {
 function renderState(s) {
   if (!playing()) {  // while a recording plays, the header shows its frame (playback.js)
     $("status-line").replaceChildren(...statusLine(s));
-    $("status-detail").textContent = statusDetail(s);
+    $("status-detail").replaceChildren(...termParts(statusDetail(s).split(" · ")));
     $("status").title = [s.status_text, s.planner_note].filter(Boolean).join("\n");
   }
   const button = $("record-button");
@@ -189,6 +232,12 @@ async function pollState() {
     if (down && !playing()) Overlays.unreachable(e.message);
     return;
   }
+  await handleState(s);
+}
+
+/** Show State `s` (from a poll, the stream or a command's answer): a new session (server restart) or a server back
+ *  reloads the 3D view; new notices become toasts; the header and cards are drawn. */
+async function handleState(s) {
   const restarted = Boolean(s.session_id && sessionId && s.session_id !== sessionId);
   const back = !reachable;
   reachable = true;
@@ -200,10 +249,11 @@ async function pollState() {
   renderState(s);
 }
 
-/** Poll /api/state for ever: twice a second while something counts down or the server is away. */
+/** Follow the session: the state stream when it can (`follow`), else poll /api/state, twice a second while
+ *  something counts down or the server is away. */
 async function pollForever() {
   try {
-    await pollState();
+    if (!streaming()) await pollState();
   } catch (e) {
     console.error("polling the live session:", e);  // a bug in drawing one state must not stop the polling
   }
@@ -211,6 +261,33 @@ async function pollForever() {
   const busy = !reachable || !s || s.waiting_for_viewer || (s.starts_in_s ?? null) !== null
     || (s.restart_in_s ?? null) !== null;
   setTimeout(pollForever, busy ? POLL_BUSY_MS : POLL_MS);
+}
+
+function streaming() {
+  return stream !== null && performance.now() - streamAt < STREAM_FRESH_MS;
+}
+
+/** Open the state stream (server-sent events); when it fails the polls take over, and it is opened again. */
+function follow() {
+  if (!window.EventSource || stream) return;
+  const source = new EventSource("/api/state/stream");
+  stream = source;
+  source.onmessage = (event) => {
+    streamAt = performance.now();
+    let s;
+    try { s = JSON.parse(event.data); } catch (e) { return; }
+    handleState(s).catch((e) => console.error("drawing a state:", e));
+  };
+  source.addEventListener("end", () => {  // the server ends every stream after a while: the next one at once
+    source.close();
+    if (stream === source) stream = null;
+    follow();
+  });
+  source.onerror = () => {  // the server away, restarted, or this session gone: the polls say which
+    source.close();
+    if (stream === source) stream = null;
+    setTimeout(follow, reachable ? 1000 : 3000);
+  };
 }
 
 async function toggleCompare() {
@@ -446,6 +523,8 @@ async function main() {
     return;
   }
   Overlays.wire();
+  Embed.wire();
+  Keys.wire(keyActions);  // the keys work as soon as the page has focus (keys.js)
   wireControls();  // before the first request: a click while the page loads already works
   Visits.wire(api);
   const info = await api("/api/info");
@@ -474,6 +553,7 @@ async function main() {
   $("live-link").addEventListener("click", (event) => { event.preventDefault(); showLive(); });
   $("back-to-live").addEventListener("click", showLive);
   document.body.dataset.ready = "true";  // wired and showing the live session (tests wait for it)
+  follow();
   pollForever();
 }
 

@@ -183,8 +183,9 @@ const Overlays = (() => {
     statRow(stats, "reached", `${fmt(run.x ?? run.reached_x_m)} of ${fmt(s.goal_x_m)} m`, "x, forward from the start");
     compareTable(run);
     const looping = s.restart_in_s !== null && s.restart_in_s !== undefined;
+    const left = Math.max(0, Math.ceil(s.restart_in_s ?? 0));
     el("run-next").textContent = looping
-      ? `next run in ${Math.max(0, Math.ceil(s.restart_in_s))} s`
+      ? (s.paused ? `paused: the next run comes ${left} s after P (or Run)` : `next run in ${left} s`)
       : s.loop === false ? "loop off: the robot stays here" : "";
     el("run-stay").hidden = !looping;
     el("run-loop").hidden = looping || s.loop !== false;

@@ -206,11 +206,23 @@ def test_free_top_down_and_recenter(camera_setup):
     np.testing.assert_array_equal(client.camera.position, parked)  # free: never moved by us
     control.set_mode(client, "top-down")
     position, look_at = client.camera.position, client.camera.look_at
-    expected = top_down_pose(view, math.radians(50.0), 1400 / 900, panel_fraction=0.28)
+    expected = top_down_pose(view, math.radians(50.0), 1400 / 900, panel_fraction=424 / 1400)
     np.testing.assert_allclose(position, expected[0])
     assert position[2] > 1.0 and look_at[0] > 0.75  # above the terrain, its middle left of the panel
     no_panel = top_down_pose(view, math.radians(50.0), 1400 / 900)
     assert no_panel[1][0] == pytest.approx(0.75) and no_panel[0][2] < position[2]
+    # Everything from the start pad to the goal line in the part of the view the panel leaves free (1400 px: its
+    # right 424 px; a phone: the upper half), with room for the robot standing above its footprint.
+    terrain = view.terrain
+    for aspect, right, bottom in ((1400 / 900, 424 / 1400, 0.0), (390 / 700, 0.0, 0.5)):
+        position, look_at = top_down_pose(view, math.radians(50.0), aspect, right, bottom)
+        half_h = position[2] * math.tan(math.radians(25.0))  # half the view's height on the ground
+        half_w = half_h * aspect
+        left, top = look_at[0] - half_w, look_at[1] + half_h
+        free_right, free_bottom = left + 2 * half_w * (1 - right), top - 2 * half_h * (1 - bottom)
+        start_x, start_y = terrain.start_xy
+        assert left < start_x - 0.45 and free_right > terrain.goal_x  # the start and the goal line, with room
+        assert top > start_y + 0.3 and free_bottom < start_y - 0.3
     with pytest.raises(ValueError):
         control.set_mode(client, "sideways")
     control.set_mode(client, "follow")

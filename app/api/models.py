@@ -18,7 +18,7 @@ from pydantic import (
 )
 
 from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
-from app.live.view import LiveView, RunSummary, is_stand, status_line
+from app.live.view import STATUS_KINDS, LiveView, RunSummary, is_stand, status_kind, status_line
 from contactnet import registry
 from contactnet.records import StepCounts
 from contactnet.sim.world import ENGINES, IMPULSE_DURATION_S, Push
@@ -106,6 +106,16 @@ class ImpulseAtAngle(_Strict):
     def as_push(self) -> tuple[float, float, float]:
         push = Push.impulse(0.0, math.radians(self.angle_deg), self.impulse)
         return push.force_world[0], push.force_world[1], push.duration_s
+
+
+class NudgeCommand(_Strict):
+    """A change of the commanded velocity (the page's I/K/J/L keys): added to the command in the order received,
+    so quick presses add up; the result is clipped to the limits."""
+
+    dvx: float = Field(0.0, ge=-2 * VELOCITY_LIMIT_M_S, le=2 * VELOCITY_LIMIT_M_S, allow_inf_nan=False,
+                       description="m/s, added to the forward command", examples=[0.05])
+    dvy: float = Field(0.0, ge=-2 * VELOCITY_LIMIT_M_S, le=2 * VELOCITY_LIMIT_M_S, allow_inf_nan=False,
+                       description="m/s, added to the leftward command", examples=[0.0])
 
 
 class PauseCommand(_Strict):
@@ -277,7 +287,8 @@ class NoticeModel(BaseModel):
     """A message for the user about a change they made (shown once, as a toast)."""
 
     seq: int = Field(description="grows by one per notice of the session: show those above the last one shown")
-    level: Literal["info", "warning"] = Field(description="warning: the change stopped or restarted the robot")
+    level: Literal["info", "warning", "error"] = Field(
+        description="warning: the change stopped or restarted the robot; error: a control of the 3D view was refused")
     text: str = Field(description="one sentence")
 
 
@@ -300,6 +311,9 @@ class State(StepCounters):
     session_id: str = Field(description="new on every server start: a client seeing it change reconnects")
     status_text: str = Field(description="the session's state in one sentence (the page's header and the 3D "
                              "view's status panel show the same)")
+    status_kind: str = Field("walking", description="the state status_text names, one word for a client's colour: "
+                             + ", ".join(STATUS_KINDS) + " (walking also on a step horizon the planner stands while "
+                             "told to walk: see standing)")
     t_s: float = Field(description="s, simulated time since the run started")
     running: bool = Field(description="the simulation advances (not paused, waiting, counting down or done)")
     paused: bool = Field(description="paused by a user (POST /api/pause)")
@@ -450,6 +464,7 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
     return State(
         session_id=view.session_id,
         status_text=status_line(view),
+        status_kind=status_kind(view),
         t_s=snap.t_s,
         running=s.running,
         paused=s.paused,

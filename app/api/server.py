@@ -158,6 +158,10 @@ class ContactnetApp:
         return "; ".join(notes) or None
 
 
+#: s a stopping server waits for open responses (the page's state streams, GET /api/state/stream) before it ends them.
+STREAM_SHUTDOWN_S = 3.0
+
+
 def body_limit(method: str, path: str) -> int:
     """Largest request body: a terrain upload's limit for PUT /api/terrains/..., 64 KiB for everything else."""
     return MAX_UPLOAD_BYTES if method == "PUT" and path.startswith("/api/terrains/") else COMMAND_BODY_LIMIT_BYTES
@@ -213,7 +217,8 @@ class BackgroundServer:
         if policy is not None:
             policy.ports.add(port)  # the page served from this port may call the API and open the 3D view
         self.server = uvicorn.Server(
-            uvicorn.Config(api, host=host, port=port, log_level="warning", lifespan="off")
+            uvicorn.Config(api, host=host, port=port, log_level="warning", lifespan="off",
+                          timeout_graceful_shutdown=STREAM_SHUTDOWN_S)
         )
         self.thread = threading.Thread(target=self.server.run, name="uvicorn", daemon=True)
         self.thread.start()
@@ -244,7 +249,8 @@ def serve(settings: ServeSettings) -> int:
     )
     logging.getLogger("websockets").setLevel(logging.WARNING)
     app = ContactnetApp(settings)
-    server = uvicorn.Server(uvicorn.Config(app.api, host=settings.host, port=settings.port, log_level="warning"))
+    server = uvicorn.Server(uvicorn.Config(app.api, host=settings.host, port=settings.port, log_level="warning",
+                                          timeout_graceful_shutdown=STREAM_SHUTDOWN_S))
 
     def stop(signum: int, frame: Any) -> None:
         # uvicorn handles the signals while it runs and calls this afterwards; before, this stops it.

@@ -22,6 +22,10 @@ class CommandConflict(RuntimeError):
     """A valid command that cannot act in the session's state now (a push while paused, ...): one line."""
 
 
+#: The levels of a notice.
+NOTICE_LEVELS = ("info", "warning", "error")
+
+
 @dataclass(frozen=True)
 class SetVelocity:
     vx: float  #: m/s, forward
@@ -56,7 +60,9 @@ class SetPaused:
 
 @dataclass(frozen=True)
 class TogglePause:
-    """Pause a running session, run a paused one, restart one that fell or reached the goal."""
+    """Pause a running session, run a paused one (the P key). At the end of a run it never starts the next one:
+    paused, the loop's count-down holds (the end-of-run card stays); run again, it counts on. A session stopped
+    by an error restarts."""
 
 
 @dataclass(frozen=True)
@@ -153,6 +159,15 @@ class SetCompare:
 
 
 @dataclass(frozen=True)
+class Notify:
+    """Tell the session's users something once (a notice: the page's toasts), e.g. that a control of the 3D view
+    was refused. ``level``: info, warning or error."""
+
+    text: str
+    level: str = "error"
+
+
+@dataclass(frozen=True)
 class RenameTerrain:
     """Call the current terrain ``label`` from now on (after it was saved under that name); no rebuild."""
 
@@ -178,6 +193,7 @@ Command = (
     | UndoTerrainEdit
     | RedoTerrainEdit
     | RenameTerrain
+    | Notify
     | ViewerConnected
     | SetLoop
     | SetCompare
@@ -236,6 +252,9 @@ def check_command(command: Command) -> None:
     elif isinstance(command, EditTerrain):
         if not callable(command.edit) or not isinstance(command.args, tuple):
             raise ValueError("EditTerrain needs an edit function and a tuple of arguments")
+    elif isinstance(command, Notify):
+        if not (isinstance(command.text, str) and 0 < len(command.text) <= 500 and command.level in NOTICE_LEVELS):
+            raise ValueError(f"a notice needs a text of 1-500 characters and a level ({', '.join(NOTICE_LEVELS)})")
     elif isinstance(command, RenameTerrain):
         if not isinstance(command.label, str) or not command.label:
             raise ValueError("RenameTerrain needs a label")

@@ -48,6 +48,7 @@ from app.live.commands import (
     Command,
     CommandConflict,
     EditTerrain,
+    Notify,
     NudgeVelocity,
     RedoTerrainEdit,
     RenameTerrain,
@@ -161,6 +162,11 @@ class LiveSession:
     @property
     def view(self) -> LiveView | None:
         return self._view
+
+    @property
+    def alive(self) -> bool:
+        """The session thread runs (not stopped: a reclaimed visit's session is not)."""
+        return self._thread is not None and self._thread.is_alive()
 
     def wait_view(self, predicate: Callable[[LiveView], bool], timeout: float = 10.0) -> LiveView:
         """Block until the latest view satisfies predicate (tests, benchmarks)."""
@@ -427,10 +433,14 @@ class LiveSession:
 
     @_handle.register
     def _on_toggle_pause(self, command: TogglePause) -> None:
-        if self._runs.over or self._error is not None:
+        if self._error is not None:
             self._handle(Reset())
-        else:
+        else:  # also at the end of a run: a pause holds the loop's count-down, it never starts the next run
             self._handle(SetPaused(not self._paused))
+
+    @_handle.register
+    def _on_notify(self, command: Notify) -> None:
+        self._notify(command.text, command.level)
 
     @_handle.register
     def _on_viewer(self, command: ViewerConnected) -> None:

@@ -349,15 +349,40 @@ def is_stand(snap: Snapshot) -> bool:
     return bool(snap.planned_steps) and not snap.planned_steps[0].legs
 
 
+#: What `status_kind` answers: the state word of the status sentence, for the page's colour (one of these).
+STATUS_KINDS = ("error", "waiting", "starting", "fell", "goal", "done", "paused", "standing", "walking")
+
+
+def status_kind(view: LiveView) -> str:
+    """The state the status sentence names (`STATUS_KINDS`). A robot told to walk is "walking" also on a step
+    horizon its planner stands (the planner stands every other horizon on some terrains: the label and its colour
+    would flip every 0.4-0.8 s; "stood N" in the sentence counts those horizons, once each); "standing" is a robot
+    told to stay (a zero command) whose planner stands."""
+    s, snap, run = view.status, view.snapshot, view.run
+    if s.error:
+        return "error"
+    if run.waiting_for_viewer:
+        return "waiting"
+    if run.starts_in_s is not None:
+        return "starting"
+    if s.done:
+        return "goal" if s.done == "goal reached" else "fell" if s.done.startswith("fell") else "done"
+    if s.paused:
+        return "paused"
+    commanded = math.hypot(*snap.vel_cmd_xy) > COMMAND_AT_REST_M_S
+    return "standing" if is_stand(snap) and not commanded else "walking"
+
+
 def status_line(view: LiveView) -> str:
     """The session's state in one sentence: the header of the page (State.status_text) and the control
     panel both show this, so they never disagree."""
     s, snap, run = view.status, view.snapshot, view.run
-    if s.error:
+    kind = status_kind(view)
+    if kind == "error":
         state = f"ERROR: {s.error}"
-    elif run.waiting_for_viewer:
+    elif kind == "waiting":
         state = "waiting for a browser"
-    elif run.starts_in_s is not None:
+    elif kind == "starting":
         state = f"starting in {math.ceil(run.starts_in_s)} s"
     elif s.done and run.restart_in_s is not None and s.paused:
         state = f"{_done_text(s.done)}; paused, next run {math.ceil(run.restart_in_s)} s after Run"
@@ -365,12 +390,8 @@ def status_line(view: LiveView) -> str:
         state = f"{_done_text(s.done)}; next run in {math.ceil(run.restart_in_s)} s"
     elif s.done:
         state = _done_text(s.done)
-    elif s.paused:
-        state = "paused"
-    else:  # a commanded robot that stands a step is still walking: the label does not flicker step by step ("stood
-        # N" counts those steps); it says standing when the robot is told to stay (a zero command) and stands
-        commanded = math.hypot(*snap.vel_cmd_xy) > COMMAND_AT_REST_M_S
-        state = STANDING if is_stand(snap) and not commanded else "walking"
+    else:
+        state = {"paused": "paused", "standing": STANDING}.get(kind, "walking")
     rank = snap.planned_steps[0].rank if snap.planned_steps else None
     parts = [state, f"t {snap.t_s:.1f} s", f"x {snap.q[0]:.2f} m ({100 * run.progress:.0f} %)", f"steps {snap.steps}"]
     if view.counts.stand_steps:

@@ -69,30 +69,63 @@ def place_camera(client: viser.ClientHandle, position: np.ndarray, look_at: np.n
             connection.queue_message(_messages.SetCameraLookAtMessage(tuple(map(float, look_at))))
 
 
+#: Around the terrain's part a top-down view frames, in metres: the robot stands ~0.3 m above the ground, so under a
+#: camera a couple of metres up it is drawn larger than its footprint (its start pad was cut off at the view's edge).
+TOP_DOWN_MARGIN_M = 0.3
+
+
 def top_down_pose(
-    view: LiveView, fov_rad: float = math.radians(50.0), aspect: float = 1.6, panel_fraction: float = 0.0
+    view: LiveView, fov_rad: float = math.radians(50.0), aspect: float = 1.6, panel_fraction: float = 0.0,
+    panel_bottom: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(position, look_at) above the terrain, seeing all of it in the part of the window the control panel
-    leaves free (its right ``panel_fraction``), +x to the right and +y up on screen. A very large terrain
-    (flat is 20 m wide) is framed from its start to its goal line only."""
+    leaves free: its right ``panel_fraction`` of the width (a wide window), or its lower ``panel_bottom`` of the
+    height (a phone: viser's bottom sheet); +x to the right and +y up on screen. A very large terrain (flat is 20 m
+    wide) is framed from its start to its goal line only. ``fov_rad`` is the vertical field of view."""
     terrain = view.terrain
     minx, miny, maxx, maxy = terrain.bounds
     start_x, start_y = (float(v) for v in terrain.start_xy)
     minx, maxx = max(minx, start_x - 0.5), min(maxx, max(terrain.goal_x, start_x) + 0.5)
     miny, maxy = max(miny, start_y - 1.0), min(maxy, start_y + 1.0)
-    half_x = 0.5 * max(maxx - minx, 0.5) + 0.1
-    half_y = 0.5 * max(maxy - miny, 0.5) + 0.1
+    half_x = 0.5 * max(maxx - minx, 0.5) + TOP_DOWN_MARGIN_M
+    half_y = 0.5 * max(maxy - miny, 0.5) + TOP_DOWN_MARGIN_M
     tan_half = math.tan(0.5 * min(max(fov_rad, 0.2), 2.5))
+    panel_fraction = min(max(panel_fraction, 0.0), 0.8)
+    panel_bottom = min(max(panel_bottom, 0.0), 0.8)
     free_aspect = max(aspect, 0.3) * (1.0 - panel_fraction)
-    height = max(half_y / tan_half, half_x / (tan_half * free_aspect))
-    view_width_m = 2.0 * height * tan_half * max(aspect, 0.3)
-    look_at = np.array([(minx + maxx) / 2 + 0.5 * panel_fraction * view_width_m, (miny + maxy) / 2, terrain.surface_z])
+    height = max(half_y / (tan_half * (1.0 - panel_bottom)), half_x / (tan_half * free_aspect))
+    view_height_m = 2.0 * height * tan_half
+    view_width_m = view_height_m * max(aspect, 0.3)
+    look_at = np.array([
+        (minx + maxx) / 2 + 0.5 * panel_fraction * view_width_m,
+        (miny + maxy) / 2 - 0.5 * panel_bottom * view_height_m,  # the terrain in the upper, free part
+        terrain.surface_z,
+    ])
     position = look_at + np.array([0.0, -0.02 * height, height])  # a hair south: the view's up is +y
     return position, look_at
 
 
-#: The part of a wide window's width the control panel covers.
-PANEL_FRACTION = 0.28
+#: The part of a wide window's width the control panel covers, at 1400 px (app/viewer/gui.py: control_width
+#: "large"); `panel_share` gives it for another width.
+PANEL_FRACTION = 0.30
+#: viser's floating control panel, in CSS pixels: 25 em wide plus its margin (static/app.css --panel-w).
+PANEL_PX = 424
+#: The part of a narrow window's height viser's bottom sheet covers (a phone).
+PANEL_BOTTOM = 0.5
+
+
+def panel_share(width_px: int) -> tuple[float, float]:
+    """(right, bottom): the parts of a browser's 3D view its control panel covers, for a view ``width_px`` wide (as the
+    browser reports it: the canvas's width)."""
+    if width_px <= 0:
+        return PANEL_FRACTION, 0.0
+    if width_px < WIDE_PX:
+        return 0.0, PANEL_BOTTOM
+    # the reported width is the canvas's, in device pixels: viser lowers its resolution on a slow machine (0.75 of the
+    # CSS width here), which would overstate the panel; the clamp keeps the share a wide window's
+    return min(0.4, max(0.25, PANEL_PX / width_px)), 0.0
+
+
 #: Where the followed point is drawn, as fractions of the view from its middle: in a wide window the panel
 #: covers about the right quarter, so a little left; in a narrow one the panel lies over the lower half, so
 #: in the upper part (and the camera a little farther away, the view being narrow).
@@ -224,8 +257,8 @@ class CameraControl:
                 camera = client.camera
                 width = camera._state.image_width
                 aspect = width / max(camera._state.image_height, 1) or 1.6
-                panel = PANEL_FRACTION if width >= WIDE_PX else 0.0
-                position, look_at = top_down_pose(view, camera._state.fov or math.radians(50.0), aspect, panel)
+                right, bottom = panel_share(int(width))
+                position, look_at = top_down_pose(view, camera._state.fov or math.radians(50.0), aspect, right, bottom)
             else:
                 position, look_at = default_camera(view)
                 offset = (position - look_at) * (NARROW_ZOOM_OUT if is_narrow(client) else 1.0)

@@ -1,7 +1,10 @@
 """The 3D view's marks of what the planner does besides stepping (issue 14), drawn by `LiveScene`:
 
 - while the planner *stands* by choice (the current step horizon swings no leg), a slate outline joins the four
-  feet on the ground and a label above the robot says "standing (planner's choice)" (`app.live.view.STANDING`);
+  feet on the ground, once per stand horizon; a label above the robot says "standing (planner's choice)"
+  (`app.live.view.STANDING`) only while that is the robot's state (told to stay: `status_kind`), never on the
+  single horizons a walking robot stands (it would blink every 0.4-0.8 s on terrains where the planner stands
+  every other horizon; the status sentence counts them: "stood N");
 - a swing *retargeted* during its swing (`contactnet.planning.retarget`) flashes at its new landing for `FLASH_S` of
   simulated time: a cyan ring that pulses `PULSES` times (growing and blinking white), with a line from the old
   landing (still marked by the gold disk of the planner's first choice), which gets a small cross; both float
@@ -20,7 +23,7 @@ import trimesh
 import viser
 
 from app.live.step_events import FLASH_S, RetargetFlash
-from app.live.view import STANDING, LiveView, is_stand
+from app.live.view import STANDING, LiveView, is_stand, status_kind
 
 HIDDEN_POS = np.array([0.0, 0.0, -100.0], dtype=np.float32)  # where pooled instances wait, out of sight
 
@@ -80,7 +83,7 @@ def retarget_segments(flashes: tuple[RetargetFlash, ...], lift_m: float) -> np.n
 
 
 class StepMarks:
-    """The stand outline and label and the retarget flashes of one scene; `update(view)` draws a `LiveView`.
+    """The stand outline and label (the label only while standing is the robot's state) and the retarget flashes of one scene; `update(view)` draws a `LiveView`.
     `standing` and `flashes` say what is drawn now (tests)."""
 
     def __init__(self, server: viser.ViserServer, foot_radius_m: float):
@@ -122,7 +125,9 @@ class StepMarks:
         if standing != self.standing:
             self.standing = standing
             self.stand_outline.visible = standing
-            self.stand_label.visible = standing
+        labelled = standing and status_kind(view) == "standing"  # the robot's state, not one horizon's choice
+        if labelled != self.stand_label.visible:
+            self.stand_label.visible = labelled
 
     def _draw_flashes(self, view: LiveView) -> None:
         flashes = tuple(view.retarget_flashes[-RING_POOL:])

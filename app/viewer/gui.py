@@ -68,7 +68,7 @@ class ControlPanel:
         self.gait_planner = GaitPlannerPanel(gui, session, server.get_event_loop(), order=40)
         self.terrain = TerrainPanel(gui, terrains, order=45)
         self.editor = EditorPanel(server, terrains, order=50)
-        self.recording = RecordingPanel(gui, recorder, order=60)
+        self.recording = RecordingPanel(gui, recorder, order=60, session=session)
         self.toasts = NoticeToasts(server)
         self.panels: tuple[Panel, ...] = (
             self.status,

@@ -1,4 +1,6 @@
-"""What the panels share: submitting a command with an error notification, writing values back only
+"""What the panels share: telling the user something through the session's notices (`tell`: the one notification
+channel, the page's toasts and, in a 3D view opened on its own, viser's), submitting a command whose failure is
+told that way, writing values back only
 when the session's value changed (so a slider being dragged is not pulled back by a stale state), and
 `SessionControls`: controls that show a session value and change it, kept in step with the session.
 
@@ -23,25 +25,34 @@ from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Any
 
-from app.live.commands import Command
+from app.live.commands import Command, Notify
 from app.live.session import LiveSession
 
 
-def notify_error(client: Any, title: str):  # noqa: ANN201 - a Future callback
-    """A Future callback that shows the command's error (if any) to the browser that sent it."""
+def tell(session: LiveSession, title: str, body: str = "", level: str = "error") -> None:
+    """Tell the session's users ``title: body`` once, as a notice (`Notify`): the front page shows it as a toast, a
+    3D view opened on its own as viser's (`app.viewer.panels.notices`). One channel: the page hides viser's own
+    toasts in the 3D view it embeds, so nothing is said twice in two wordings."""
+    text = f"{title}: {body}" if body else title
+    session.submit(Notify(text[:500], level))
+
+
+def notify_error(session: LiveSession, title: str):  # noqa: ANN201 - a Future callback
+    """A Future callback that tells the command's error (if any) to the session's users (`tell`)."""
 
     def done(future: Future) -> None:
         exc = future.exception()
-        if exc is not None and client is not None:
-            client.add_notification(title, str(exc), color="red", auto_close_seconds=8.0)
+        if exc is not None:
+            tell(session, title, str(exc))
 
     return done
 
 
 def submit(session: LiveSession, command: Command, client: Any = None, title: str = "Command failed") -> Future:
-    """Queue ``command`` without waiting; a failure is shown to ``client`` under ``title``."""
+    """Queue ``command`` without waiting; a failure is told under ``title`` (`tell`). ``client``: the browser that
+    sent it (kept for callers; the notice goes to the session's users)."""
     future = session.submit(command)
-    future.add_done_callback(notify_error(client, title))
+    future.add_done_callback(notify_error(session, title))
     return future
 
 

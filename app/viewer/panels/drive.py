@@ -32,8 +32,8 @@ class DrivePanel:
             self.stop_button = gui.add_button(
                 "Stop (x)",
                 icon=viser.Icon.HAND_STOP,
-                hint="vx = vy = 0. Keys: I/K vx +-0.05, J/L vy +-0.05, X stop, P pause "
-                "(W/A/S/D/Q/E and arrows move the camera)",
+                hint="vx = vy = 0. Keys: I/K vx +-0.05, J/L vy +-0.05, X stop, P pause / run, R restart "
+                "(W/A/S/D/Q/E and arrows move the camera; on the front page ? lists every key)",
             )
             self.run_button = gui.add_button("Pause", icon=viser.Icon.PLAYER_PAUSE)
             self.reset_button = gui.add_button("Reset", icon=viser.Icon.REFRESH, color="red")
@@ -61,7 +61,7 @@ class DrivePanel:
         controls.on_change(("speed",), lambda: SetSpeed(float(self.speed.value)))
         controls.on_change(("loop",), lambda: SetLoop(bool(self.loop.value)))
         self.stop_button.on_click(lambda e: self.set_velocity(0.0, 0.0, e.client))
-        self.run_button.on_click(lambda e: self.toggle_pause(e.client))
+        self.run_button.on_click(lambda e: self.run_or_pause(e.client))
         self.reset_button.on_click(lambda e: submit(self.session, Reset(), e.client))
 
         @self.shadows.on_update
@@ -77,6 +77,7 @@ class DrivePanel:
             ("More to the right", "L", lambda c: self.nudge(0.0, -step, c)),
             ("Stop", "X", lambda c: self.set_velocity(0.0, 0.0, c)),
             ("Pause / run", "P", lambda c: self.toggle_pause(c)),
+            ("Restart the run", "R", lambda c: submit(self.session, Reset(), c)),
         )
         handles: dict[str, viser.CommandHandle] = {}
         for label, key, action in shortcuts:
@@ -94,14 +95,25 @@ class DrivePanel:
         submit(self.session, NudgeVelocity(dvx, dvy), client)  # relative: quick presses add up in the session
 
     def toggle_pause(self, client=None) -> None:  # noqa: ANN001
-        submit(self.session, TogglePause(), client)  # decided by the session thread: quick presses alternate
+        """The P key: decided by the session thread (quick presses alternate); at the end of a run it holds the
+        loop's count-down, never starts the next run."""
+        submit(self.session, TogglePause(), client)
+
+    def run_or_pause(self, client=None) -> None:  # noqa: ANN001
+        """The Pause / Run / Run again button: "Run again" (a finished run, nothing counting down) restarts."""
+        view = self.session.view
+        if view is not None and view.status.done is not None and view.run.restart_in_s is None and not view.status.paused:
+            submit(self.session, Reset(), client)
+        else:
+            self.toggle_pause(client)
 
     def refresh(self, view: LiveView) -> None:
         s, snap = view.status, view.snapshot
         vx, vy = snap.vel_cmd_xy
         for key, value in (("vx", round(vx, 2)), ("vy", round(vy, 2)), ("speed", s.speed), ("loop", view.run.loop)):
             self.controls.show(key, value, view.seq)
-        paused = s.paused or s.done is not None
-        if self._seen.changed("paused", (paused, s.done)):
-            self.run_button.label = ("Run again" if s.done else "Run") if paused else "Pause"
+        again = s.done is not None and view.run.restart_in_s is None and not s.paused  # nothing counts down
+        paused = s.paused or again
+        if self._seen.changed("paused", (paused, again)):
+            self.run_button.label = ("Run again" if again else "Run") if paused else "Pause"
             self.run_button.icon = viser.Icon.PLAYER_PLAY if paused else viser.Icon.PLAYER_PAUSE

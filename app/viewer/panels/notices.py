@@ -1,4 +1,5 @@
-"""Toasts in the 3D view: every new notice of the session (`LiveView.notices`: "Gait set to trot: the
+"""Toasts in the 3D view: every new notice of the session (the one notification channel: the front page shows the
+same notices as its own toasts and hides these in the 3D view it embeds) (`LiveView.notices`: "Gait set to trot: the
 robot restarted from the start", ...) shown once to every connected browser, and viser's own
 "Software WebGL rendering detected" toast closed on its own after a few seconds (it has no
 auto-close and would cover part of the scene on machines without a GPU)."""
@@ -54,7 +55,7 @@ class NoticeToasts:
         clients = list(self.server.get_clients().values())
         for notice in sorted(new, key=lambda n: n.seq):
             title, body = toast_text(notice.text)
-            color = "blue" if notice.level == "info" else "orange"
+            color = {"info": "blue", "warning": "orange"}.get(notice.level, "red")
             for client in clients:
                 client.add_notification(title, body, color=color, auto_close_seconds=NOTICE_SECONDS)
 

@@ -8,7 +8,7 @@ import viser
 
 from app.live.view import LiveView
 from app.recordings.recorder import LiveRecorder, RecordingConflict
-from app.viewer.panels.common import ChangeTracker
+from app.viewer.panels.common import ChangeTracker, tell
 
 log = logging.getLogger("contactnet.app.panels.recording")
 
@@ -18,8 +18,10 @@ IDLE_TEXT = "Recordings are listed on the front page."
 class RecordingPanel:
     """One start/stop button and a line saying what is being (or was last) recorded."""
 
-    def __init__(self, gui: viser.GuiApi, recorder: LiveRecorder, order: float = 60.0):
+    def __init__(self, gui: viser.GuiApi, recorder: LiveRecorder, order: float = 60.0, session=None):  # noqa: ANN001
+        """``session``: whose users are told what a click did (`tell`); None: the browser that clicked (tests)."""
         self.recorder = recorder
+        self.session = session
         self._seen = ChangeTracker()
         with gui.add_folder("Record", order=order, expand_by_default=False):
             self.record_button = gui.add_button("Start recording", icon=viser.Icon.PLAYER_RECORD, color="red")
@@ -30,13 +32,8 @@ class RecordingPanel:
             try:
                 if self.recorder.recording:
                     info = self.recorder.stop()
-                    if event.client is not None:
-                        event.client.add_notification(
-                            "Recording saved",
-                            f"{info.name} ({info.size_bytes / 1e6:.1f} MB): see the front page",
-                            color="green",
-                            auto_close_seconds=8,
-                        )
+                    self._tell(event.client, "Recording saved",
+                               f"{info.name} ({info.size_bytes / 1e6:.1f} MB): see Recordings on the front page", "info")
                 else:
                     self.recorder.start()
             except Exception as exc:  # noqa: BLE001 - shown to the user
@@ -44,9 +41,14 @@ class RecordingPanel:
                     log.warning("recording: %s", exc)
                 else:
                     log.exception("recording failed")
-                if event.client is not None:
-                    event.client.add_notification("Recording", str(exc), color="red", auto_close_seconds=8)
+                self._tell(event.client, "Recording", str(exc), "error")
             self._refresh_button()
+
+    def _tell(self, client, title: str, body: str, level: str) -> None:  # noqa: ANN001 - viser's ClientHandle
+        if self.session is not None:
+            tell(self.session, title, body, level)
+        elif client is not None:
+            client.add_notification(title, body, color="red" if level == "error" else "green", auto_close_seconds=8)
 
     def _refresh_button(self) -> None:
         recording = self.recorder.recording

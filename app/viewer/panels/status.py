@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import viser
 
-from app.live.view import CompareResult, LiveView, RunSummary, is_stand, status_line
+from app.live.view import CompareResult, LiveView, RunSummary, status_line
 from app.viewer.panels.common import ChangeTracker
 from contactnet.records import StepCounts
 
@@ -91,7 +91,6 @@ def details_markdown(view: LiveView) -> str:
         f"steps {snap.steps} · rank chosen {'n/a' if rank is None else rank} · "
         f"plan {snap.last_planner_ms:.2f} ms{mean_plan} · optimizer {snap.last_trajopt_ms:.1f} ms · "
         f"RTF {s.real_time_factor:.2f} · speed {s.speed:.2g}x",
-        f"{'**standing** (the planner chose not to step) · ' if is_stand(snap) else ''}"
         f"{kinds} "
         f"(retargeting {'on' if s.retarget else 'off'})",
     ]

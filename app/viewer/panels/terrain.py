@@ -6,6 +6,7 @@ import viser
 
 from app.live.editing import TerrainService
 from app.live.view import LiveView
+from app.viewer.panels.common import tell
 
 
 class TerrainPanel:
@@ -42,10 +43,7 @@ class TerrainPanel:
                 else:
                     self.terrains.load(name)
             except Exception as exc:  # noqa: BLE001 - shown to the user
-                if event.client is not None:
-                    event.client.add_notification(
-                        "Terrain not loaded", str(exc), color="red", auto_close_seconds=8
-                    )
+                tell(self.terrains.session, "Terrain not loaded", str(exc))
 
     def _options(self) -> tuple[str, ...]:
         return (*self.terrains.store.names(), "random")

@@ -31,6 +31,7 @@ from app.live.editor import EditError
 from app.live.terrain_files import import_upload, validate_upload
 from app.live.view import LiveView
 from app.scene.terrain_pick import ray_hit_xy, ray_to_plane
+from app.viewer.panels.common import tell
 from contactnet.terrain import TerrainError
 from contactnet.terrain.height_edits import cell_square, raise_cell, region_top_z, set_region_height
 
@@ -100,12 +101,9 @@ class EditorPanel:
         terrains.on_change(self._changed)
 
     # ---- helpers --------------------------------------------------------------------------------
-    @staticmethod
-    def _notify(client, title: str, body: str, error: bool = False, color: str | None = None) -> None:
-        if client is not None:
-            client.add_notification(
-                title, body, color=color or ("red" if error else "green"), auto_close_seconds=6.0 if error else 4.0
-            )
+    def _notify(self, client, title: str, body: str, error: bool = False, color: str | None = None) -> None:
+        """Tell the session's users (`tell`: the page's toasts); ``client`` and ``color`` are kept for callers."""
+        tell(self.terrains.session, title, body, "error" if error else "warning" if color == "orange" else "info")
 
     def _run(self, client, title: str, action: Callable[[], Any]) -> Any:
         try:
@@ -346,7 +344,7 @@ class EditorPanel:
         def load() -> None:  # strict JSON, validated once (app/live/terrain_files.py)
             terrain = validate_upload(uploaded.content, source=name)
             self.terrains.load_terrain(terrain, label=f"{terrain.name} (uploaded)")
-            self._notify(event.client, "Terrain loaded", f"{name}: {len(terrain.regions)} regions")
+            # (the session's own notice says it was loaded and the robot restarted)
 
         self._run(event.client, "Upload terrain", load)
 

@@ -1,0 +1,121 @@
+// The 3D view inside the front page: viser's client, served by this server at /viewer/ (the page's own origin:
+// only its websocket goes to viser's port), so the page can look into it.
+//
+// - A loading view covers the 3D view from the moment it is (re)loaded until it has its control panel and has drawn
+//   frames after that: a visitor never sees viser's developer panel (websocket address, scene tree, shown while the
+//   client has no GUI yet) or a blank area; the loading view says what is happening meanwhile. The scene is drawn
+//   opaque at once (viser would fade it in from 5 % once its lighting is ready: a ghost scene for many seconds).
+// - One notification channel: the page's toasts. viser's own toasts are hidden in the embedded view (the session's
+//   notices reach the page as toasts already; viser's "software WebGL" warning becomes one page toast).
+// - `?` and Esc pressed in the 3D view open and close the page's help (Keys.wireViewer).
+// A 3D view from another origin (a proxy that serves it elsewhere) cannot be looked into: the loading view then goes
+// once it has loaded and a few seconds passed.
+"use strict";
+
+const Embed = (() => {
+  const CHECK_MS = 250;
+  const FRAMES = 2;  // animation frames after the control panel arrived: the scene is drawn, not only received
+  const BLIND_MS = 4000;  // another origin: how long after its load the loading view stays
+  // viser's own toasts go (one channel); its canvas is drawn opaque from the first frame: viser keeps it at 5 %
+  // opacity until its environment lighting is decoded, then fades it in frame by frame, which a software renderer
+  // on a busy machine stretches to 20 s and more of a ghost scene (the lighting then just brightens a drawn one).
+  const EMBED_CSS = ".mantine-Notifications-root { display: none !important; }\n"
+    + "canvas[data-engine] { opacity: 1 !important; }";
+  const el = (id) => document.getElementById(id);
+  let generation = 0;  // one per load of the iframe: a check of an older load stops
+  let readyAt = null;  // performance.now() when the 3D view was shown (tests, the loading time)
+  let loadingSince = performance.now();
+  let toldSoftware = false;
+
+  function stage(text) {
+    el("loading-step").textContent = text;
+  }
+
+  function covering(on) {
+    el("loading").hidden = !on;
+    document.body.classList.toggle("viewer-loading", on);
+  }
+
+  /** What the 3D view's document shows: "connecting", or "panel" (its control panel arrived: the scene, sent
+   *  before it, is there to draw). */
+  function look(doc) {
+    const text = doc.body ? doc.body.textContent : "";
+    // Our control panel's status sentence ("walking · t 4.7 s · x ...") is its first element (app/viewer/gui.py).
+    const canvas = doc.querySelector("canvas[data-engine]");  // react-three-fiber's (the plots have canvases too)
+    return / · t \d+\.\d s · x /.test(text) && canvas !== null ? "panel" : "connecting";
+  }
+
+  function relaySoftwareWarning(doc) {
+    if (toldSoftware || !doc.body || !doc.body.textContent.includes("Software WebGL")) return;
+    toldSoftware = true;
+    Toasts.show("No GPU in use: the 3D view draws in software and may be slow (the panel's Shadows off helps, "
+      + "or add ?fixedDpr=0.5 to the page's address)", "warning", 9000);
+  }
+
+  function framesThen(win, n, done) {
+    if (n <= 0) { done(); return; }
+    win.requestAnimationFrame(() => framesThen(win, n - 1, done));
+  }
+
+  /** The iframe has (re)loaded: watch it until it shows the scene. */
+  function watch(frame) {
+    const mine = ++generation;
+    if (!/[?&]websocket=/.test(frame.getAttribute("src") || "")) {  // a recording played (playback.js): no panel
+      if (!el("loading").hidden) shown();
+      return;
+    }
+    let doc = null;
+    try { doc = frame.contentDocument; } catch (e) { doc = null; }
+    if (!doc) {  // another origin: wait a little, then show it
+      setTimeout(() => { if (mine === generation) shown(); }, BLIND_MS);
+      return;
+    }
+    const style = doc.createElement("style");
+    style.textContent = EMBED_CSS;
+    (doc.head || doc.documentElement).append(style);
+    Keys.wireViewer(doc);
+    const check = () => {
+      if (mine !== generation) return;
+      relaySoftwareWarning(doc);
+      if (look(doc) === "panel") {
+        stage("drawing the scene…");
+        framesThen(frame.contentWindow, FRAMES, () => { if (mine === generation) shown(); });
+        return;
+      }
+      stage(doc.body && doc.body.textContent.includes("Connected") ? "receiving the scene…"
+        : "connecting to the 3D view…");
+      setTimeout(check, CHECK_MS);
+    };
+    check();
+  }
+
+  function shown() {
+    readyAt = performance.now();
+    document.body.dataset.viewer = "shown";
+    covering(false);
+  }
+
+  /** Load `url` into the 3D view behind the loading view (`title`: what the loading view says it is waiting for). */
+  function load(url, title = "Opening the live session") {
+    generation++;
+    readyAt = null;
+    loadingSince = performance.now();
+    document.body.dataset.viewer = "loading";
+    el("loading-title").textContent = title;
+    stage("loading the 3D view…");
+    covering(true);
+    el("viewer").src = url;
+  }
+
+  function wire() {
+    const frame = el("viewer");
+    frame.addEventListener("load", () => { if (frame.getAttribute("src")) watch(frame); });
+  }
+
+  /** Seconds the last load took to show the scene (null while loading). */
+  function loadSeconds() {
+    return readyAt === null ? null : (readyAt - loadingSince) / 1000;
+  }
+
+  return { wire, load, loadSeconds };
+})();
