@@ -14,7 +14,8 @@ from contactnet.terrain import resolve
 
 def test_rows_flat_field_first_then_heights():
     """The flat random field's rows keep their order (with the network reference after each gait); the rows on
-    ``random_heights`` follow, for both gaits and planners, 0 and 100 squares removed, each ratio against 0."""
+    ``random_heights`` follow, for both gaits and planners, 0 and 100 squares removed, each ratio against 0 and
+    against the flat field's row."""
     rows = bench_planner(repeats=3, n_contexts=3)
     flat = [(r["gait"], r["planner"], r["holes"]) for r in rows[:10]]
     reference = "network forward pass only (reference)"
@@ -28,6 +29,10 @@ def test_rows_flat_field_first_then_heights():
         assert zero["vs_0_holes"] == 1.0
         assert hundred["vs_0_holes"] == hundred["median_us"] / zero["median_us"]
         assert zero["median_us"] > 0 and hundred["mean_rank"] is not None
+    on_flat = {(r["gait"], r["planner"], r["holes"]): r["median_us"] for r in rows[:10]}
+    for row in heights:  # each against the flat field's row of the same gait, planner and holes
+        assert row["vs_flat"] == row["median_us"] / on_flat[row["gait"], row["planner"], row["holes"]]
+    assert all(r.get("vs_flat") is None for r in rows[:10])
     table = format_table(rows).splitlines()
     assert table[0].split()[:4] == ["gait", "planner", "terrain", "holes"]
     assert len(table) == 2 + len(rows) == 20

@@ -3,6 +3,9 @@ paper's random field and on the same field with heights (``random_heights``, top
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
+
 import numpy as np
 
 from contactnet.bench.timing import pin_single_core, time_calls
@@ -46,6 +49,10 @@ def planning_contexts(gait, terrain, robot: RobotDescription, n: int, seed: int 
     return contexts
 
 
+#: Calls of one configuration timed in a row before the next configuration's turn (``bench_planner``).
+CHUNK = 25
+
+
 def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool = False,
                   robot_name: str = DEFAULT_ROBOT, terrains: tuple[str, ...] = TERRAINS) -> list[dict]:
     """One planning call (3 network evaluations + safety checks) of ContactNet and the fixed gait, on the
@@ -53,9 +60,13 @@ def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool 
     whether planning time grows with terrain complexity. The network's forward pass alone is the
     reference in the same run. Then the same on ``random_heights`` (the field with each square's top within
     +-3 cm), where the planner adds the height checks (``contactnet.planning.footholds``); its ``vs_0_holes`` is against
-    ``random_heights`` with 0 removed. Uses the shipped models (random weights when a model is missing, said so
-    in the ``model`` column). Planning is single-threaded; ``single_core`` also pins the process to CPU 0,
-    which on this 2-core machine makes it slower whenever anything else runs there, so it is off."""
+    ``random_heights`` with 0 removed, its ``vs_flat`` against the flat field with as many removed (same gait and
+    planner). Uses the shipped models (random weights when a model is missing, said so in the ``model`` column).
+
+    Every configuration is timed in turns of ``CHUNK`` calls, round after round, so that a change of the machine's
+    load during the run weighs on all of them alike and the ratios stay meaningful. Planning is single-threaded;
+    ``single_core`` also pins the process to CPU 0, which on this 2-core machine makes it slower whenever anything
+    else runs there, so it is off."""
     from contactnet.motion.gait import TROT, WALK
     from contactnet.planning.network_input import network_input_of_context
     from contactnet.terrain import random_field, resolve
@@ -63,51 +74,76 @@ def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool 
     robot = load_robot(robot_name)
     description = robot.description
     restore = pin_single_core() if single_core else None
-    rows = []
+    rows: list[dict] = []
+    timed: list[tuple[dict, Callable[[], object]]] = []  # (row, one call) in the table's order
     try:
         for terrain_name in terrains:
             for gait in (WALK.scaled(description.size_scale), TROT.scaled(description.size_scale)):  # sized
                 path = model_path(robot_name, gait.name)
                 model = path if path.exists() else _random_model_file(gait, robot_name)
                 for name in ("contactnet", "fixed"):
-                    medians: dict[int, float] = {}
                     for holes in HOLES:
                         terrain = resolve(terrain_name, removed=holes, seed=0)
                         contexts = planning_contexts(gait, terrain, description, n_contexts)
                         planner = make_planner(name, gait, robot, model=model)
-                        times, ranks = _time_plans(planner, contexts, repeats)
-                        medians[holes] = float(np.median(times))
-                        rows.append({
-                            "gait": gait.name, "planner": name, "terrain": terrain_name, "holes": holes,
-                            "median_us": medians[holes], "p99_us": float(np.percentile(times, 99)),
-                            "vs_0_holes": medians[holes] / medians[HOLES[0]],
-                            "mean_rank": float(np.mean(ranks)) if ranks else None,
-                            "model": "shipped" if path.exists() else "random weights",
-                        })
+                        row = {"gait": gait.name, "planner": name, "terrain": terrain_name, "holes": holes,
+                               "model": "shipped" if path.exists() else "random weights", "ranks": []}
+                        timed.append((row, _plan_call(planner, contexts, row["ranks"])))
+                        rows.append(row)
                 if terrain_name == TERRAINS[0]:
                     net = planner.model  # the float32 network the planner calls
                     u = network_input_of_context(planning_contexts(gait, random_field(0, 0), description, 1)[0])
-                    times = np.asarray(time_calls(lambda net=net, u=u: net.scores(u), repeats)) * 1e6
-                    rows.append({"gait": gait.name, "planner": "network forward pass only (reference)",
-                                 "holes": None, "median_us": float(np.median(times)),
-                                 "p99_us": float(np.percentile(times, 99))})
+                    row = {"gait": gait.name, "planner": "network forward pass only (reference)", "holes": None}
+                    timed.append((row, lambda net=net, u=u: net.scores(u)))
+                    rows.append(row)
+        times = _time_in_turns([call for _, call in timed], repeats)
     finally:
         if restore is not None:
             restore()
+    medians = {}
+    for (row, _), row_times in zip(timed, times, strict=True):
+        row["median_us"] = median = float(np.median(row_times))
+        row["p99_us"] = float(np.percentile(row_times, 99))
+        medians[row.get("terrain"), row["gait"], row["planner"], row["holes"]] = median
+    for row in rows:
+        if row["holes"] is None:
+            continue
+        key = (row["terrain"], row["gait"], row["planner"])
+        row["vs_0_holes"] = row["median_us"] / medians[(*key, HOLES[0])]
+        flat = medians.get((TERRAINS[0], *key[1:], row["holes"]), math.nan)
+        row["vs_flat"] = None if row["terrain"] == TERRAINS[0] else row["median_us"] / flat
+        ranks = row.pop("ranks")
+        row["mean_rank"] = float(np.mean(ranks)) if ranks else None
+        row["model"] = row.pop("model")
     return rows
 
 
-def _time_plans(planner, contexts: list, repeats: int) -> tuple[np.ndarray, list[int]]:  # noqa: ANN001
-    """Wall times (us) of ``repeats`` ``plan`` calls cycling through ``contexts``, and the rank of each first step."""
-    it = iter(range(10**9))
-    ranks: list[int] = []
+def _plan_call(planner, contexts: list, ranks: list[int]) -> Callable[[], None]:  # noqa: ANN001
+    """One ``plan`` call, cycling through ``contexts``; the rank of each first step goes to ``ranks``."""
+    it = iter(range(10**12))
 
     def call() -> None:
         steps = planner.plan(contexts[next(it) % len(contexts)])
         if steps[0].rank is not None:
             ranks.append(steps[0].rank)
 
-    return np.asarray(time_calls(call, repeats)) * 1e6, ranks
+    return call
+
+
+def _time_in_turns(calls: list[Callable[[], object]], repeats: int, warmup: int = 10) -> list[np.ndarray]:
+    """Wall times (us) of ``repeats`` calls of each of ``calls`` (after ``warmup`` untimed ones each), ``CHUNK`` calls
+    of each in turn."""
+    for call in calls:
+        for _ in range(warmup):
+            call()
+    times: list[list[float]] = [[] for _ in calls]
+    done = 0
+    while done < repeats:
+        chunk = min(CHUNK, repeats - done)
+        for call, call_times in zip(calls, times, strict=True):
+            call_times += time_calls(call, chunk, warmup=0)
+        done += chunk
+    return [np.asarray(call_times) * 1e6 for call_times in times]
 
 
 def _random_model_file(gait, robot_name: str) -> str:  # noqa: ANN001

@@ -4,7 +4,9 @@
 - ``footholds``: the foothold checks on terrain with heights;
 - ``planner``: the `Planner` protocol and the heuristic, ContactNet and fixed-gait planners
   (``oracle``: the cost evaluated online);
-- ``ranking`` (+ ``safe_walk``, compiled): the walk down a ranking to the first safe action;
+- ``ranking`` (+ ``safe_walk``, compiled): the walk down a ranking to the first safe action; on terrain with
+  heights compiled with the height checks (``heights_walk``, its point lookups ``heights_lookup``, what they read
+  ``heights_tables``);
 - ``stand``, ``capture``, ``retarget``, ``observer``: standing, the capture step, swing retargeting and
   the disturbance observer;
 - ``network``, ``network_input``, ``normalizer``, ``model_file``: the network's numpy inference, its

@@ -149,7 +149,8 @@ class FootholdChecker:
     long axes, the terrain looked up once for the swing paths and leg outlines together, every comparison with
     it in one reduction. The top and the foot ball's room at a small top's centre, the same for every candidate
     moved there, are remembered per top part (``_centres``). ``tests/test_planner_fast.py`` checks that
-    ``usable`` is the conjunction of ``evaluate``."""
+    ``usable`` is the conjunction of ``evaluate``. The planners' walk computes the same checks compiled, landing by
+    landing (``contactnet.planning.heights_walk``), and asks ``usable`` itself about a landing near a limit."""
 
     def __init__(self, robot: RobotDescription, checks: HeightChecks = HeightChecks()) -> None:
         self.legs = geo = LegGeometry.of(robot)

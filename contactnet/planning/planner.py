@@ -16,6 +16,7 @@ The exact teacher, `OraclePlanner`, lives in `contactnet.planning.oracle`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from contactnet.frames import rotate_xy
 from contactnet.motion.gait import GaitSpec
 from contactnet.planning.capture import DEFAULT_CAPTURE, CaptureConfig, capture_offset
 from contactnet.planning.footholds import FootholdChecker
+from contactnet.planning.heights_tables import CompiledHeights
 from contactnet.planning.network import NumpyContactNet
 from contactnet.planning.network_input import network_input_one, network_input_values
 from contactnet.planning.ranking import (
@@ -41,6 +43,7 @@ from contactnet.planning.ranking import (
     cell_grid,
     first_safe_step,
     step_in_place,
+    urgent_first,
 )
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
@@ -152,6 +155,12 @@ class HeuristicPlanner:
         return steps
 
 
+# A *cornered* leg (terrain with heights): one whose shank, knee or thigh would reach the terrain if it stood where it
+# is for CORNERED_LOOKAHEAD_STEPS more steps of the commanded motion (``FootholdChecker.stance_clear``: a hind foot
+# behind a higher top, the body moving on over it). The network knows nothing of heights and may keep such a leg
+# down until it touches, so the first step's ranking puts the actions that move a cornered leg forward first (each
+# part in its own order) and the robot does not stand. Actions that put a cornered leg more than
+# CORNERED_BACKSTEP_M further back are not promoted (that would corner it more). ``HeightsWalk`` does both.
 #: A cornered leg's step (``ContactNetPlanner``) is promoted only if it lands no further back than this (m).
 CORNERED_BACKSTEP_M = 0.01
 #: ... and a leg is cornered when its lower leg would reach the terrain this many steps of motion ahead.
@@ -201,6 +210,8 @@ class ContactNetPlanner:
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
         self.capture, self.idle = capture, idle
         self.footholds = FootholdChecker(robot)
+        self._compiled: CompiledHeights | None = None  # the compiled height checks (``_compiled_heights``)
+        self._heights_walk: HeightsWalk | None = None  # and the walk with them on the last terrain
         self.hip_xy_base = np.array(robot.hip_pos_base[:, :2], dtype=float)
         self.last_candidates: CandidateRanking | None = None
         # The hot path's constants: the network with its scores negated (an ascending sort ranks), when the
@@ -213,6 +224,7 @@ class ContactNetPlanner:
         self._may_stand = True  # with a model of N_a + 1 outputs (contactnet.planning.stand)
         # The centre of pressure's offset from the CoM per newton of horizontal force at the CoM height (h / (m g)).
         self._lean_m_per_n = robot.com_height_nominal_m / robot.weight_n
+        self._touchdown_s = float(touchdown_times_s(gait)[0])  # the first step's touchdown, from the plan's start
 
     def reset(self) -> None:
         self.last_candidates = None
@@ -221,12 +233,9 @@ class ContactNetPlanner:
         """The actions ranked at step ``step_index`` of this plan: ``range(first, stop)`` (all of them)."""
         return 0, self._n_actions
 
-    def _order(self, costs: np.ndarray, step_index: int) -> np.ndarray:
-        """Action indices best first (lower cost, i.e. higher score, first; ties in index order)."""
-        return self._ranking(costs, step_index)()
-
     def _ranking(self, costs: np.ndarray, step_index: int) -> Callable[[], np.ndarray]:
-        """A function making ``_order(costs, step_index)`` when called, even after the plan has moved on."""
+        """A function making the ranking of step ``step_index`` (action indices, best first: lower cost, i.e. higher
+        score, first; ties in index order) when called, even after the plan has moved on."""
         first, stop = self._group_range(step_index)
         if first == 0 and stop == self._n_actions:
             return lambda: costs.argsort(kind="stable")
@@ -339,73 +348,77 @@ class ContactNetPlanner:
     def _plan_with_heights(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
                            idle: bool = False) -> list[PlannedStep]:
         """``plan`` on a terrain with tops at several heights (see the class doc): ``first_safe_step`` with the
-        height checks, found faster (``HeightsWalk``). ``capture_xy``: the first step's grid shift (the hips at
-        touchdown, for the reach check, are not shifted), None for none; ``idle`` as in ``_plan_one_level``."""
-        gait = self.gait
+        height checks, the first step's ranking with the actions moving a cornered leg first (see
+        ``CORNERED_LOOKAHEAD_STEPS``), found faster (``HeightsWalk``, one per planner and terrain). ``capture_xy``:
+        the first step's grid shift (the hips at touchdown, for the reach check, are not shifted), None for none;
+        ``idle`` as in ``_plan_one_level``."""
+        gait, terrain = self.gait, ctx.terrain
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
         hips_world = self.hip_ref_xy_base @ to_world.T
         offsets_world = gait.cell_offsets_xy @ to_world.T
-        feet_xy = np.array(ctx.foot_pos_world, dtype=float)[:, 0:2]
+        feet = np.asarray(ctx.foot_pos_world, dtype=float)[:, 0:2].tolist()
         com = np.asarray(ctx.com_pos_world, dtype=float).tolist()
         vel = np.asarray(ctx.com_vel_world, dtype=float).tolist()
-        base_xy = np.array(ctx.base_xy_world, dtype=float)
+        base_x, base_y = np.asarray(ctx.base_xy_world, dtype=float).tolist()
         cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
         cmd = cmd_xy.tolist()
-        cmd_world = to_world @ cmd_xy
-        shift = cmd_world * gait.step_duration_s
-        shift_x, shift_y = shift.tolist()
-        terrain = ctx.terrain
-        ground_xy = _ground_xy(terrain)
-        tops = np.array([ground_xy(x, y) for x, y in feet_xy.tolist()])  # (4,) the support (contactnet.motion.ground)
-        ground_z = sum(tops.tolist()) / len(tops)
-        # each leg's hip (flexion joint) at touchdown, from the base at the start of the step
-        hips_touchdown = self.hip_xy_base @ to_world.T + cmd_world * touchdown_times_s(gait)[0]
+        cmd_world = (to_world @ cmd_xy).tolist()
+        shift_x, shift_y = cmd_world[0] * self._step_duration_s, cmd_world[1] * self._step_duration_s
         cos_yaw, sin_yaw = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
-        bases = [base_xy.tolist()]
+        bases = [[base_x, base_y]]
         for _ in range(1, self._steps_per_plan):
-            bases.append((np.array(bases[-1]) + shift).tolist())
+            base_x += shift_x
+            base_y += shift_y
+            bases.append([base_x, base_y])
         grid_bases = bases if capture_xy is None else [
             [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]], *bases[1:]]
-        walk = HeightsWalk(self._actions, terrain, self.margin_m, self.footholds, hips_world, offsets_world,
-                           grid_bases, ctx.yaw_rad)
+        walk = self._heights_walk
+        if walk is None or walk.terrain is not terrain or walk.compiled is not self._compiled_heights():
+            walk = self._heights_walk = HeightsWalk(
+                self._actions, terrain, self.margin_m, self._compiled_heights(), self.hip_xy_base, self._touchdown_s,
+                CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_BACKSTEP_M)
+        # the tops under the feet: the support (contactnet.motion.ground)
+        tops = walk.start(hips_world, offsets_world, grid_bases, ctx.yaw_rad, bases, cmd_world, feet,
+                          (float(c), float(s)))
+        ground_z = sum(tops) / len(tops)
+        costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):
-            costs, stand_cost = self._split_stand(self._costs(network_input_values(
-                feet_xy.tolist(), com, vel, cmd, cos_yaw, sin_yaw, ground_z)))
-            if j == 0 and capture_xy is not None:
-                stand_cost = None  # a pushed robot steps
-            order = self._order(costs, j)
-            hips_xy = np.array(bases[j]) + hips_touchdown
+            costs, stand_cost = self._split_stand(costs_of(network_input_values(feet, com, vel, cmd, cos_yaw, sin_yaw,
+                                                                                ground_z)))
+            span = self._group_range(j)
+            found = walk.first_usable(j, costs, span)
+            order = self._ranking(costs, j)
             if j == 0:
-                promoted = self._swing_cornered_legs_first(order, walk.grid(0), terrain, feet_xy, tops, base_xy,
-                                                           to_world, cmd_world, ctx.yaw_rad)
-                if promoted is not order:  # a leg is cornered: it steps, the robot does not stand
-                    order, stand_cost = promoted, None
-            found = walk.first_usable(j, order, feet_xy, tops, hips_xy)
+                grid = walk.grid(0)
+                if capture_xy is not None or walk.cornered is not None:
+                    stand_cost = None  # a pushed robot steps, and so does one with a cornered leg
+                    if walk.cornered is not None:
+                        order = functools.partial(_urgent_ranking, order, walk.urgent(span, grid), span[0])
             if self._stands(costs, stand_cost, found):
-                step, points = stand_step(gait, costs, stand_cost), []
-            elif idle and found is not None and useless_swing(self._actions.group[found[1]], found[2], feet_xy,
+                step, points, landing_tops = stand_step(gait, costs, stand_cost), [], []
+            elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,
                                                               self.idle.min_swing_m):
-                step, points = idle_stand_step(gait, found[0]), []
+                step, points, landing_tops = idle_stand_step(gait, found[0]), [], []
             elif found is None:  # nothing usable: step in place
-                step = step_in_place(gait, order, feet_xy, terrain)
-                points = step.footholds_xy_world.tolist()
+                step = step_in_place(gait, order(), np.array(feet), terrain)
+                points, landing_tops = [], []  # (the feet stay where they are)
             else:
-                rank, action, points = found
-                step = PlannedStep.ranked(self._actions.group[action], np.array(points), action, rank)
+                rank, action, points, landing_tops = found
+                step = PlannedStep.ranked(action_group[action], np.array(points), action, rank)
+                walk.took(action)
             if j == 0:
-                self.last_candidates = CandidateRanking(
-                    gait, order, walk.grid(0), terrain, self.margin_m, step.action_index,
-                    self._height_check(terrain, feet_xy.copy(), hips_xy, tops.copy(), ctx.yaw_rad))
+                self.last_candidates = CandidateRanking(gait, order, grid, terrain, self.margin_m, step.action_index,
+                                                        walk.check(0))
             steps.append(step)
             # The state a step later, as contactnet.planning.cost.predicted_state predicts it.
-            for leg, (x, y) in zip(step.legs, points, strict=True):
-                feet_xy[leg] = x, y
-                tops[leg] = ground_xy(x, y)
-            ground_z = sum(tops.tolist()) / len(tops)
+            for leg, point, top in zip(step.legs, points, landing_tops, strict=False):
+                feet[leg] = point
+                tops[leg] = top
+            ground_z = sum(tops) / len(tops)
             com = [com[0] + shift_x, com[1] + shift_y, ground_z + ctx.com_height_ref_m]
-            vel = [*cmd_world.tolist(), 0.0]
+            vel = [cmd_world[0], cmd_world[1], 0.0]
         return steps
 
     def replan_swing(self, ctx: PlanningContext, legs: tuple[int, ...]) -> PlannedStep | None:
@@ -431,28 +444,13 @@ class ContactNetPlanner:
         step = first_safe_step(gait, order, cells, feet_xy, terrain, self.margin_m, check)
         return None if step.action_index is None else step
 
-    def _swing_cornered_legs_first(self, order: np.ndarray, grid: Callable[[], np.ndarray], terrain: Terrain,
-                                   feet_xy: np.ndarray, tops: np.ndarray, base_xy: np.ndarray, to_world: np.ndarray,
-                                   cmd_world: np.ndarray, yaw_rad: float) -> np.ndarray:
-        """The ranking with the actions that move a *cornered* leg forward first (each part in its own order):
-        a leg whose shank, knee or thigh would reach the terrain if it stood where it is for
-        ``CORNERED_LOOKAHEAD_STEPS`` more steps of the commanded motion (a hind foot behind a higher top, the
-        body moving on over it). The network knows nothing of heights and may keep such a leg down until it
-        touches. Actions that put a cornered leg further back are not promoted (that would corner it more).
-        ``grid()`` makes the (4, cells_per_leg, 2) candidate grid (only needed when a leg is cornered)."""
-        lookahead_s = CORNERED_LOOKAHEAD_STEPS * self.gait.step_duration_s
-        ahead = base_xy + self.hip_xy_base @ to_world.T + cmd_world * lookahead_s
-        clear = self.footholds.stance_clear(terrain, feet_xy, tops, ahead, yaw_rad)
-        if clear.all():
-            return order
-        # Per grid cell (leg * cells_per_leg + cell): a cornered leg's cell no further back than the backstep.
-        cells = grid()  # (4, cells_per_leg, 2)
-        forward_x, forward_y = to_world[:, 0].tolist()
-        progress = (cells[:, :, 0] - feet_xy[:, 0, None]) * forward_x + (cells[:, :, 1] - feet_xy[:, 1, None]) * forward_y
-        promote = ((progress >= -CORNERED_BACKSTEP_M) & ~clear[:, None]).ravel()
-        landing = promote[self._actions.flat_array[order]]  # (K, legs per step)
-        urgent = landing[:, 0] if landing.shape[1] == 1 else np.logical_or.reduce(landing, axis=1)
-        return np.concatenate([order[urgent], order[~urgent]])
+    def _compiled_heights(self) -> CompiledHeights:
+        """The height checks compiled for this planner's checker and margin (``contactnet.planning.heights_walk``),
+        with the rasters of the last terrain planned on."""
+        compiled = self._compiled
+        if compiled is None or compiled.checker is not self.footholds or compiled.margin_m != self.margin_m:
+            compiled = self._compiled = CompiledHeights(self.footholds, self.margin_m)
+        return compiled
 
     def _height_check(self, terrain: Terrain, feet_xy: np.ndarray, hips_xy_world: np.ndarray, tops_z: np.ndarray,
                       yaw_rad: float) -> LandingCheck:
@@ -467,15 +465,10 @@ class ContactNetPlanner:
         return check
 
 
-def _ground_xy(terrain: Terrain) -> Callable[[float, float], float]:
-    """``terrain.ground_z`` of one point (x, y) in Python floats, on a terrain with several levels: the same answer."""
-    height_xy, surface_z = terrain.height_locator().height_xy, terrain.surface_z
-
-    def ground_xy(x: float, y: float) -> float:
-        z = height_xy(x, y)
-        return surface_z if z != z else z  # (NaN: no top)
-
-    return ground_xy
+def _urgent_ranking(ranking: Callable[[], np.ndarray], urgent: Callable[[], np.ndarray], first: int) -> np.ndarray:
+    """The first step's ranking with a cornered leg: ``ranking()`` with the ``urgent()`` actions (bool per action
+    from ``first``, ``HeightsWalk.urgent``) first, each part in its own order."""
+    return urgent_first(ranking(), urgent(), first)
 
 
 class FixedGaitPlanner(ContactNetPlanner):

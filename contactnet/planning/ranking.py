@@ -6,14 +6,16 @@ ranking (``CandidateRanking``)."""
 
 from __future__ import annotations
 
+import math
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from contactnet.motion.gait import GaitSpec
-from contactnet.planning import safe_walk
-from contactnet.planning.footholds import FootholdChecker
+from contactnet.planning import heights_walk, safe_walk
+from contactnet.planning.heights_tables import CompiledHeights
 from contactnet.terrain import Terrain
 
 
@@ -118,7 +120,9 @@ def step_in_place(gait: GaitSpec, order: np.ndarray, foot_pos_world: np.ndarray,
     """No safe candidate: lift a group of legs and put them back where they are. Groups are tried in the
     order their best action appears in ``order``; the first whose feet stand on safe ground is used
     (``safe=True``), else the first group with ``safe=False``."""
-    groups = list(dict.fromkeys(int(a) // gait.actions_per_group for a in np.asarray(order)))
+    group_of = np.asarray(order) // gait.actions_per_group
+    first_seen = np.unique(group_of, return_index=True)[1]
+    groups = group_of[np.sort(first_seen)].tolist()  # in the order their best action appears
     feet_xy = np.asarray(foot_pos_world, dtype=float)[:, 0:2]
     for group in groups:
         legs = gait.swing_groups[group]
@@ -281,107 +285,235 @@ class OneLevelWalk:
         return rank, index, points
 
 
-#: ``HeightsWalk``: the first batch of landing points whose height checks are run together is this many per leg of a
-#: step (8 on the walk's grid, 16 on the trot's); the next is all the rest.
-FIRST_BATCH_POINTS = 8
-_PENDING = object()  # a landing point whose height checks are asked in the current batch
+def _legs_of(bits: int) -> np.ndarray:
+    """(4,) bool, read-only: the legs whose bit is set in ``bits``."""
+    legs = np.array([bits & 1, bits & 2, bits & 4, bits & 8], dtype=bool)
+    legs.flags.writeable = False
+    return legs
+
+
+#: The cornered legs (4,) bool (read-only) of each bit mask, None for none (``HeightsWalk.cornered``).
+_CORNERED = (None, *(_legs_of(bits) for bits in range(1, 16)))
 
 
 class HeightsWalk:
     """``first_safe_step`` with the height checks (``contactnet.planning.footholds``) as its ``check``, for the steps of
-    one plan on a terrain with tops at several heights, found faster.
+    a plan on a terrain with tops at several heights, found faster: the compiled walk of
+    ``contactnet.planning.heights_walk`` (no sort: the first action of the ranking not ruled out is tried; each grid
+    cell placed, moved to the centre of a small top as ``FootholdChecker.centred`` does, and tested for safety and
+    ``FootholdChecker.usable``'s checks at most once), with the questions it leaves here answered: a point where
+    only shapely can answer (``TopParts.locator.index_xy``, ``PointLocator.covers_xy``, ``HeightLocator.height_xy``,
+    ``Terrain.height_at`` of the ring around the foot ball), a top part's centre (``FootholdChecker._centres``), and
+    a landing or a stance whose check lies too close to its limit for the compiled floats (``FootholdChecker.usable``
+    and ``stance_clear`` themselves). The same choice as ``first_safe_step``, and the same floats: a landing point
+    is (base + hip reference) + cell offset as there, or the top's centre.
 
-    Down the ranking, each landing point is placed (the candidate grid's cell, moved to the centre of a small
-    top: ``FootholdChecker.centred``, with ``TopParts.locator.index_xy``) and tested for safety one at a time
-    in Python floats (``PointLocator.covers_xy``); the safe ones whose height checks are not known yet are
-    gathered, ``FIRST_BATCH_POINTS`` per leg of a step (then all the rest), and checked together in one call of
-    ``FootholdChecker.usable`` (which costs about the same for one point as for a hundred). The walk stops at
-    the first action whose points are all safe and usable, as ``first_safe_step`` does. The same choice and the
-    same floats: a landing point is (base + hip reference) + cell offset as there, or the top's centre."""
+    One walk serves a planner's plans on one terrain: ``start`` begins a plan (and reads the tops under the feet),
+    ``first_usable`` walks a step, ``took`` says which action the step took. The plan's state lives in one array
+    (``plan``). ``hip_xy_base`` (4, 2) are the hips (flexion joints) in the base frame; a step's hips at touchdown
+    are its hip base + the hips turned into the world + the commanded velocity x ``touchdown_s``. On the first step
+    the legs whose stance would corner them with the hips ``lookahead_s`` of motion further
+    (``FootholdChecker.stance_clear``) are ``cornered``, and the actions landing one of them at most ``backstep_m``
+    behind its foot along the heading go first."""
 
-    def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, checker: FootholdChecker,
-                 hips_world: np.ndarray, offsets_world: np.ndarray, bases: list[list[float]], yaw_rad: float) -> None:
-        self.actions, self.terrain, self.margin_m, self.checker = actions, terrain, margin_m, checker
+    def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, compiled: CompiledHeights,
+                 hip_xy_base: np.ndarray, touchdown_s: float, lookahead_s: float = 0.0,
+                 backstep_m: float = 0.0) -> None:
+        self.actions, self.terrain, self.margin_m, self.compiled = actions, terrain, margin_m, compiled
+        self.checker, self.hip_xy_base = compiled.checker, hip_xy_base
+        self.touchdown_s, self.lookahead_s = touchdown_s, lookahead_s
+        self.tables, self.constants = compiled.tables(terrain), compiled.constants
+        self._scratch = compiled.scratch(4 * actions.cells_per_leg, len(actions.flat))
+        self._constants = [backstep_m, terrain.surface_z, touchdown_s, lookahead_s]
+        self._legs_per_step = actions.legs_per_step
+        self.plan = np.zeros(0)
+        self.cornered: np.ndarray | None = None  # (4,) bool after step 0's walk, None when no leg is cornered
+        self._moved = -1  # the action the last step took
+        self._urgent: np.ndarray | None = None  # step 0's urgent actions when its walk found none usable
+
+    def start(self, hips_world: np.ndarray, offsets_world: np.ndarray, bases: list[list[float]], yaw_rad: float,
+              hip_bases: list[list[float]], cmd_world: list[float], feet: list[list[float]],
+              forward_xy: tuple[float, float]) -> list[float]:
+        """Begin a plan; the tops under the feet (``Terrain.ground_z``). ``hips_world`` (4, 2) and ``offsets_world``
+        (cells_per_leg, 2): the hip references and the cell offsets in the world frame; ``bases``: each step's base
+        for the candidate grid, ``hip_bases`` for the hips; ``cmd_world`` the commanded velocity; ``feet`` where
+        the feet stand; ``forward_xy`` the heading's cosine and sine (numpy's)."""
+        # (the kernels read arrays as C-contiguous: ``heights_lookup.borrow``)
+        hips_world, offsets_world = np.ascontiguousarray(hips_world, float), np.ascontiguousarray(offsets_world, float)
         self.hips_world, self.offsets_world, self.bases, self.yaw_rad = hips_world, offsets_world, bases, yaw_rad
-        self.hips, self.offsets = hips_world.tolist(), offsets_world.tolist()
-        self.parts = terrain.top_parts()
-        self.part_at = self.parts.locator.index_xy
-        self.centres, self.inradius = self.parts.lists
-        self.small_inradius = checker.checks.small_top_inradius_m
-        self.covers = terrain.safe_locator(margin_m).covers_xy
+        self.hip_bases, self.cmd_world, self.forward_xy = hip_bases, cmd_world, forward_xy
+        self.cornered, self._moved = None, -1
+        plan = self.plan
+        if plan.size != 30 + 4 * len(bases):
+            plan = self.plan = np.zeros(30 + 4 * len(bases))
+            plan[:heights_walk.PER_PLAN] = self._constants
+            self._pack = struct.Struct(f"{plan.size - heights_walk.PER_PLAN}d").pack_into  # (3x numpy's list copy)
+            self._plan_bytes = memoryview(plan).cast("B")
+        nan = math.nan
+        self._pack(self._plan_bytes, 8 * heights_walk.PER_PLAN, math.cos(yaw_rad), math.sin(yaw_rad), *forward_xy,
+                   *cmd_world, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, *feet[0], *feet[1], *feet[2], *feet[3], nan, nan,
+                   nan, nan, *sum(bases, []), *sum(hip_bases, []))
+        scratch, tables = self._scratch, self.tables
+        self._arguments = (self.actions.flat_array, hips_world, offsets_world, plan, scratch.flags, scratch.values,
+                           tables.floats, tables.ints, tables.wide_codes, tables.narrow_codes, self.constants.floats)
+        while True:
+            leg = heights_walk.prepare(plan, *self._arguments[6:])
+            if leg < 0:
+                return plan[heights_walk.TOPS: heights_walk.TOPS + 4].tolist()
+            z = tables.heights.height_xy(*plan[heights_walk.FEET + 2 * leg: heights_walk.FEET + 2 * leg + 2].tolist())
+            plan[heights_walk.TOPS + leg] = self.terrain.surface_z if z != z else z
+
+    def took(self, action: int | None) -> None:
+        """The last step took ``action`` (its landing points as ``first_usable`` found them), None for one that
+        moved no foot (standing, or a step in place)."""
+        self._moved = -1 if action is None else action
+
+    def feet_xy(self) -> np.ndarray:
+        """(4, 2) where the feet stand now."""
+        return self.plan[heights_walk.FEET: heights_walk.FEET + 8].reshape(4, 2).copy()
+
+    def tops(self) -> np.ndarray:
+        """(4,) the tops under the feet now."""
+        return self.plan[heights_walk.TOPS: heights_walk.TOPS + 4].copy()
+
+    def hips_at(self, step: int, after_s: float | None = None) -> Callable[[], np.ndarray]:
+        """A function making the (4, 2) hips at step ``step``'s touchdown (or ``after_s`` after its start), numpy's
+        arithmetic, from the plan now."""
+        c, s = self.forward_xy
+        hip_xy_base, hip_base, cmd_world = self.hip_xy_base, self.hip_bases[step], self.cmd_world
+        touchdown_s = self.touchdown_s
+
+        def make() -> np.ndarray:
+            hips_base = hip_xy_base @ np.array([[c, -s], [s, c]]).T
+            if after_s is None:
+                return np.array(hip_base) + (hips_base + np.array(cmd_world) * touchdown_s)
+            return np.array(hip_base) + hips_base + np.array(cmd_world) * after_s
+
+        return make
+
+    def check(self, step: int) -> LandingCheck:
+        """The height checks of landing points from the state now, as step ``step`` makes them
+        (``FootholdChecker.usable``; for views: the state is read now, the rest when the check is first called)."""
+        plan, hips_at, checker, terrain, yaw_rad = self.plan.copy(), self.hips_at(step), self.checker, self.terrain, \
+            self.yaw_rad
+
+        def usable(legs: np.ndarray, landing_xy: np.ndarray) -> np.ndarray:
+            feet = plan[heights_walk.FEET: heights_walk.FEET + 8].reshape(4, 2)
+            tops = plan[heights_walk.TOPS: heights_walk.TOPS + 4]
+            return checker.usable(terrain, legs, landing_xy, feet[legs], hips_at()[legs], tops, yaw_rad)
+
+        return usable
 
     def grid(self, step: int) -> Callable[[], np.ndarray]:
         """A function making step ``step``'s (4, cells_per_leg, 2) candidate grid, small tops' cells centred
         (``FootholdChecker.centred``'s points)."""
+        small_inradius, parts = self.checker.checks.small_top_inradius_m, self.tables.parts
+        (base_x, base_y), hips_world, offsets_world = self.bases[step], self.hips_world, self.offsets_world
+
         def make() -> np.ndarray:
-            base_x, base_y = self.bases[step]
-            x = (base_x + self.hips_world[:, 0])[:, None] + self.offsets_world[:, 0]  # (4, cells per leg)
-            y = (base_y + self.hips_world[:, 1])[:, None] + self.offsets_world[:, 1]
+            x = (base_x + hips_world[:, 0])[:, None] + offsets_world[:, 0]  # (4, cells per leg)
+            y = (base_y + hips_world[:, 1])[:, None] + offsets_world[:, 1]
             grid = np.empty(x.shape + (2,))
             grid[..., 0], grid[..., 1] = x, y
             points = grid.reshape(-1, 2)
-            part = self.parts.locator.indices_of(np.array([x.ravel(), y.ravel()]))
-            small = (part >= 0) & (self.parts.inradius_m[part] <= self.small_inradius)
-            points[small] = self.parts.centres_xy[part[small]]
+            part = parts.locator.indices_of(np.array([x.ravel(), y.ravel()]))
+            small = (part >= 0) & (parts.inradius_m[part] <= small_inradius)
+            points[small] = parts.centres_xy[part[small]]
             return grid
         return make
 
-    def first_usable(self, step: int, ranking: np.ndarray, feet_xy: np.ndarray, tops_z: np.ndarray,
-                     hips_xy_world: np.ndarray) -> tuple[int, int, list[list[float]]] | None:
-        """(rank, action, its landing points) of the first action of ``ranking`` whose landing points are all
-        safe and usable from the state ``feet_xy`` (4, 2), ``tops_z`` (4,), hips at touchdown ``hips_xy_world``
-        (4, 2) (see ``FootholdChecker.usable``), None if there is none."""
-        n_cells = self.actions.cells_per_leg
-        place: list = [None] * (4 * n_cells)  # per grid cell: (x, y, part, at centre) if safe, else False
-        usable: list = [None] * (4 * n_cells)  # per grid cell: its height checks (or _PENDING)
-        flat_lists, order = self.actions.flat, ranking.tolist()
-        start, limit = 0, FIRST_BATCH_POINTS * self.actions.legs_per_step
+    def first_usable(self, step: int, costs: np.ndarray,
+                     span: tuple[int, int]) -> tuple[int, int, list[list[float]], list[float]] | None:
+        """(rank, action, its landing points, the tops under them) of the first action of the ranking (``costs``
+        of the actions ``span`` = (first, stop) in stable ascending order; on step 0 with a cornered leg the actions
+        moving it forward first: ``urgent``) whose landing points are all safe and usable from the state now (see
+        ``FootholdChecker.usable``); None if there is none."""
+        first, stop = span
+        fresh, moved = (2 if step == 0 else 1), self._moved
+        costs = np.ascontiguousarray(costs)
         while True:
-            pending: list[int] = []
-            for rank in range(start, len(order)):
-                action = order[rank]
-                flats, known = flat_lists[action], True
-                for flat in flats:
-                    spot = place[flat]
-                    if spot is None:
-                        spot = place[flat] = self._place(step, flat)
-                    if spot is False or usable[flat] is False:
-                        break
-                    known = known and usable[flat] is True
-                else:
-                    if known:  # safe and usable: the choice, unless a point before awaits its checks
-                        if not pending:
-                            return rank, action, [place[flat][:2] for flat in flats]
-                        break
-                    for flat in flats:
-                        if usable[flat] is None:
-                            usable[flat] = _PENDING
-                            pending.append(flat)
-                    if len(pending) >= limit:
-                        break
-                    continue
-                if not pending:
-                    start = rank + 1  # every action before is unusable
-            if not pending:
-                return None
-            legs = np.array(pending) // n_cells
-            spots = [place[flat] for flat in pending]
-            result = self.checker.usable(
-                self.terrain, legs, np.array([spot[:2] for spot in spots]), feet_xy[legs], hips_xy_world[legs],
-                tops_z, self.yaw_rad, part=np.array([spot[2] for spot in spots]),
-                at_centre=np.array([spot[3] for spot in spots])).tolist()
-            for flat, ok in zip(pending, result, strict=True):
-                usable[flat] = ok
-            limit = len(place)
+            status, rank, action, kind, index, x0, y0, z0, x1, y1, z1 = heights_walk.walk_step(
+                costs, first, stop, step, fresh, moved, *self._arguments)
+            if status != heights_walk.ASK:
+                break
+            fresh, moved = 0, -1
+            if kind == heights_walk.STANCE:  # numpy's checks decide
+                clear = self.checker.stance_clear(self.terrain, self.feet_xy(), self.tops(),
+                                                  self.hips_at(0, self.lookahead_s)(), self.yaw_rad)
+                self._scratch.cornered[:] = ~clear
+                fresh = 1
+            else:
+                self._answer(step, kind, index)
+        self._moved = -1
+        if step == 0:  # kind: the cornered legs, a bit each
+            self.cornered = _CORNERED[kind]
+            self._urgent = None
+        if status == heights_walk.NONE:
+            if step == 0 and kind:  # every action's urgency is known (none usable): its ranking needs them
+                self._urgent = self._scratch.urgent[first:stop] == 2
+            return None
+        if self._legs_per_step == 1:
+            return rank, action, [[x0, y0]], [z0]
+        if self._legs_per_step == 2:
+            return rank, action, [[x0, y0], [x1, y1]], [z0, z1]
+        item = self._scratch.points.item  # (x, y, part, top) per landing point
+        flats = self.actions.flat[action]
+        return rank, action, [[item(flat, 0), item(flat, 1)] for flat in flats], [item(flat, 3) for flat in flats]
 
-    def _place(self, step: int, flat: int) -> list | bool:
-        """Grid cell ``flat`` of step ``step``: [x, y, top part, moved to its centre] if safe there, else False."""
-        leg, cell = divmod(flat, self.actions.cells_per_leg)
-        base_x, base_y = self.bases[step]
-        x = (base_x + self.hips[leg][0]) + self.offsets[cell][0]
-        y = (base_y + self.hips[leg][1]) + self.offsets[cell][1]
-        part = self.part_at(x, y)
-        at_centre = part >= 0 and self.inradius[part] <= self.small_inradius
-        if at_centre:
-            x, y = self.centres[part]
-        return [x, y, part, at_centre] if self.covers(x, y) else False
+    def urgent(self, span: tuple[int, int], grid: Callable[[], np.ndarray]) -> Callable[[], np.ndarray]:
+        """A function making step 0's urgent actions (bool per action of ``span``), which its ranking puts first:
+        those landing a cornered leg no further back than the backstep (numpy's arithmetic on the walk's numbers,
+        read now; ``grid``: ``grid(0)``). Call after step 0's walk, with a leg cornered."""
+        plan, cornered, (forward_x, forward_y), flat = self.plan.copy(), self.cornered, self.forward_xy, \
+            self.actions.flat_array[span[0]: span[1]]
+        known = self._urgent  # the walk's, when it found nothing
+
+        def make() -> np.ndarray:
+            if known is not None:
+                return known
+            cells = grid()  # (4, cells_per_leg, 2)
+            feet = plan[heights_walk.FEET: heights_walk.FEET + 8].reshape(4, 2)
+            progress = ((cells[:, :, 0] - feet[:, 0, None]) * forward_x
+                        + (cells[:, :, 1] - feet[:, 1, None]) * forward_y)
+            promote = ((progress >= -plan[heights_walk.BACKSTEP]) & cornered[:, None]).ravel()
+            return np.logical_or.reduce(promote[flat], axis=1)
+
+        return make
+
+    def _answer(self, step: int, kind: int, index: int) -> None:
+        """Answer the compiled walk's question ``kind`` about grid cell (or, for ``CENTRE``, top part) ``index``."""
+        tables = self.tables
+        if kind == heights_walk.CENTRE:
+            tables.answer_centre(index)
+            return
+        scratch = self._scratch
+        points, answers, answered = scratch.points, scratch.answers, scratch.answered
+        x, y = points[index, 0].item(), points[index, 1].item()
+        if kind == heights_walk.PART:
+            value = tables.parts.locator.index_xy(x, y)
+        elif kind == heights_walk.SAFE:
+            value = tables.safe_covers(x, y)
+        elif kind == heights_walk.TOP:
+            value = tables.heights.height_xy(x, y)
+        elif kind == heights_walk.RING:
+            ring = slice(heights_walk.RING, heights_walk.RING + heights_walk.RING_POINTS)
+            answers[index, ring] = self.terrain.height_at(points[index, :2] + self.constants.ring, outside=-np.inf)
+            answered[index, ring] = 1
+            return
+        else:  # UNSURE: numpy's checks decide
+            legs = np.array([index // self.actions.cells_per_leg])
+            at_centre = scratch.cell_state[heights_walk.CENTRED, index: index + 1] != 0
+            value = self.checker.usable(self.terrain, legs, points[index: index + 1, :2], self.feet_xy()[legs],
+                                        self.hips_at(step)()[legs], self.tops(), self.yaw_rad,
+                                        part=points[index: index + 1, 2].astype(np.intp), at_centre=at_centre)[0]
+        answers[index, kind] = float(value)
+        answered[index, kind] = 1
+
+
+def urgent_first(order: np.ndarray, urgent: np.ndarray | None, first: int = 0) -> np.ndarray:
+    """``order`` (action indices from ``first``) with the ``urgent`` ones (bool per action of the span) first, each
+    part in its own order (``HeightsWalk``'s ranking with a cornered leg)."""
+    if urgent is None:
+        return order
+    mask = urgent[order - first]
+    return np.concatenate([order[mask], order[~mask]])
