@@ -107,11 +107,12 @@ const sceneActions = {
 };
 
 /** What the keys do (keys.js): the same as the 3D view's hotkeys (app/viewer/panels/drive.py), through the API. */
+const live = (action) => (...args) => (playing() ? null : action(...args));  // not while a recording plays
 const keyActions = {
-  nudge: (dvx, dvy) => act("Key", () => post("/api/command/nudge", { dvx, dvy })),
-  stop: () => act("Stop (X)", () => post("/api/command", { vx: 0, vy: 0 })),
-  pause: () => act("Pause (P)", () => post("/api/pause/toggle")),
-  restart: () => act("Restart (R)", () => post("/api/reset")),
+  nudge: live((dvx, dvy) => act("Key", () => post("/api/command/nudge", { dvx, dvy }))),
+  stop: live(() => act("Stop (X)", () => post("/api/command", { vx: 0, vy: 0 }))),
+  pause: live(() => act("Pause (P)", () => post("/api/pause/toggle"))),
+  restart: live(() => act("Restart (R)", () => post("/api/reset"))),
   escape: () => {  // Esc closes the end-of-run card
     if ($("run-card").hidden) return false;
     $("run-close").click();
@@ -519,6 +520,8 @@ function wireControls() {
 async function main() {
   const watching = Visits.watchId();
   if (watching) {
+    Embed.wire({ panel: false });  // the loading view until the watched scene is drawn
+    Keys.wire(null);  // ? and its glossary; no key drives a watched robot
     await Visits.watch(watching, api, viewerUrl);
     return;
   }

@@ -26,6 +26,7 @@ const Embed = (() => {
   let readyAt = null;  // performance.now() when the 3D view was shown (tests, the loading time)
   let loadingSince = performance.now();
   let toldSoftware = false;
+  let needsPanel = true;  // a watcher's 3D view (/?watch=ID) has no control panel: its canvas is enough
 
   function stage(text) {
     el("loading-step").textContent = text;
@@ -42,7 +43,8 @@ const Embed = (() => {
     const text = doc.body ? doc.body.textContent : "";
     // Our control panel's status sentence ("walking · t 4.7 s · x ...") is its first element (app/viewer/gui.py).
     const canvas = doc.querySelector("canvas[data-engine]");  // react-three-fiber's (the plots have canvases too)
-    return / · t \d+\.\d s · x /.test(text) && canvas !== null ? "panel" : "connecting";
+    const panel = !needsPanel || / · t \d+\.\d s · x /.test(text);
+    return panel && canvas !== null ? "panel" : "connecting";
   }
 
   function relaySoftwareWarning(doc) {
@@ -107,7 +109,9 @@ const Embed = (() => {
     el("viewer").src = url;
   }
 
-  function wire() {
+  /** Watch every load of the 3D view; `options.panel` false: it has no control panel (a watcher's page). */
+  function wire(options = {}) {
+    needsPanel = options.panel !== false;
     const frame = el("viewer");
     frame.addEventListener("load", () => { if (frame.getAttribute("src")) watch(frame); });
   }

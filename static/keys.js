@@ -31,6 +31,11 @@ const Keys = (() => {
   const GLOSSARY = {
     walking: "the robot follows the commanded velocity; a step horizon the planner stands is still walking (see stood)",
     "standing (planner's choice)": "told to stay (command 0, 0), the planner keeps all four feet down: a choice, not a pause",
+    paused: "the simulation clock stands still (P, or Run, runs it)",
+    "waiting for a browser": "the robot waits at the start until a browser shows the 3D view (or Run is pressed)",
+    "starting in": "a short count-down before the robot moves, so the 3D view has drawn the scene",
+    "GOAL REACHED": "the base crossed the goal line; the end-of-run card sums the run up",
+    FELL: "the run ended in a fall: the base too low or tilted, or a body other than a foot touching something",
     t: "simulated time since this run started, in seconds",
     x: "forward position of the base, in metres, and how far it is from the start to the goal line",
     steps: "step horizons in which legs swung (stands are not steps)",
@@ -66,7 +71,7 @@ const Keys = (() => {
     const text = part.trim();
     if (GLOSSARY[text]) return GLOSSARY[text];
     const words = Object.keys(GLOSSARY).sort((a, b) => b.length - a.length);  // "swing retargets" before "run"
-    const word = words.find((w) => text === w || text.startsWith(w + " ") || text.startsWith(w + ":"));
+    const word = words.find((w) => text === w || [" ", ":", ";"].some((end) => text.startsWith(w + end)));
     return word ? GLOSSARY[word] : "";
   }
 
@@ -161,7 +166,7 @@ const Keys = (() => {
   }
 
   /** Listen on the page; `handlers`: {nudge(dvx, dvy), stop, pause, restart, escape} (escape returns
-   *  whether it closed something). */
+   *  whether it closed something), or null: only ? and Esc (a watcher's page). */
   function wire(handlers) {
     actions = handlers;
     build();
