@@ -153,9 +153,16 @@ def check_player(page, frame, track: dict, screenshot: str) -> None:  # noqa: AN
         sim = track["frames"]["sim_t"][i]
         assert track["frames"]["rec_t"][i] <= t + 1e-6
         assert header_t(page) == pytest.approx(sim, abs=0.051)
-    # a click on the push marker: the player goes there (and stays, paused)
-    markers.first.dispatch_event("click")
-    wait_for(lambda: abs(scrubber(frame)[0] - pushes[0]["rec_t"]) < 0.01, what="the player at the push", timeout=60)
+    # a click on the push marker: the player goes there (and stays, paused); a click the busy page lost is repeated
+    for attempt in range(3):
+        markers.first.dispatch_event("click")
+        try:
+            wait_for(lambda: abs(scrubber(frame)[0] - pushes[0]["rec_t"]) < 0.01, what="the player at the push",
+                     timeout=20)
+            break
+        except AssertionError:
+            if attempt == 2:
+                raise AssertionError(f"the player is at {scrubber(frame)}, not at the push {pushes[0]}") from None
     wait_for(lambda: "push (+0.0, +3.0) N" in page.locator(".pb-event").inner_text(), what="the push named", timeout=30)
     time.sleep(2.0)  # the 3D view draws the frame (software rendering)
     assert abs(scrubber(frame)[0] - pushes[0]["rec_t"]) < 0.01  # paused there
@@ -214,4 +221,5 @@ def test_the_exported_html_plays_the_same_offline(live, browser, tmp_path):
         assert page.title().startswith("Pushed sideways")
     finally:
         page.close()
-    assert not [u for u in requests if u.startswith(("http:", "https:"))]  # nothing from a network
+    fetched = [u for u in requests if u.startswith(("http:", "https:"))]
+    assert not fetched, f"the one-file player fetched {fetched[:5]}"  # nothing from a network
