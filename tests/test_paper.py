@@ -8,12 +8,15 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from contactnet.cli import main
 from contactnet.jobs.experiment import ExperimentError
 from contactnet.jobs.paper.plan import (
     FRONTIER_SECTIONS,
+    PAPER_SECTIONS,
+    RobotSizing,
     Section,
     frontier_sections,
     plan_trials,
@@ -345,6 +348,39 @@ def test_a_tiny_paper_run_in_mujoco_says_so_and_keeps_to_its_folder(tmp_path):
         run_paper(out, scale=0.001, workers=1, progress=False, sections=TINY[2:], command="tiny")
 
 
+def test_the_plan_for_another_robot_sizes_its_pushes_payloads_and_scenes():
+    # Solo12: the plan as the paper's (forces 5 N, payload 0.5 kg at 5 cm); Go2: the same fractions of its weight
+    # (13.7 kg / 2.5 kg) and size, every trial Go2's (its scenes built at its size by registry.terrain_for).
+    solo, go2 = (plan_trials(PAPER_SECTIONS, 0.01, robot=robot) for robot in ("solo12", "go2"))
+    assert RobotSizing.of("solo12") == RobotSizing()
+    sizing = RobotSizing.of("go2")
+    assert 6.0 < sizing.weight_ratio < 7.0 and 1.2 < sizing.size_scale < 1.5
+    assert {t.robot for ts in go2.values() for t in ts} == {"go2"}
+    assert {k: len(v) for k, v in solo.items()} == {k: len(v) for k, v in go2.items()}
+    for a, b in zip(solo["push"], go2["push"], strict=True):
+        assert a.push_t0_s == b.push_t0_s
+        assert abs(float(np.hypot(*a.push_force_xy)) - 5.0) < 1e-3  # components rounded to 0.1 mN
+        assert abs(float(np.hypot(*b.push_force_xy)) - round(5.0 * sizing.weight_ratio, 1)) < 1e-3
+    payloads = [(a.mismatch, b.mismatch) for a, b in zip(solo["robustness"], go2["robustness"], strict=True)
+                if a.mismatch.payload_kg]
+    assert payloads and all(b.payload_kg == round(a.payload_kg * sizing.weight_ratio, 3) and
+                            b.payload_offset_xy_m[0] == round(a.payload_offset_xy_m[0] * sizing.size_scale, 4)
+                            for a, b in payloads)
+    unchanged = [(a.mismatch, b.mismatch) for a, b in zip(solo["robustness"], go2["robustness"], strict=True)
+                 if not a.mismatch.payload_kg]
+    assert all(a == b for a, b in unchanged)  # relative mismatches (mass x 1.2, friction, ...) stay as they are
+
+
+def test_a_paper_folder_keeps_to_one_robot_and_the_command_names_it(tmp_path, capsys):
+    out = tmp_path / "paper"
+    out.mkdir()
+    (out / "paper.json").write_text(json.dumps({"format": "contactnet-paper-v1", "robot": "go2", "runs": [{}]}))
+    with pytest.raises(ExperimentError, match="holds a run of go2"):
+        run_paper(out, scale=0.01, sections=FRONTIER_SECTIONS, plan="frontier")
+    assert main(["experiment", "frontier", "--out", str(out), "--robot", "solo12", "--trials", "1"]) == 2
+    assert "holds a run of go2" in capsys.readouterr().err
+
+
 # ---- beyond the paper: the frontier ------------------------------------------------------------------
 def _stored_frontier(out: Path) -> None:
     """A frontier folder written by hand (plan "frontier", scale 0.1): on the field, walk at n = 110 and 200
@@ -415,9 +451,9 @@ def test_the_paper_report_ends_with_the_frontier_and_a_paper_run_refuses_frontie
 
 def test_frontier_options_errors_are_one_line(tmp_path, capsys):
     out = str(tmp_path / "x")
-    for option, value in (("--noise", "0.01"), ("--robot", "go2"), ("--mass-scale", "1.2"), ("--height", "0.02")):
+    for option, value in (("--noise", "0.01"), ("--mass-scale", "1.2"), ("--height", "0.02")):
         assert main(["experiment", "frontier", "--out", out, option, value]) == 2
-        assert f"drop {option}" in capsys.readouterr().err  # the plan fixes the noise, the robot, the terrains
+        assert f"drop {option}" in capsys.readouterr().err  # the plan fixes the noise, the mismatch, the terrains
     assert main(["experiment", "frontier", "--out", out, "--trials", "3", "--scale", "0.1"]) == 2
     assert "--scale or --trials, not both" in capsys.readouterr().err
     assert main(["experiment", "paper", "--out", out, "--removed", "140"]) == 2  # the paper's plan stays fixed

@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass, replace
 
 from contactnet.jobs.experiment import DEFAULT_HEIGHT_M, Trial, trials_of
+from contactnet.registry import DEFAULT_ROBOT
 
 FIG5_REMOVED = (50, 60, 70, 80, 90, 100)
 #: The frontier: n = 110, 125, ..., 200 squares removed of 300 (37-67 %).
@@ -55,9 +56,12 @@ class Section:
         fewer = dict(self.fewer)
         return {p: share(fewer.get(p, self.per_cell), scale) for p in self.planners}
 
-    def trials(self, scale: float = 1.0, model_dir: str | None = None, sim: str = "pybullet") -> list[Trial]:
+    def trials(self, scale: float = 1.0, model_dir: str | None = None, sim: str = "pybullet",
+               robot: str = DEFAULT_ROBOT) -> list[Trial]:
         """The section's trials at ``scale`` (with the models of ``model_dir``, default the shipped ones) in the
-        physics engine ``sim``."""
+        physics engine ``sim`` with ``robot``: its scenes at the robot's size (``registry.terrain_for``), its pushes
+        and payloads the same fraction of its weight as Solo12's (`RobotSizing`)."""
+        sizing = RobotSizing.of(robot)
         groups: dict[int, list[str]] = {}  # planners by trials per cell (one group unless some have fewer)
         for planner, n in self.per_planner(scale).items():
             groups.setdefault(n, []).append(planner)
@@ -66,8 +70,45 @@ class Section:
             for n, planners in groups.items():
                 out += trials_of(self.experiment, n, self.gaits, tuple(planners), self.removed, noise,
                                  model_dir=model_dir, widths_cm=self.widths_cm, gaps_cm=self.gaps_cm,
-                                 height_m=self.height_m, forces_n=self.forces_n, sims=(sim,))
-        return out
+                                 height_m=self.height_m, forces_n=sizing.forces(self.forces_n), sims=(sim,),
+                                 robot=robot)
+        return [sizing.sized_payload(t) for t in out]
+
+
+@dataclass(frozen=True)
+class RobotSizing:
+    """How the plan's absolute numbers follow a robot other than Solo12 (the paper's): a push or a payload is
+    the same fraction of the robot's weight (``weight_ratio``: its weight over
+    `contactnet.robots.description.REFERENCE_WEIGHT_N`), a payload's offset from the base the same fraction of
+    its size (``size_scale``); the scenes follow the robot's size in `contactnet.registry.terrain_for`. Solo12:
+    both 1, the plan unchanged."""
+
+    robot: str = DEFAULT_ROBOT
+    weight_ratio: float = 1.0
+    size_scale: float = 1.0
+
+    @classmethod
+    def of(cls, robot: str) -> RobotSizing:
+        if robot == DEFAULT_ROBOT:
+            return cls()
+        from contactnet.registry import load_robot
+        from contactnet.robots.description import REFERENCE_WEIGHT_N
+
+        description = load_robot(robot).description
+        return cls(robot, round(description.weight_n / REFERENCE_WEIGHT_N, 3), float(description.size_scale))
+
+    def forces(self, forces_n: tuple[float, ...]) -> tuple[float, ...]:
+        """Solo12's push forces (N) as this robot's (rounded to 0.1 N)."""
+        return tuple(round(f * self.weight_ratio, 1) for f in forces_n)
+
+    def sized_payload(self, trial: Trial) -> Trial:
+        """``trial`` with its mismatch's payload (kg, offset m) sized for this robot."""
+        m = trial.mismatch
+        if self.weight_ratio == 1.0 and self.size_scale == 1.0 or m is None or not m.payload_kg:
+            return trial
+        offset = tuple(round(v * self.size_scale, 4) for v in m.payload_offset_xy_m)
+        return replace(trial, mismatch=replace(m, payload_kg=round(m.payload_kg * self.weight_ratio, 3),
+                                               payload_offset_xy_m=offset))
 
 
 #: The paper's Sec. IV (and our terrains with heights and model mismatch), in the order of the report.
@@ -133,10 +174,11 @@ def scaled(per_cell: int, scale: float) -> int:
 
 
 def plan_trials(sections: tuple[Section, ...] = PAPER_SECTIONS, scale: float = 1.0,
-                model_dir: str | None = None, sim: str = "pybullet") -> dict[str, list[Trial]]:
-    """Every section's trials at ``scale`` in the engine ``sim``, by folder."""
+                model_dir: str | None = None, sim: str = "pybullet",
+                robot: str = DEFAULT_ROBOT) -> dict[str, list[Trial]]:
+    """Every section's trials at ``scale`` in the engine ``sim`` with ``robot``, by folder."""
     folders = [s.folder for s in sections]
     if len(set(folders)) != len(folders):
         raise ValueError("two sections have the same folder")
     share(1, scale)  # a bad scale is an error even without sections
-    return {s.folder: s.trials(scale, model_dir, sim) for s in sections}
+    return {s.folder: s.trials(scale, model_dir, sim, robot) for s in sections}

@@ -78,6 +78,11 @@ def _intro(r: _Report) -> None:
               f"Locomotion*, Sec. IV, run in {engine} by `contactnet experiment paper`, each result beside the "
               "paper's, and beyond it the frontier. A success rate reads *successes / trials (rate, 95 % Wilson "
               "score interval)*.", "")
+    robot = r.header.get("robot", "solo12")
+    if robot != "solo12":
+        r.add(f"**Robot: {robot}**, not the paper's Solo12: every scene is built at its size, every push and payload "
+              "is the same fraction of its weight as Solo12's (`contactnet.jobs.paper.plan.RobotSizing`), its own "
+              "models plan. The paper's figures beside the results are Solo12's.", "")
     if scale < 1.0:
         whose = "the paper's numbers of attempts" if r.plan == "paper" else "the plan's numbers of trials"
         r.add(f"**Scaled run**: scale {scale:g}, {planned} of the full plan's {full} trials ({whose} are those at "

@@ -41,6 +41,7 @@ from contactnet.jobs.paper.layout import HEADER_FORMAT, HEADER_NAME, read_header
 from contactnet.jobs.paper.plan import FRONTIER_SEEDS, PAPER_SECTIONS, Section, frontier_sections, plan_trials
 from contactnet.jobs.paper.provenance import code_version, machine
 from contactnet.jobs.runner import ENGINES, Job, run_jobs
+from contactnet.registry import DEFAULT_ROBOT
 from contactnet.sim.engines import engine_version
 
 PLANS = ("paper", "frontier")  # paper: the paper's Sec. IV and the frontier; frontier: the frontier alone
@@ -71,11 +72,13 @@ def _order(trial: Trial) -> tuple[int, float]:
 def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = None, engine: str = "local",
               progress: bool = True, model_dir: str | None = None, address: str | None = None,
               sections: tuple[Section, ...] = PAPER_SECTIONS, command: str = "", report: bool = True,
-              sim: str = "pybullet", plan: str = "paper") -> dict:
+              sim: str = "pybullet", plan: str = "paper", robot: str = DEFAULT_ROBOT) -> dict:
     """Run (or resume) the ``sections`` at ``scale`` into ``out_dir`` with ``workers`` processes on ``engine``
     (Ray: on the cluster at ``address``, else a local one) and write the report; returns ``{"trials", "ran", "wall_s", "summaries": {folder: summary}}``. On Ctrl-C
     the finished trials stay logged, the run is recorded in paper.json and KeyboardInterrupt is re-raised.
-    ``plan`` ("paper" or "frontier") names the plan in paper.json: the report's title and parts follow it."""
+    ``plan`` ("paper" or "frontier") names the plan in paper.json: the report's title and parts follow it.
+    ``robot``: every trial's (its scenes at its size, its pushes and payloads the same fraction of its weight:
+    `contactnet.jobs.paper.plan.RobotSizing`)."""
     if engine not in ENGINES:
         raise ExperimentError(f"unknown engine {engine!r}: choose one of {', '.join(ENGINES)}")
     if plan not in PLANS:
@@ -84,17 +87,21 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
     header = read_header(out) or {"format": HEADER_FORMAT, "runs": []}
     if header.get("sim", "pybullet") != sim and header["runs"]:
         raise ExperimentError(f"{out} holds a run in {header.get('sim', 'pybullet')}: give the {sim} run another --out")
+    if header.get("robot", DEFAULT_ROBOT) != robot and header["runs"]:
+        raise ExperimentError(f"{out} holds a run of {header.get('robot', DEFAULT_ROBOT)}: give the {robot} run "
+                              "another --out")
     if plan == "frontier" and header.get("plan", "paper") == "paper" and header["runs"]:
         raise ExperimentError(f"{out} holds the paper's run (the frontier is one of its sections: experiment paper "
                               "runs it there); give experiment frontier another --out")
     try:
-        planned = plan_trials(sections, scale, model_dir, sim)
+        planned = plan_trials(sections, scale, model_dir, sim, robot)
     except ValueError as exc:
         raise ExperimentError(str(exc)) from None
     batches = {s.folder: open_batch(s.experiment, out / s.folder, planned[s.folder]) for s in sections}
-    header.update(plan=plan, scale=scale, model_dir=model_dir, sim=sim, sim_version=engine_version(sim), sections=[
-        {"folder": s.folder, "experiment": s.experiment, "title": s.title, "trials": len(planned[s.folder]),
-         "trials_full": len(s.trials(1.0, model_dir, sim))} for s in sections])
+    header.update(plan=plan, scale=scale, model_dir=model_dir, sim=sim, sim_version=engine_version(sim), robot=robot,
+                  sections=[{"folder": s.folder, "experiment": s.experiment, "title": s.title,
+                             "trials": len(planned[s.folder]), "trials_full": len(s.trials(1.0, model_dir, sim, robot))}
+                            for s in sections])
     atomic_write_text(out / HEADER_NAME, json.dumps(header, indent=1))
 
     jobs = sorted((Job((folder, t.key), t) for folder, batch in batches.items() for t in batch.trials),
@@ -143,7 +150,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
 #: experiment options that the paper's plan fixes, with their defaults
 _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed": None, "height": None,
                       "force": None, "impulse": None, "push_seed": 0, "noise": 0.0, "widths_cm": None,
-                      "gaps_cm": None, "robot": "solo12", "mass_scale": 1.0, "payload": None, "friction": None,
+                      "gaps_cm": None, "mass_scale": 1.0, "payload": None, "friction": None,
                       "torque_scale": 1.0, "orientation_noise": 0.0, "velocity_noise": 0.0, "gyro_noise": 0.0,
                       "delay_ms": 0.0, "observer": True, "retarget": False,
                       "terrain_scale": None, "vx": 0.05}  # the plan runs the defaults (any --sim)
@@ -157,9 +164,9 @@ def _command(args: argparse.Namespace, scale: float, plan: str = "paper") -> str
         words += ["--trials", str(args.trials)]
     else:
         words += ["--scale", f"{scale:g}"]
-    defaults = {"engine": "local", "sim": "pybullet"}  # not written when they are these
+    defaults = {"engine": "local", "sim": "pybullet", "robot": DEFAULT_ROBOT}  # not written when they are these
     for option in (*(_FRONTIER_OPTIONS[1:] if plan == "frontier" else ()), "workers", "engine", "address",
-                   "model_dir", "sim"):
+                   "model_dir", "sim", "robot"):
         value = getattr(args, option, None)
         if isinstance(value, tuple | list):
             value = ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value)
@@ -199,7 +206,7 @@ def paper_command(args: argparse.Namespace, plan: str = "paper") -> int:
         result = run_paper(out, scale, workers=args.workers, engine=engine, progress=not args.quiet,
                            model_dir=args.model_dir, command=_command(args, scale, plan), sections=sections,
                            address=getattr(args, "address", None), sim=getattr(args, "sim", None) or "pybullet",
-                           plan=plan)
+                           plan=plan, robot=getattr(args, "robot", None) or DEFAULT_ROBOT)
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished trials are kept in {out}: run the same command to resume "
               f"(contactnet report {out} writes the report of the trials so far)", file=sys.stderr)
