@@ -266,7 +266,7 @@ def test_files_round_trip_byte_identical(path: Path) -> None:
     assert pretty_json(terrain.to_dict()) + "\n" == text
     has_z = ['"z"' in json.dumps(r) for r in json.loads(text)["regions"]]
     assert ["z" in r for r in terrain.to_dict()["regions"]] == has_z
-    assert any(has_z) == (path.stem in ("stairs", "raised_stones"))
+    assert any(has_z) == (path.stem in ("stairs", "raised_stones", "ramps"))
 
 
 def test_z_is_written_only_for_regions_that_had_one() -> None:
@@ -328,7 +328,7 @@ def test_z_in_a_file_and_in_the_allowed_keys(tmp_path: Path) -> None:
     with pytest.raises(TerrainError, match=r"nan.json: regions\[0\].z: expected a finite top height .* got NaN$"):
         Terrain.load(path)
     with pytest.raises(TerrainError, match=r"regions\[0\].zz: unknown key \"zz\"; allowed keys: center, radius, "
-                                           r"shape, z$"):
+                                           r"shape, slope_deg, slope_dir_deg, z$"):
         Terrain.from_dict({"name": "x", "start": [0, 0], "goal_x": 1, "regions": [
             {"shape": "circle", "center": [0, 0], "radius": 1, "zz": 0.1}]})
 

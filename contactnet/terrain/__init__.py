@@ -5,6 +5,7 @@ everything else is a hole. The package:
 
 - ``schema``: the JSON file format (limits and the complexity budget, `TerrainError`, strict
   validation, reading/writing);
+- ``planes``: sloped tops (``slope_deg``, ``slope_dir_deg``): their fields, gradient and centre;
 - ``regions``: region shapes as shapely geometry (grids traced from their cells in linear time);
 - ``union``: the steppable union of the regions, within the complexity budget;
 - ``levels``: the tops of a terrain with several heights (which part has its top at which z);
@@ -31,6 +32,7 @@ from contactnet.terrain.scenes import (
     narrow_stones,
     push_field,
     raised_stones,
+    ramps,
     random_field,
     random_heights,
     register_terrain,
@@ -60,6 +62,7 @@ __all__ = [
     "raised_stones",
     "random_field",
     "random_heights",
+    "ramps",
     "region_geometry",
     "register_terrain",
     "registered_terrains",

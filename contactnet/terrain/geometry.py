@@ -20,6 +20,7 @@ The mesh and the top view live in ``contactnet.terrain.mesh`` and ``contactnet.t
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -31,9 +32,10 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from contactnet.terrain import render as _render
-from contactnet.terrain.levels import Level, eroded_levels, terrain_levels
+from contactnet.terrain.levels import Level, eroded_levels, terrain_levels_keyed
 from contactnet.terrain.locate import HeightLocator, PointLocator
 from contactnet.terrain.mesh import extruded_mesh
+from contactnet.terrain.planes import region_center, slope_gradient
 from contactnet.terrain.regions import region_geometry
 from contactnet.terrain.schema import (
     CIRCLE_MAX_ERROR_M,
@@ -53,14 +55,31 @@ from contactnet.terrain.schema import (
 from contactnet.terrain.top_parts import TopParts
 from contactnet.terrain.union import UNION_GRID_SIZE_M, region_pieces, steppable_union
 
-__all__ = ["CIRCLE_MAX_ERROR_M", "CIRCLE_MIN_SEGMENTS", "UNION_GRID_SIZE_M", "Terrain", "region_geometry",
-           "validate_terrain_bytes"]
+__all__ = ["CIRCLE_MAX_ERROR_M", "CIRCLE_MIN_SEGMENTS", "MAX_SAFE_SLOPE_RAD", "UNION_GRID_SIZE_M", "Terrain",
+           "region_geometry", "safe_slope_rad", "validate_terrain_bytes"]
 
 if TYPE_CHECKING:
     import trimesh
     from matplotlib.axes import Axes
 
 _SAFE_CACHE_MAX = 16
+
+SLOPE_FRICTION_MU = 0.6
+"""The friction coefficient a sloped top's safety is judged with: what the controller and the optimizer plan with
+(``ControllerGains.mu``; the simulated feet have 0.9)."""
+SLOPE_FRICTION_SHARE = 2.0 / 3.0
+"""The share of that friction a foot may spend holding itself on the slope; the rest is left for the walk's own
+horizontal forces."""
+
+
+def safe_slope_rad(friction_mu: float = SLOPE_FRICTION_MU, share: float = SLOPE_FRICTION_SHARE) -> float:
+    """The steepest safe top: a foot resting on a slope theta pushes along it tan(theta) times what it pushes into
+    it, so it holds while ``tan(theta) <= friction_mu * share``."""
+    return math.atan(friction_mu * share)
+
+
+MAX_SAFE_SLOPE_RAD = safe_slope_rad()
+"""Tops steeper than this (21.8 degrees: atan(0.6 x 2 / 3)) are never safe (`Terrain.is_safe`)."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -89,6 +108,8 @@ class Terrain:
     steppable: BaseGeometry = field(init=False, repr=False)
     bounds: tuple[float, float, float, float] = field(init=False)
     levels: tuple[Level, ...] = field(init=False, repr=False)
+    level_planes: np.ndarray = field(init=False, repr=False)  # (L, 4): per level gradient (gx, gy), anchor (x, y)
+    sloped: bool = field(init=False, repr=False)
     _locators: dict[float, PointLocator] = field(init=False, repr=False)
     _heights: list[Any] = field(init=False, repr=False)  # [] or, with several levels, [pieces, tops z, locator?]
     _top_parts: TopParts | None = field(init=False, repr=False, default=None)
@@ -109,12 +130,23 @@ class Terrain:
         setattr_(self, "bounds", tuple(float(v) for v in steppable.bounds))
         setattr_(self, "_locators", {})
         tops_z = np.array([region.get("z", surface_z) for region in parsed], dtype=float)
-        if np.all(tops_z == tops_z[0]):
+        plane_ids = np.array([i + 1 if region.get("slope_deg", 0.0) else 0 for i, region in enumerate(parsed)],
+                             dtype=np.int64)
+        setattr_(self, "sloped", bool(plane_ids.any()))
+        if np.all(tops_z == tops_z[0]) and not self.sloped:
             setattr_(self, "levels", ((float(tops_z[0]), steppable),))
             setattr_(self, "_heights", [])
-        else:  # several heights: the levels within the budget, or TerrainError
-            setattr_(self, "levels", terrain_levels(pieces, tops_z, src))
+            planes = np.zeros((1, 4))
+        else:  # several heights or sloped tops: the levels within the budget, or TerrainError
+            levels, level_ids = terrain_levels_keyed(pieces, tops_z, plane_ids, src)
+            setattr_(self, "levels", levels)
             setattr_(self, "_heights", [pieces, tops_z])
+            planes = np.zeros((len(levels), 4))
+            for row, plane_id in enumerate(level_ids.tolist()):
+                if plane_id:
+                    planes[row] = (*slope_gradient(parsed[plane_id - 1]), *region_center(parsed[plane_id - 1]))
+        planes.flags.writeable = False
+        setattr_(self, "level_planes", planes)
         if not shapely.intersects_xy(steppable, start_xy[0], start_xy[1]):
             raise field_error(src, "start", f"{show(start_xy.tolist())} is not on steppable ground")
         if self.goal_x <= start_xy[0]:
@@ -175,7 +207,8 @@ class Terrain:
         return self._locator(margin).geometry
 
     def is_safe(self, points_xy: Any, margin: float = 0.0) -> np.ndarray:
-        """Which points are safe footholds: on a top, at least ``margin`` (metres) from that top's edges.
+        """Which points are safe footholds: on a top no steeper than ``MAX_SAFE_SLOPE_RAD``, at least ``margin``
+        (metres) from that top's edges.
 
         With one level that is the steppable set shrunk by ``margin``; with several, each level shrunk
         on its own (a riser is an edge of the level on either side, so points next to it are unsafe on
@@ -193,6 +226,54 @@ class Terrain:
         point given as two floats, without numpy arrays (the planner's walk down a ranking)."""
         return self._locator(margin)
 
+    def level_slope_rad(self) -> np.ndarray:
+        """(L,) the slope of each level's top (radians from the horizontal; 0 for flat tops)."""
+        return np.arctan(np.hypot(self.level_planes[:, 0], self.level_planes[:, 1]))
+
+    def level_height(self, index: int, points_xy: Any) -> np.ndarray:
+        """World z (N,) of the ``index``-th level's top plane at points (N, 2), whether they lie on it or not."""
+        points = np.asarray(points_xy, dtype=float).reshape(-1, 2)
+        gx, gy, ax, ay = self.level_planes[index].tolist()
+        z = self.levels[index][0]
+        if gx == 0.0 and gy == 0.0:
+            return np.full(len(points), z)
+        return z + gx * (points[:, 0] - ax) + gy * (points[:, 1] - ay)
+
+    def top_z_range(self) -> tuple[float, float]:
+        """(lowest, highest) world z of any top (cached): the levels' heights, a sloped one's at its outline."""
+        cached = self.__dict__.get("_z_range")
+        if cached is None:
+            values = []
+            for index, (z, geometry) in enumerate(self.levels):
+                if self.sloped and self.level_planes[index, :2].any():
+                    values.extend(self.level_height(index, shapely.get_coordinates(geometry)).tolist())
+                else:
+                    values.append(z)
+            cached = (min(values), max(values))
+            object.__setattr__(self, "_z_range", cached)
+        return cached
+
+    def gradient_at(self, points_xy: Any) -> np.ndarray:
+        """(N, 2) the slope (dz/dx, dz/dy) of the top under each point (N, 2); 0 on flat tops and where there is
+        none."""
+        points, _ = _as_points(points_xy)
+        gradient = np.zeros((len(points), 2))
+        if self.sloped:
+            parts = self.top_parts()
+            part = parts.part_at(points)
+            on = part >= 0
+            gradient[on] = parts.gradients_xy[part[on]]
+        return gradient
+
+    def normal_at(self, points_xy: Any) -> np.ndarray:
+        """World-frame unit normals (N, 3) of the top under each point (N, 2) ((3,) for one (2,) point): the
+        plane's normal on a sloped top, +z on a flat one and where there is no top."""
+        points, single = _as_points(points_xy)
+        gradient = self.gradient_at(points)
+        scale = 1.0 / np.sqrt(1.0 + (gradient * gradient).sum(axis=1))
+        normals = np.column_stack([-gradient * scale[:, None], scale])
+        return normals.reshape(3) if single else normals
+
     def height_at(self, points_xy: Any, outside: float = np.nan) -> np.ndarray:
         """World z (metres) of the highest top covering each point, ``outside`` where there is none.
 
@@ -205,7 +286,9 @@ class Terrain:
         call (``contactnet.terrain.locate.HeightLocator``).
         """
         points, single = _as_points(points_xy)
-        if self._heights:
+        if self.sloped:
+            heights = self.top_parts().heights(points, float(outside))
+        elif self._heights:
             heights = self._height_locator().heights(points, float(outside))
         else:
             heights = np.where(self._locator(0.0).covers(points), self.levels[0][0], float(outside))
@@ -215,7 +298,7 @@ class Terrain:
         """An upper bound of `height_at` for obstacle checks, from a raster lookup alone (a few
         microseconds for hundreds of points): exact away from the tops' outlines; within a raster cell of one
         (at most a few mm) the highest top near the point. Same shapes as `height_at`."""
-        if not self._heights:
+        if not self._heights or self.sloped:  # exact with one level and with sloped tops
             return self.height_at(points_xy, outside)
         points, single = _as_points(points_xy)
         heights = self._height_locator().upper_heights(points, float(outside))
@@ -224,7 +307,7 @@ class Terrain:
     def height_locator(self) -> HeightLocator | None:
         """The raster behind `height_at` and `height_bound` with several levels (built on first use,
         cached), None with one level; its ``upper_heights_of`` takes points coordinate first."""
-        return self._height_locator() if self._heights else None
+        return self._height_locator() if self._heights and not self.sloped else None
 
     def ground_z(self, points_xy: Any) -> np.ndarray:
         """World z (metres) to measure heights from: the top where steppable, else ``surface_z``.
@@ -241,7 +324,7 @@ class Terrain:
         """The top parts (``contactnet.terrain.top_parts``): each connected piece of each level, with its centre
         and inradius. Built on the first call and cached."""
         if self._top_parts is None:  # a race builds it twice, harmlessly
-            object.__setattr__(self, "_top_parts", TopParts.of(self.levels))
+            object.__setattr__(self, "_top_parts", TopParts.of(self.levels, self.level_planes if self.sloped else None))
         return self._top_parts
 
     def _height_locator(self) -> HeightLocator:
@@ -259,12 +342,16 @@ class Terrain:
             raise ValueError(f"margin must be a finite number >= 0 (metres), got {margin!r}")
         locator = self._locators.get(key)
         if locator is None:
-            if key == 0.0:
+            steep = self.level_slope_rad() > MAX_SAFE_SLOPE_RAD
+            levels = tuple(level for level, too_steep in zip(self.levels, steep.tolist(), strict=True) if not too_steep)
+            if key == 0.0 and not steep.any():
                 geometry = self.steppable
+            elif key == 0.0:
+                geometry = shapely.union_all([g for _, g in levels]) if levels else shapely.Polygon()
             elif len(self.levels) == 1:
                 geometry = shapely.buffer(self.steppable, -key, quad_segs=16)
             else:
-                geometry = eroded_levels(self.levels, key)
+                geometry = eroded_levels(levels, key) if levels else shapely.Polygon()
             locator = PointLocator.build(geometry)
             if len(self._locators) >= _SAFE_CACHE_MAX:
                 self._locators.pop(next(iter(self._locators)))
@@ -285,7 +372,12 @@ class Terrain:
             f"  regions    {len(self.regions)}: " + ", ".join(f"{n} {s}" for s, n in sorted(counts.items())),
             f"  start      ({self.start_xy[0]:.3f}, {self.start_xy[1]:.3f}) m; goal_x {self.goal_x:.3f} m",
         ]
-        if len(self.levels) > 1:
+        if self.sloped:
+            low, high = self.top_z_range()
+            steepest = float(np.degrees(self.level_slope_rad().max()))
+            lines.insert(3, f"  tops       {len(self.levels)} levels, z from {low:.4g} to {high:.4g} m, sloped up to "
+                            f"{steepest:.4g} degrees")
+        elif len(self.levels) > 1:
             lines.insert(3, f"  tops       {len(self.levels)} heights, z from {self.levels[-1][0]:g} to "
                             f"{self.levels[0][0]:g} m")
         return "\n".join(lines)
@@ -299,8 +391,10 @@ class Terrain:
         edges stay manifold. Prisms of neighbouring levels share the wall below the lower top (two
         faces back to back), so the mesh is watertight as a whole only with one level.
         """
-        base_z = min(self.surface_z, self.levels[-1][0])
-        pieces = [(polygon, top_z) for top_z, geometry in self.levels for polygon in shapely.get_parts(geometry)]
+        base_z = min(self.surface_z, self.top_z_range()[0])
+        pieces = [(polygon, top_z, tuple(plane)) for (top_z, geometry), plane in zip(self.levels, self.level_planes.tolist(),
+                                                                                strict=True)
+                  for polygon in shapely.get_parts(geometry)]
         return extruded_mesh(pieces, thickness, base_z=base_z)
 
     def render(self, ax: Axes | None = None, show_start: bool = True,

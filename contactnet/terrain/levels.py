@@ -31,9 +31,20 @@ _QUERY_CHUNK = 128  # parts per bounding-box query: at most 128 x parts pairs in
 def terrain_levels(pieces: np.ndarray, tops_z: np.ndarray, source: str) -> tuple[Level, ...]:
     """The levels of regions at several heights, highest first: ``pieces`` are the regions' snapped
     geometries (``union.region_pieces``), ``tops_z`` their tops. TerrainError beyond the budget."""
+    return terrain_levels_keyed(pieces, tops_z, np.zeros(len(pieces), dtype=np.int64), source)[0]
+
+
+def terrain_levels_keyed(pieces: np.ndarray, tops_z: np.ndarray, plane_ids: np.ndarray,
+                         source: str) -> tuple[tuple[Level, ...], np.ndarray]:
+    """``terrain_levels`` where regions are grouped by (top z, plane id), not by z alone: a sloped region has its
+    own plane id (its level's z is the plane's height at the region's centre), flat ones 0. Where they overlap,
+    the level with the higher (z, id) wins. Returns (levels highest first, the plane id of each level)."""
     keep = ~shapely.is_empty(pieces)
     pieces, tops_z = pieces[keep], np.asarray(tops_z, dtype=float)[keep]
-    heights, level_of_piece = np.unique(tops_z, return_inverse=True)
+    ids = np.asarray(plane_ids, dtype=np.int64)[keep]
+    keys = np.unique(np.rec.fromarrays([tops_z, ids], names="z,id"))  # sorted by z, then id
+    level_of_piece = np.searchsorted(keys, np.rec.fromarrays([tops_z, ids], names="z,id"))
+    heights, level_ids = keys["z"], keys["id"]
     counts = np.bincount(level_of_piece)
     groups = np.split(pieces[np.argsort(level_of_piece, kind="stable")], np.cumsum(counts)[:-1])
     united = np.array([group[0] if len(group) == 1 else unite(group) for group in groups], dtype=object)
@@ -67,8 +78,9 @@ def terrain_levels(pieces: np.ndarray, tops_z: np.ndarray, source: str) -> tuple
     order = np.argsort(-shown_level, kind="stable")  # highest first
     shown, shown_level = shown[order], shown_level[order]
     starts = np.flatnonzero(np.r_[True, shown_level[1:] != shown_level[:-1]])
-    return tuple((float(heights[shown_level[i]]), group[0] if len(group) == 1 else shapely.multipolygons(group))
-                 for i, group in zip(starts, np.split(shown, starts[1:]), strict=True))
+    levels = tuple((float(heights[shown_level[i]]), group[0] if len(group) == 1 else shapely.multipolygons(group))
+                   for i, group in zip(starts, np.split(shown, starts[1:]), strict=True))
+    return levels, np.asarray(level_ids[shown_level[starts]] if len(starts) else [], dtype=np.int64)
 
 
 def eroded_levels(levels: tuple[Level, ...], margin_m: float) -> BaseGeometry:

@@ -26,13 +26,15 @@ if TYPE_CHECKING:
 _HOLES_PER_TILE = 1000
 
 
-def extruded_mesh(pieces: Iterable[tuple[Polygon, float]], thickness: float = 0.4,
-                  base_z: float | None = None) -> trimesh.Trimesh:
-    """One mesh of closed flat-topped prisms, one per ``(polygon, top_z)``.
+def extruded_mesh(pieces: Iterable[tuple[Polygon, float] | tuple[Polygon, float, tuple[float, ...]]],
+                  thickness: float = 0.4, base_z: float | None = None) -> trimesh.Trimesh:
+    """One mesh of closed prisms, one per ``(polygon, top_z)`` (a flat top) or ``(polygon, top_z, (gx, gy, ax,
+    ay))`` (a sloped top: ``top_z + gx (x - ax) + gy (y - ay)`` at each vertex).
 
     Each prism reaches down to ``base_z - thickness`` (metres), or with ``base_z`` None to its own
-    ``top_z - thickness``. ``Terrain.mesh`` passes the polygons of its levels with their tops. Pieces
-    that touch at a single point keep separate vertices there, so edges stay manifold.
+    ``top_z - thickness`` (its lowest corner's on a sloped top). ``Terrain.mesh`` passes the polygons of its
+    levels with their tops. Pieces that touch at a single point keep separate vertices there, so edges stay
+    manifold.
     """
     import trimesh
 
@@ -40,11 +42,16 @@ def extruded_mesh(pieces: Iterable[tuple[Polygon, float]], thickness: float = 0.
     vertices: list[np.ndarray] = []
     faces: list[np.ndarray] = []
     offset = 0
-    for polygon, top_z in pieces:
+    for polygon, top_z, *plane in pieces:
         if polygon.is_empty or polygon.area <= 0.0:
             continue
-        bottom_z = (top_z if base_z is None else base_z) - thickness
-        prism_xyz, prism_faces = _extrude(polygon, bottom_z, top_z)
+        gx, gy, ax, ay = plane[0] if plane else (0.0, 0.0, 0.0, 0.0)
+        lowest = top_z
+        if gx or gy:
+            xy = np.asarray(polygon.exterior.coords)
+            lowest = float((top_z + gx * (xy[:, 0] - ax) + gy * (xy[:, 1] - ay)).min())
+        bottom_z = (lowest if base_z is None else base_z) - thickness
+        prism_xyz, prism_faces = _extrude(polygon, bottom_z, top_z, (gx, gy, ax, ay))
         vertices.append(prism_xyz)
         faces.append(prism_faces + offset)
         offset += len(prism_xyz)
@@ -192,7 +199,8 @@ def _split_pinched_vertices(triangles: np.ndarray, n_vertices: int) -> tuple[np.
     return triangles, np.asarray(original, dtype=np.int64)
 
 
-def _extrude(polygon: Polygon, bottom_z: float, top_z: float) -> tuple[np.ndarray, np.ndarray]:
+def _extrude(polygon: Polygon, bottom_z: float, top_z: float,
+             plane: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
     """A closed prism over one polygon (holes allowed): (vertices (V, 3), faces (F, 3)), outward normals.
 
     The top is an earcut triangulation; side walls are built on the triangulation's own boundary
@@ -204,7 +212,10 @@ def _extrude(polygon: Polygon, bottom_z: float, top_z: float) -> tuple[np.ndarra
     border = _border_edges(top)  # u -> v with the solid on the left; outward is to the right
     n = len(original)
     vertex_xy = ring_xy[original]
-    vertices = np.concatenate([np.column_stack([vertex_xy, np.full(n, top_z)]),
+    gx, gy, ax, ay = plane
+    top_heights = np.full(n, top_z) if not (gx or gy) else top_z + gx * (vertex_xy[:, 0] - ax) + gy * (
+        vertex_xy[:, 1] - ay)
+    vertices = np.concatenate([np.column_stack([vertex_xy, top_heights]),
                                np.column_stack([vertex_xy, np.full(n, bottom_z)])])
     u, v = border[:, 0], border[:, 1]
     sides = np.concatenate([np.column_stack([v, u, u + n]), np.column_stack([v, u + n, v + n])])

@@ -2,7 +2,7 @@
 
 Generators: `flat`, `random_field` (experiment 3), `stepping_stones` (experiment 1),
 `narrow_stones` (experiment 2) and `push_field` (experiment 5); beyond the paper, with
-tops at several heights: `stairs`, `raised_stones` and `random_heights`. Each
+tops at several heights: `stairs`, `raised_stones` and `random_heights`; with sloped tops: `ramps`. Each
 scene's geometry (platforms, stones, fields, heights) is written here in metres; none depends on a
 robot. :data:`SHIPPED`
 names the files in ``terrains/``; ``python -m contactnet.terrain`` (`main`) rewrites them.
@@ -267,6 +267,71 @@ def stairs(riser_m: float = STAIRS_RISER_M, tread_m: float = STAIRS_TREAD_M, ste
                                f"{100 * tread:g} cm, top landing {100 * top:g} cm")
 
 
+RAMPS_SLOPES_DEG = (10.0, 15.0)
+"""The ramps crossed up then down, in order (degrees)."""
+RAMPS_ACROSS_DEG = (10.0,)
+"""The ramps crossed with their slope across the walking direction (rising toward +y), in order (degrees)."""
+
+
+def ramps(slopes_deg: Sequence[float] = RAMPS_SLOPES_DEG, across_deg: Sequence[float] = RAMPS_ACROSS_DEG,
+          run_m: float = 0.3, landing_m: float = 0.4, width_m: float = 0.5) -> Terrain:
+    """Ramps: up, a landing, down, for each slope of ``slopes_deg``, then for each of ``across_deg`` a stretch
+    sloped across the walking direction, each followed by flat ground.
+
+    Along x: the 0.5 x ``width_m`` start platform at z = 0 centred on the start (0, 0); for each slope a ramp
+    rising along +x over a horizontal run of ``run_m`` (30 cm: 5.3 cm up at 10 degrees, 8.0 cm at 15), the landing
+    ``landing_m`` deep (40 cm, room for the whole robot) at the ramp's top, the same ramp down, and ``landing_m``
+    of flat ground at z = 0; for each slope across, a stretch 2 x ``run_m`` long rising toward +y (z = 0 on its
+    centre line, so its ends meet the flat ground with a riser of up to ``width_m`` / 2 x tan(slope): 2.6 cm at
+    the feet of a Solo12 at 10 degrees), then ``landing_m`` flat; the 0.5 m end platform, ``goal_x`` 15 cm into it.
+    Every piece is a ``rect`` abutting its neighbours, the ramps with ``slope_deg`` and ``slope_dir_deg``.
+    """
+    checks = (("run_m", run_m, 0.05, 5.0), ("landing_m", landing_m, 0.05, 5.0), ("width_m", width_m, 0.1, 5.0))
+    for label, value, low, high in checks:
+        number = finite_float(value)
+        if number is None or not low <= number <= high:
+            raise TerrainError(f"ramps: {label} must be a number in [{low:g}, {high:g}] m, got {show(value)}")
+    for label, values in (("slopes_deg", slopes_deg), ("across_deg", across_deg)):
+        if not isinstance(values, Sequence) or len(values) > 10 or not all(
+                (finite_float(v) is not None and 0.0 < float(v) <= 45.0) for v in values):
+            raise TerrainError(f"ramps: {label} must be at most 10 slopes in (0, 45] degrees, got {show(values)}")
+    run, landing, width = float(run_m), float(landing_m), float(width_m)
+    platform = 0.5
+    regions = [_rect((0.0, 0.0), (platform, width))]
+    x = 0.5 * platform
+
+    def piece(depth: float, z: float = 0.0, slope: float = 0.0, direction: float = 0.0) -> None:
+        nonlocal x
+        region = _rect((round(x + 0.5 * depth, 9), 0.0), (depth, width), z=round(z, 9) if z or slope else None)
+        if slope:
+            region.update(slope_deg=float(slope), slope_dir_deg=float(direction))
+        regions.append(region)
+        x = round(x + depth, 9)
+
+    for slope in slopes_deg:
+        rise = run * np.tan(np.radians(float(slope)))
+        piece(run, 0.5 * rise, float(slope), 0.0)
+        piece(landing, rise)
+        piece(run, 0.5 * rise, float(slope), 180.0)
+        piece(landing)
+    for slope in across_deg:
+        piece(2.0 * run, 0.0, float(slope), 90.0)
+        piece(landing)
+    regions.pop()  # the last flat stretch becomes the end platform
+    x = round(x - landing, 9)
+    piece(platform)
+    defaults = tuple(slopes_deg) == RAMPS_SLOPES_DEG and tuple(across_deg) == RAMPS_ACROSS_DEG and (
+        run, landing, width) == (0.3, 0.4, 0.5)
+    name = "ramps" if defaults else "ramps" + "".join(f"_u{float(v):g}" for v in slopes_deg) + "".join(
+        f"_a{float(v):g}" for v in across_deg) + ("" if (run, landing, width) == (0.3, 0.4, 0.5) else
+                                                   f"_r{100 * run:g}_l{100 * landing:g}_w{100 * width:g}")
+    parts = [f"{float(v):g} degrees up and down" for v in slopes_deg] + [f"{float(v):g} degrees across"
+                                                                         for v in across_deg]
+    return Terrain(name=name, start_xy=(0.0, 0.0), goal_x=round(x - platform + 0.15, 9), regions=regions,
+                   description=f"ramps: {', '.join(parts) or 'none'}; runs of {100 * run:g} cm, landings "
+                               f"{100 * landing:g} cm, {100 * width:g} cm wide")
+
+
 def push_field(seed: int = 0) -> Terrain:
     """Flat 4 x 2 m ground with random 10 x 10 cm holes (~15 % of the area) for the push experiment.
 
@@ -319,7 +384,7 @@ def stone_grid(side_m: float = STONE_GRID_SIDE_M, pitch_xy_m: Sequence[float] = 
 
 _GENERATORS: Mapping[str, Callable[..., Terrain]] = MappingProxyType({
     "flat": flat, "narrow_stones": narrow_stones, "push_field": push_field, "raised_stones": raised_stones,
-    "stairs": stairs, "stepping_stones": stepping_stones, "stone_grid": stone_grid,
+    "ramps": ramps, "stairs": stairs, "stepping_stones": stepping_stones, "stone_grid": stone_grid,
 })
 #: Terrains registered by name from outside the package (``register_terrain``; plugins: ``contactnet.plugins``).
 _REGISTERED: dict[str, Callable[[], Terrain]] = {}
@@ -441,6 +506,7 @@ SHIPPED: Mapping[str, Callable[[], Terrain]] = MappingProxyType({
     "random_80_0": lambda: random_field(80, 0),
     "stairs": stairs,
     "raised_stones": raised_stones,
+    "ramps": ramps,
 })
 """File stem -> generator of the terrain files shipped in terrains/."""
 

@@ -3,9 +3,9 @@
 A terrain file (``terrains/*.json``) is one JSON object with ``name``, ``start``, ``goal_x``,
 ``regions`` and the optional ``description`` and ``surface_z`` (the nominal ground level). Every region
 may carry ``z``, the height of its flat top (default ``surface_z``, at most ``MAX_HEIGHT_OFFSET_M`` from
-it); where regions overlap, the highest top wins. Every problem raises `TerrainError` with a
-one-line message that names the file and the field, e.g. ``terrains/bad.json: regions[3].size: expected
-...``. This module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells) and
+it); where regions overlap, the highest top wins; ``slope_deg`` makes it sloped (``contactnet.terrain.planes``).
+Every problem raises `TerrainError` with a one-line message naming the file and the field, e.g.
+``terrains/bad.json: regions[3].size: expected ...``. This module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells) and
 back, and reads and writes the files (``contactnet.strict_json``: size, depth, number length and
 duplicate keys limited; pretty, atomic writes). Of geometry it knows only a region's bounds, for the
 extent check, and how many outline vertices a region has, for the complexity budget.
@@ -35,6 +35,7 @@ from shapely.geometry import Polygon
 
 from contactnet.atomic import atomic_write_text
 from contactnet.strict_json import JsonInputError, JsonLimits, loads_strict
+from contactnet.terrain.planes import SLOPE_KEYS, parse_slope
 
 # ---------------------------------------------------------------------------------------------
 # Limits and constants (immutable)
@@ -95,11 +96,11 @@ _TOP_LEVEL_KEYS = ("name", "description", "start", "goal_x", "surface_z", "regio
 _REQUIRED_TOP_LEVEL = ("name", "start", "goal_x", "regions")
 _REGION_KEYS: Mapping[str, tuple[tuple[str, ...], tuple[str, ...]]] = MappingProxyType(
     {  # shape -> (required keys, optional keys); "shape" itself is implied
-        "rect": (("center", "size"), ("yaw", "z")),
-        "circle": (("center", "radius"), ("z",)),
-        "star": (("center", "outer_radius", "inner_radius", "points"), ("yaw", "z")),
-        "polygon": (("vertices",), ("z",)),
-        "grid": (("origin", "cell", "cols", "rows"), ("removed", "z")),
+        "rect": (("center", "size"), ("yaw", "z", *SLOPE_KEYS)),
+        "circle": (("center", "radius"), ("z", *SLOPE_KEYS)),
+        "star": (("center", "outer_radius", "inner_radius", "points"), ("yaw", "z", *SLOPE_KEYS)),
+        "polygon": (("vertices",), ("z", *SLOPE_KEYS)),
+        "grid": (("origin", "cell", "cols", "rows"), ("removed", "z", *SLOPE_KEYS)),
     }
 )
 
@@ -448,6 +449,9 @@ def _parse_region(raw: Any, source: str, path: str, budget: _Budget | None = Non
     if min(minx, miny) < -MAX_ABS_COORD_M or max(maxx, maxy) > MAX_ABS_COORD_M:
         raise field_error(source, path, f"region extends beyond +-{MAX_ABS_COORD_M:g} m "
                                         f"(bounds {minx:.6g}, {miny:.6g}, {maxx:.6g}, {maxy:.6g})")
+    problem = parse_slope(raw, region, surface_z, (minx, miny, maxx, maxy), MAX_HEIGHT_OFFSET_M)  # a sloped top
+    if problem is not None:
+        raise field_error(source, f"{path}.{problem[0]}", problem[1] + "".join(f", got {show(v)}" for v in problem[2:]))
     return region
 
 
