@@ -227,5 +227,8 @@ def test_a_push_refused_at_the_end_says_when_the_next_run_starts_or_to_reset():
     clock.over = True
     clock.restart_at = time.perf_counter() + 4.2
     assert clock.held_because(None, "goal") == "done (goal): the next run starts in 4 s"
+    clock.hold(True)  # paused on the card (P): the count-down holds, and the refusal says so
+    assert clock.held_because(None, "goal").startswith("done (goal), paused: the next run starts 4 s after Run")
+    clock.hold(False)
     clock.restart_at = None  # the loop is off: it stays at the end
-    assert clock.held_because(None, "fell") == "done (fell): reset it first"
+    assert clock.held_because(None, "fell") == "done (fell): reset it first (R)"

@@ -60,7 +60,7 @@ def live(tmp_path_factory):
     # The heuristic planner walking on flat ground, running before any page opens (the first view lands mid-run);
     # its ContactNet models rank standing first (the status test: it stands every horizon).
     app = live_app(tmp_path_factory, stand_models=True, terrain="flat", planner="heuristic", gait="walk",
-                   vx_m_s=0.05, wait_for_viewer=False, loop=True, loop_delay_s=8.0,
+                   vx_m_s=0.05, wait_for_viewer=False, loop=True, loop_delay_s=30.0,
                    terrains_dir=tmp_path_factory.mktemp("terrains"))
     try:
         with served(app) as port:
@@ -250,16 +250,17 @@ def test_p_on_the_end_of_run_card_stays_and_refusals_say_what_comes(live, page):
     wait_for(lambda: any("Push: 409" in t for t in page.evaluate("window.__toasts")), timeout=60, what="the toast")
     refusal = [t for t in page.evaluate("window.__toasts") if "Push: 409" in t]
     assert len(refusal) == 1 and "next run starts in" in refusal[0] and "reset it first" not in refusal[0], refusal
-    page.keyboard.press("p")  # stay on the card
+    page.keyboard.press("p")  # stay on the card (the loop's count-down is 30 s: a slow page is in time)
     wait_for(lambda: app.state().paused, what="P to hold the card")
-    time.sleep(10.0)  # longer than the loop's 8 s count-down
+    held = app.state().restart_in_s
+    time.sleep(3.0)
     state = app.state()
-    assert state.done is not None and state.runs == runs and state.paused
+    assert state.done is not None and state.runs == runs and state.paused and state.restart_in_s == held  # held
     assert page.locator("#run-card").is_visible()
     wait_for(lambda: "paused" in page.locator("#status-line").inner_text(), what="the header to say paused")
     shot(page, "desktop_end_of_run_held")
     page.keyboard.press("p")  # the count-down goes on: the next run comes
-    wait_for(lambda: app.state().done is None, timeout=60, what="the next run after P again")
+    wait_for(lambda: app.state().done is None, timeout=90, what="the next run after P again")
     session.call(SetVelocity(0.05, 0.0))
     session.call(SetTerrain(flat(), "flat"))
 

@@ -111,7 +111,10 @@ class RunClock:
             if self.restart_at is not None:  # the loop starts the next run by itself
                 left_s = max(0.0, self.restart_at - time.perf_counter())
                 return f"done ({done or 'stopped'}): the next run starts in {left_s:.0f} s"
-            return f"done ({done or 'stopped'}): reset it first"
+            if self.restart_left_s is not None:  # paused on the end-of-run card: the count-down holds
+                return (f"done ({done or 'stopped'}), paused: the next run starts {self.restart_left_s:.0f} s "
+                        "after Run (or P)")
+            return f"done ({done or 'stopped'}): reset it first (R)"
         if self.waiting:
             return "waiting for a browser to open the 3D view: open it or run the robot first"
         if self.start_at is not None:
