@@ -177,7 +177,7 @@ class Locomotion:
     def _use_terrain(self, terrain: Terrain) -> None:
         """Whether the terrain has tops at several heights: then swings clear the tops on their way and
         touchdown adapts to the contact sensed (a single-height terrain takes the flat-ground path)."""
-        self._heights = len(terrain.levels) > 1
+        self._heights = len(terrain.levels) > 1 or terrain.sloped
         adapt = self.config.adapt_touchdown
         self._adapt_touchdown = self._heights if adapt is None else bool(adapt)
 
@@ -452,6 +452,7 @@ class Locomotion:
         solution = plan.solution
         external_world = None if self.observer is None else self.observer.feedforward_world(
             None if solution is None else plan.solution_force_world)
+        normals = self.terrain.normal_at(self.controller.last_foot_pos[:, :2]) if self.terrain.sloped else None
         if solution is None:
             com = self.controller.last_com.copy()
             weight = reference_forces(stance[None], self.robot.mass_kg, self.sim.config.gravity)[0]
@@ -464,7 +465,7 @@ class Locomotion:
                 stance=stance,
                 swing_pos=swing_pos,
                 swing_vel=swing_vel,
-                external_force_world=external_world,
+                external_force_world=external_world, contact_normals_world=normals,  # friction about the normals
             )
         u = (t_s - plan.t0_s) / gait.node_dt_s
         k = min(max(int(u // 1), 0), len(solution.forces_world) - 1)
@@ -480,7 +481,7 @@ class Locomotion:
             stance=stance,
             swing_pos=swing_pos,
             swing_vel=swing_vel,
-            external_force_world=external_world,
+            external_force_world=external_world, contact_normals_world=normals,
         )
 
     def _adapt_to_contact(self, plan: ActivePlan, t_s: float, stance: np.ndarray, swing_pos: np.ndarray,

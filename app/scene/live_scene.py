@@ -161,12 +161,15 @@ def _on_ground(points: np.ndarray, terrain: Terrain, lift_m: float) -> np.ndarra
 
 def _has_heights(terrain: Terrain) -> bool:
     """Does any top differ from ``surface_z`` (where the flat drawing would be hidden or float)?"""
-    return len(terrain.levels) > 1 or terrain.levels[0][0] != terrain.surface_z
+    return len(terrain.levels) > 1 or terrain.levels[0][0] != terrain.surface_z or terrain.sloped
 
 
 def goal_line_z(terrain: Terrain) -> float:
     """World z of the goal line: the highest top it crosses (``surface_z`` where it crosses none)."""
     minx, miny, maxx, maxy = terrain.bounds
+    if terrain.sloped:  # the highest point of the tops along the line
+        heights = terrain.height_at(np.column_stack([np.full(200, terrain.goal_x), np.linspace(miny, maxy, 200)]))
+        return float(np.nanmax(heights)) if np.isfinite(heights).any() else float(terrain.surface_z)
     line = shapely.LineString([(terrain.goal_x, miny - 0.05), (terrain.goal_x, maxy + 0.05)])
     for top_z, geometry in terrain.levels:  # highest first
         if shapely.intersects(geometry, line):

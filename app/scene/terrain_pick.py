@@ -57,8 +57,8 @@ def ray_hit_xy(terrain: Terrain, origin, direction) -> tuple[float, float] | Non
     if not (np.all(np.isfinite(origin)) and np.all(np.isfinite(direction))):
         return None
     fallback = ray_to_plane(origin, direction, terrain.surface_z)
-    top_z, low_z = terrain.levels[0][0], terrain.levels[-1][0]
-    if len(terrain.levels) == 1:  # one height: the plane of that top where there is one
+    low_z, top_z = terrain.top_z_range()  # (a sloped top's lowest and highest points count)
+    if len(terrain.levels) == 1 and not terrain.sloped:  # one height: the plane of that top where there is one
         xy = ray_to_plane(origin, direction, top_z)
         return xy if xy is not None and not math.isnan(float(terrain.height_at(xy))) else fallback
     if direction[2] > -1e-9:

@@ -453,7 +453,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment = sub.add_parser("experiment", help="run one of the paper's experiments")
     experiment.add_argument("name", choices=["stepping_stones", "narrow_stones", "narrow_map", "random", "stairs",
                                              "raised_stones", "random_heights", "push", "robustness", "stone_grid",
-                                             "paper", "frontier"],
+                                             "ramps", "paper", "frontier"],
                             help="paper: the paper's whole Sec. IV (every experiment, its numbers of trials) and "
                                  "the frontier, and a report in DIR; frontier: beyond the paper, the random field "
                                  "at n = 110..200 and narrow_map down to 2 cm bars and up to 30 cm gaps, and its "

@@ -17,6 +17,8 @@ Beyond the paper (terrain with heights; walk and trot):
   spreads of heights).
 - ``random_heights``: the random field with each square's top at a random height within +-``height_m``
   (default 3 cm), ``removed`` squares missing, one terrain per seed, 20 seeds by default.
+- ``ramps``: sloped tops, the shipped ramps (10 and 15 degrees up and down, 10 degrees across the walking
+  direction; ``contactnet.terrain.ramps``), ContactNet and the fixed gait.
 
 Beyond the paper's figures, its push experiment (Sec. IV), measured, and a robot that is not quite the model:
 
@@ -79,7 +81,7 @@ from contactnet.sim.world import ENGINES as SIM_ENGINES
 
 HEADER_FORMAT = "contactnet-experiment-v1"
 EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights",
-               "push", "robustness", "stone_grid")
+               "push", "robustness", "stone_grid", "ramps")
 DEFAULT_PLANNERS = {
     "stepping_stones": ("contactnet", "fixed", "heuristic"),
     "narrow_stones": ("contactnet", "fixed", "heuristic"),
@@ -91,11 +93,13 @@ DEFAULT_PLANNERS = {
     "push": ("contactnet",),
     "robustness": ("contactnet",),
     "stone_grid": ("contactnet", "fixed", "heuristic"),
+    "ramps": ("contactnet", "fixed"),
 }
 DEFAULT_GAITS = {"stepping_stones": ("walk",), "narrow_stones": ("walk",), "narrow_map": ("walk",),
                  "random": ("walk", "trot"), "stairs": ("walk", "trot"), "raised_stones": ("walk", "trot"),
                  "random_heights": ("walk", "trot"), "push": ("walk", "trot"),
-                 "robustness": ("walk", "trot"), "stone_grid": ("walk", "trot")}
+                 "robustness": ("walk", "trot"), "stone_grid": ("walk", "trot"),
+                 "ramps": ("walk", "trot")}
 DEFAULT_TRIALS = {"random": 20, "random_heights": 20, "raised_stones": 5, "push": 10, "robustness": 20}  # 1 elsewhere
 FIELDS = ("random", "random_heights")  # one generated terrain per (removed, seed)
 DEFAULT_HEIGHT_M = 0.03  # random_heights: each top within +-3 cm

@@ -7,7 +7,8 @@ Per tick (`WholeBodyController.torques`), as in the paper's Fig. 3 (after Grimmi
    the wrench is spread over the stance feet (regularized least squares;
    with ``unload_rounds``, feet it would make pull are held at the minimum load and the rest spread
    again over the others) and added to the optimizer's reference forces; the forces are kept in the
-   friction pyramid;
+   friction pyramid, built about the ground's normal under each foot (``ControlTarget.contact_normals_world``;
+   +z on flat ground);
 2. stance legs: tau = -J^T f (the ground pushes the robot with f);
 3. swing legs: a Cartesian PD that tracks the swing trajectory (semi-ellipse for the horizontal
    progress, fifth-order polynomial for the height, in the swing frame);
@@ -163,6 +164,7 @@ class ControlTarget:
     swing_pos: np.ndarray  # (4, 3) desired foot positions (used for swing legs)
     swing_vel: np.ndarray  # (4, 3)
     external_force_world: np.ndarray | None = None  # (3,) estimated push on the body, cancelled (None: none)
+    contact_normals_world: np.ndarray | None = None  # (4, 3) unit normals of the ground under the feet (None: +z)
 
 
 def clip_to_friction_pyramid(forces: np.ndarray, mu: float, fz_min: float, fz_max: float) -> np.ndarray:
@@ -203,6 +205,8 @@ class WholeBodyController:
                                  self._kd_swing, gains.mu, gains.fz_min_n, gains.fz_max_n, gains.kd_joint,
                                  gains.force_regularization, gains.unload_rounds, gains.cop_margin_m)
         self._no_force = np.zeros(3)
+        self._up = np.zeros((4, 3))
+        self._up[:, 2] = 1.0
         self._frame_jacobian = pin.getFrameJacobian
         self._frame_placement = pin.updateFramePlacement
         self._local_world_aligned = pin.LOCAL_WORLD_ALIGNED
@@ -248,7 +252,8 @@ class WholeBodyController:
         wbc_torques(  # steps 1-5, compiled (contactnet.motion.controller_kernel)
             com, vcom, jacobians, feet, rot, v, rot_err, target.com_pos, target.com_vel, target.ang_vel,
             target.forces, np.asarray(target.stance, dtype=bool), target.swing_pos, target.swing_vel, external,
-            self._gains, self.torque_limit_nm, tau, forces, foot_pos)
+            self._gains, self.torque_limit_nm, tau, forces, foot_pos,
+            self._up if target.contact_normals_world is None else target.contact_normals_world)
         self.last_forces = forces
         self.last_foot_pos = foot_pos
         self.last_com = com

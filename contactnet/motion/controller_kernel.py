@@ -10,6 +10,8 @@ formulas; the sums run in a fixed order (not BLAS's), so results agree with the 
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -149,12 +151,15 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
                 rot_err: np.ndarray, com_ref: np.ndarray, com_vel_ref: np.ndarray, ang_vel_ref: np.ndarray,
                 forces_ref: np.ndarray, stance: np.ndarray, swing_pos: np.ndarray, swing_vel: np.ndarray,
                 external_force: np.ndarray, gains: np.ndarray, torque_limit: np.ndarray, tau: np.ndarray,
-                forces: np.ndarray, foot: np.ndarray) -> None:
+                forces: np.ndarray, foot: np.ndarray, normals: np.ndarray) -> None:
     """Fills ``tau`` (12,), the joint torques, saturated; ``forces`` (4, 3), the ground forces on the stance feet,
     zero on swing feet; ``foot`` (4, 3), the foot positions. ``jacobians``: the 4 feet's (6, 18) world-aligned frame
     Jacobians (linear rows first); ``feet``: their 4 positions (3,); ``rot``: base orientation; ``v`` (18,) pinocchio
     velocity; ``rot_err`` (3,): log of the reference orientation times ``rot``'s transpose; the rest is the
-    ``ControlTarget``, ``external_force`` zero for none, ``gains`` as ``pack_gains``.
+    ``ControlTarget``, ``external_force`` zero for none, ``gains`` as ``pack_gains``; ``normals`` (4, 3) the unit
+    normals of the ground under the feet (world): the friction pyramid of a stance foot is built about it (its
+    normal force in [fz_min, fz_max], each of two tangential parts at most mu times it), the same numbers as the
+    axis-wise clip where it is +z.
 
     With ``gains[UNLOAD_ROUNDS]`` > 0, a stance foot whose vertical force comes out below ``fz_min`` (the wrench
     asks it to pull on the ground) is held at ``fz_min`` and the rest of the wrench is spread again over the other
@@ -233,11 +238,25 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
             f = np.empty(3)
             for i in range(3):
                 f[i] = unloaded[leg, i] if held[leg] else forces_ref[leg, i] + delta[leg, i]
-            fz = min(max(f[2], fz_min), fz_max)
-            limit = mu * fz
-            forces[leg, 0] = min(max(f[0], -limit), limit)
-            forces[leg, 1] = min(max(f[1], -limit), limit)
-            forces[leg, 2] = fz
+            nx, ny, nz = normals[leg, 0], normals[leg, 1], normals[leg, 2]
+            if nx == 0.0 and ny == 0.0:  # flat ground: the axis-wise pyramid
+                fz = min(max(f[2], fz_min), fz_max)
+                limit = mu * fz
+                forces[leg, 0] = min(max(f[0], -limit), limit)
+                forces[leg, 1] = min(max(f[1], -limit), limit)
+                forces[leg, 2] = fz
+            else:  # a sloped top: tangents t1 (x projected onto the plane) and t2 = n x t1
+                ax, ay, az = 1.0 - nx * nx, -nx * ny, -nx * nz
+                norm = math.sqrt(ax * ax + ay * ay + az * az)
+                ax, ay, az = ax / norm, ay / norm, az / norm
+                bx, by, bz = ny * az - nz * ay, nz * ax - nx * az, nx * ay - ny * ax
+                fn = min(max(f[0] * nx + f[1] * ny + f[2] * nz, fz_min), fz_max)
+                limit = mu * fn
+                f1 = min(max(f[0] * ax + f[1] * ay + f[2] * az, -limit), limit)
+                f2 = min(max(f[0] * bx + f[1] * by + f[2] * bz, -limit), limit)
+                forces[leg, 0] = fn * nx + f1 * ax + f2 * bx
+                forces[leg, 1] = fn * ny + f1 * ay + f2 * by
+                forces[leg, 2] = fn * nz + f1 * az + f2 * bz
             for i in range(3):
                 push[leg, i] = -forces[leg, i]
         else:

@@ -193,7 +193,7 @@ class FootholdChecker:
     @staticmethod
     def applies(terrain: Terrain) -> bool:
         """Whether the terrain has tops at more than one height (else every check passes)."""
-        return len(terrain.levels) > 1
+        return len(terrain.levels) > 1 or terrain.sloped
 
     def usable(
         self,
@@ -319,7 +319,8 @@ class FootholdChecker:
         rest = np.arange(m) if at_centre is None else (~at_centre).nonzero()[0]
         if rest.size:
             ring_z = terrain.height_at((landing[rest, None] + self._ring).reshape(-1, 2), outside=-np.inf)
-            clear[rest] &= ring_z.reshape(len(rest), -1).max(axis=1) <= top[rest] + self.checks.ball_tolerance_m
+            clear[rest] &= (ring_z.reshape(len(rest), -1) - self._ring_rise(terrain, landing[rest])).max(axis=1) <= (
+                top[rest] + self.checks.ball_tolerance_m)
         if rest.size < m:
             inside = at_centre.nonzero()[0]
             clear[inside] &= self._centres(terrain, part[inside])[1]
@@ -439,7 +440,8 @@ class FootholdChecker:
             ball[at_centre] = self._centres(terrain, centre_part)[1]
         if elsewhere.size:
             ring_z = terrain.height_at((landing[elsewhere, None] + self._ring).reshape(-1, 2), outside=-np.inf)
-            ball[elsewhere] = ring_z.reshape(len(elsewhere), -1).max(axis=1) <= top[elsewhere] + checks.ball_tolerance_m
+            ball[elsewhere] = (ring_z.reshape(len(elsewhere), -1) - self._ring_rise(terrain, landing[elsewhere])).max(
+                axis=1) <= top[elsewhere] + checks.ball_tolerance_m
         # 4. the shin and the thigh above the terrain, in both poses.
         leg_clear = np.logical_and.reduce(leg_z <= allowed_z, axis=1)
         return step, ball, leg_clear[:m] & leg_clear[m:]
@@ -462,9 +464,17 @@ class FootholdChecker:
             centres = parts.centres_xy[new]
             ring_z = terrain.height_at((centres[:, None] + self._ring).reshape(-1, 2), outside=-np.inf)
             tops[new] = terrain.height_at(centres)
-            balls[new] = ring_z.reshape(len(new), -1).max(axis=1) <= tops[new] + self.checks.ball_tolerance_m
+            balls[new] = (ring_z.reshape(len(new), -1) - self._ring_rise(terrain, centres)).max(axis=1) <= (
+                tops[new] + self.checks.ball_tolerance_m)
             top = tops[part]
         return top, balls[part]
+
+    def _ring_rise(self, terrain: Terrain, centres_xy: np.ndarray) -> np.ndarray | float:
+        """(K, R) how far the plane of the top under each ring's centre (K, 2) rises at the ring's points (0 on flat
+        tops): the "ball" check asks for no top higher than that plane around the foot, not than its height."""
+        if not terrain.sloped:
+            return 0.0
+        return terrain.gradient_at(centres_xy) @ self._ring.T
 
     def stance_clear(self, terrain: Terrain, feet_xy_world: np.ndarray, tops_z: np.ndarray,
                      hip_xy_world: np.ndarray, yaw_rad: float) -> np.ndarray:

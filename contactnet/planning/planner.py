@@ -31,6 +31,7 @@ from contactnet.planning.footholds import FootholdChecker
 from contactnet.planning.heights_tables import CompiledHeights
 from contactnet.planning.network import NumpyContactNet
 from contactnet.planning.network_input import network_input_one, network_input_values
+from contactnet.planning.plain_walk import PlainHeightsWalk
 from contactnet.planning.ranking import (
     SAFETY_CHUNK,
     WHOLE_GRID_MAX_POINTS,
@@ -211,7 +212,7 @@ class ContactNetPlanner:
         self.capture, self.idle = capture, idle
         self.footholds = FootholdChecker(robot)
         self._compiled: CompiledHeights | None = None  # the compiled height checks (``_compiled_heights``)
-        self._heights_walk: HeightsWalk | None = None  # and the walk with them on the last terrain
+        self._heights_walk: HeightsWalk | PlainHeightsWalk | None = None  # and the walk with them on the last terrain
         self.hip_xy_base = np.array(robot.hip_pos_base[:, :2], dtype=float)
         self.last_candidates: CandidateRanking | None = None
         # The hot path's constants: the network with its scores negated (an ascending sort ranks), when the
@@ -374,7 +375,12 @@ class ContactNetPlanner:
         grid_bases = bases if capture_xy is None else [
             [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]], *bases[1:]]
         walk = self._heights_walk
-        if walk is None or walk.terrain is not terrain or walk.compiled is not self._compiled_heights():
+        if terrain.sloped:  # no rasters of flat tops for the compiled walk: the plain one (numpy, shapely)
+            if not isinstance(walk, PlainHeightsWalk) or walk.terrain is not terrain:
+                walk = self._heights_walk = PlainHeightsWalk(
+                    self._actions, terrain, self.margin_m, self.footholds, self.hip_xy_base, self._touchdown_s,
+                    CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_BACKSTEP_M)
+        elif walk is None or walk.terrain is not terrain or walk.compiled is not self._compiled_heights():
             walk = self._heights_walk = HeightsWalk(
                 self._actions, terrain, self.margin_m, self._compiled_heights(), self.hip_xy_base, self._touchdown_s,
                 CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_BACKSTEP_M)

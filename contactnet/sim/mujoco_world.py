@@ -57,20 +57,20 @@ def _floating_urdf(urdf_text: str) -> str:
 
 def terrain_prisms(terrain: Terrain, thickness_m: float) -> list[np.ndarray]:
     """The terrain's tops as convex prisms: one (2 N, 3) array of vertices (the top's N corners counter-clockwise,
-    then the same N at the bottom) per convex piece of each top polygon, from the top down to ``thickness_m`` below
+    then the same N at the bottom) per convex piece of each top polygon (tilted with a sloped top), from the top down to ``thickness_m`` below
     the lowest top (or the surface). The pieces are the polygon's triangulation with neighbouring triangles merged
     while the union stays convex (`convex_pieces`): fewer seams inside a top, where a foot resting across two pieces
     could be pushed sideways by the side face of the other."""
     import shapely
 
-    base_z = min(terrain.surface_z, terrain.levels[-1][0]) - thickness_m
+    base_z = min(terrain.surface_z, terrain.top_z_range()[0]) - thickness_m
     prisms = []
-    for top_z, geometry in terrain.levels:
+    for index, (_, geometry) in enumerate(terrain.levels):
         for polygon in shapely.get_parts(geometry):
             if polygon.is_empty or polygon.area <= 0.0:
                 continue
-            for corners in convex_pieces(polygon):
-                top = np.column_stack([corners, np.full(len(corners), top_z)])
+            for corners in convex_pieces(polygon):  # a sloped top: the plane's height at each corner
+                top = np.column_stack([corners, terrain.level_height(index, corners)])
                 bottom = np.column_stack([corners, np.full(len(corners), base_z)])
                 prisms.append(np.concatenate([top, bottom]))
     return prisms

@@ -240,7 +240,7 @@ class Referee:
         # clears the limit, the terrain need not be asked (the check runs every few milliseconds).
         terrain = self.terrain
         if self._highest_ground is None or self._highest_ground[0] is not terrain:
-            self._highest_ground = (terrain, max(terrain.surface_z, *(z for z, _ in terrain.levels)))
+            self._highest_ground = (terrain, max(terrain.surface_z, terrain.top_z_range()[1]))
         if float(s.base_pos_world[2]) - self._highest_ground[1] < self.fall_base_height_m:
             height = s.base_pos_world[2] - float(terrain.ground_z(s.base_pos_world[:2]))
             if height < self.fall_base_height_m:
