@@ -202,3 +202,8 @@ def test_ramps_rise_and_fall_by_their_slopes_and_tilt_across() -> None:
     shipped = Terrain.load(T.terrains_dir() / "ramps.json")
     assert shipped == terrain
     assert T.scaled(terrain, 2.0).level_slope_rad().max() == pytest.approx(terrain.level_slope_rad().max())
+
+
+def test_the_top_view_shades_a_sloped_top(tmp_path: Path) -> None:
+    path = T.ramps().render_png(tmp_path / "ramps.png", dpi=40)
+    assert path.stat().st_size > 1000

@@ -4,7 +4,7 @@ differ), holes white, start, feet and goal line marked."""
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -57,13 +57,24 @@ def render(terrain: TerrainView, ax: Axes | None = None, show_start: bool = True
     pad = 0.05 * max(maxx - minx, maxy - miny, 0.2)
     ax.set_facecolor("white")
     levels = terrain.levels
-    colour_of = _height_colours(ax, [z for z, _ in levels]) if len(levels) > 1 else (lambda z: "#cdb891")
-    for top_z, geometry in levels:
+    sloped = getattr(terrain, "sloped", False)
+    planes: Any = terrain  # with sloped tops: a Terrain (top_z_range, level_planes, level_height)
+    heights = list(planes.top_z_range()) if sloped else [z for z, _ in levels]
+    mappable = _height_colours(ax, heights) if len(levels) > 1 or sloped else None
+    for index, (top_z, geometry) in enumerate(levels):
+        tilted = sloped and bool(planes.level_planes[index, :2].any())
         for polygon in shapely.get_parts(geometry):
             polygon = orient(polygon, sign=1.0)
             rings = [np.asarray(polygon.exterior.coords)] + [np.asarray(r.coords) for r in polygon.interiors]
             path = MplPath.make_compound_path(*[MplPath(r, closed=True) for r in rings])
-            ax.add_patch(PathPatch(path, facecolor=colour_of(top_z), edgecolor="#6b5a3a", linewidth=0.6))
+            if tilted:  # a sloped top: its triangles shaded by the plane's height
+                from contactnet.terrain.mesh import _triangulate
+
+                xy, triangles = _triangulate(polygon)
+                ax.tripcolor(xy[:, 0], xy[:, 1], triangles, planes.level_height(index, xy), shading="gouraud",
+                             cmap=mappable.cmap, norm=mappable.norm)
+            colour = "#cdb891" if mappable is None else mappable.to_rgba(top_z)
+            ax.add_patch(PathPatch(path, facecolor="none" if tilted else colour, edgecolor="#6b5a3a", linewidth=0.6))
     ax.axvline(terrain.goal_x, color="#2a8a3a", linestyle="--", linewidth=1.2,
                label=f"goal x = {terrain.goal_x:g} m")
     if show_start:
@@ -101,8 +112,9 @@ def render_png(terrain: TerrainView, path: str | os.PathLike[str], dpi: int = 12
     return target
 
 
-def _height_colours(ax: Axes, tops_z: Sequence[float]) -> Callable[[float], Any]:
-    """Colour of a top at z (metres) on a colour map over the terrain's tops, with a colour bar beside ``ax``."""
+def _height_colours(ax: Axes, tops_z: Sequence[float]) -> Any:
+    """A colour map over the terrain's tops (metres: ``to_rgba(z)``, ``cmap``, ``norm``), with a colour bar beside
+    ``ax``."""
     from matplotlib import colormaps
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
@@ -110,7 +122,7 @@ def _height_colours(ax: Axes, tops_z: Sequence[float]) -> Callable[[float], Any]
     low, high = min(tops_z), max(tops_z)
     mappable = ScalarMappable(Normalize(low, high if high > low else low + 1e-3), colormaps["viridis"])
     ax.figure.colorbar(mappable, ax=ax, label="top z [m]", fraction=0.04, pad=0.02)
-    return mappable.to_rgba
+    return mappable
 
 
 def _figure_size(bounds: tuple[float, float, float, float]) -> tuple[float, float]:
