@@ -23,6 +23,7 @@ class PacingStats:
     running_wall_s: float = 0.0
     running_sim_s: float = 0.0
     lag_resets: int = 0
+    behind_s: float = 0.0  #: how far the simulation was behind its schedule (speed x wall time) at the last look
     longest_stall_s: float = 0.0  #: longest wall time between two loop iterations while running
     history: deque = field(default_factory=lambda: deque(maxlen=240))  #: (wall, wall running, sim running)
 

@@ -294,6 +294,7 @@ class LiveSession:
                 self.stats.lag_resets += 1
                 self._anchor_sim, self._anchor_wall = self._clock_s, now
                 behind_s = 0.0
+            self.stats.behind_s = behind_s
             ticks = min(int(behind_s / dt + 1e-9), cfg.chunk_ticks)
             if ticks <= 0:
                 time.sleep(min(0.005, max(0.0005, (dt - behind_s) / self._speed)))
