@@ -406,7 +406,7 @@ def test_every_command_has_its_handler():
 
     handled = LiveSession.__dict__["_handle"].dispatcher.registry
     kinds = typing.get_args(commands.Command)
-    assert len(kinds) == 21 and all(kind in handled for kind in kinds)
+    assert len(kinds) == 22 and all(kind in handled for kind in kinds)
     assert set(handled) - set(kinds) == {object}
 
 
