@@ -72,7 +72,7 @@ def test_the_segmentation_drops_what_a_foot_cannot_use_and_says_why(tmp_path):
     res = 0.01
     heights = np.zeros((60, 200))
     heights[:, 60:70] = np.nan  # a gap across the path
-    heights[:, 100:140] = np.linspace(0.0, 0.4 * np.tan(np.radians(8)), 40)[None, :]  # an 8 degree ramp
+    heights[:, 100:140] = np.linspace(0.0, 0.4 * np.tan(np.radians(25)), 40)[None, :]  # a 25 degree ramp: too steep
     heights[10:12, 160:190] = 0.05  # a 2 cm wide raised strip: narrower than the default 2 cm? exactly: kept
     heights[30:31, 160:190] = 0.08  # a 1 cm strip: dropped
     heights[45:55, 150:160] = -1.0  # a pit deeper than a leg: a hole
@@ -80,7 +80,8 @@ def test_the_segmentation_drops_what_a_foot_cannot_use_and_says_why(tmp_path):
     np.save(tmp_path / "map.npy", heights)
     terrain, report = import_terrain(tmp_path / "map.npy", resolution_m=res, start_xy=(0.2, 0.3), goal_x=1.8)
     text = "\n".join(report.dropped)
-    assert "sloped 8.2 degrees" in text  # 5.6 cm over 39 cells of 1 cm
+    assert "too steep, sloped 25.6 degrees (> 21.8" in text  # 18.7 cm over 39 cells of 1 cm (a gentler one is kept:
+    # tests/test_terrain_import_slopes.py)
     assert "narrower than 2 cm" in text  # the 1 cm strip and the noisy cells, as one line
     assert len(report.dropped) <= 4
     assert not terrain.is_safe(np.array([[0.65, 0.3], [1.2, 0.3], [1.55, 0.5]]))[:].any()  # gap, ramp, pit

@@ -13,18 +13,28 @@ and segments the map as perceptive planners do (``SegmentConfig``; each rule's n
 
 1. a cell is a **hole** when its height is NaN, or lies more than ``max_drop_m`` (a leg's length) below the map's
    median: a pit the feet cannot reach;
-2. **tops** are the 4-connected groups of the other cells whose neighbours differ by at most ``max_step_m`` (an
+2. **sloped tops** first: a cell is on a plane when its differences to its two neighbours agree along x and along
+   y (within half its gradient plus `PLANE_TOLERANCE_M`), its gradient is steeper than ``MIN_SLOPE_DEG``, and its 4
+   neighbours are such cells or holes. A 4-connected group of them whose best plane explains it within
+   ``max_roughness_m`` (the residuals' standard deviation), grown by its neighbours on that plane (`GROW_RINGS`),
+   and wide enough (its outline shrunk by ``max(min_width_m / 2, a cell)`` is not empty) is a *sloped top*: kept
+   with its plane when no steeper than the steppable limit (``geometry.MAX_SAFE_SLOPE_RAD``, 21.8 degrees), else
+   dropped as *too steep*. A group that fails is left to the rules below (a flat top's cells never pass: its inside
+   has no gradient, and where it meets another top its edge cell's two differences disagree);
+3. **tops** are the 4-connected groups of the other cells whose neighbours differ by at most ``max_step_m`` (an
    edge higher than that separates two tops);
-3. a top is **flat** when its heights spread over at most ``max_spread_m``. Tops are flat in contactnet's terrains,
-   so a top that is not is dropped as *sloped* when its best plane explains it within ``max_roughness_m`` and is
-   steeper than ``MIN_SLOPE_DEG`` (the report gives the slope); otherwise (flat tops of nearly the same height side
-   by side, as on ``random_heights``) it is split again with half the step, down to ``MIN_STEP_M`` (then *rough*);
-4. a top narrower than ``min_width_m`` (its outline shrunk by half of it is empty) is dropped: no foot fits on it.
+4. a top is **flat** when its heights spread over at most ``max_spread_m``. A top that is not is dropped as
+   *sloped* when its best plane explains it within ``max_roughness_m`` and is steeper than ``MIN_SLOPE_DEG`` (the
+   report gives the slope: a plane rule 2 did not keep, too narrow, or steps rather than one plane); otherwise
+   (flat tops of nearly the same height side by side, as on ``random_heights``) it is split again with half the
+   step, down to ``MIN_STEP_M`` (then *rough*);
+5. a top narrower than ``min_width_m`` (its outline shrunk by half of it is empty) is dropped: no foot fits on it.
 
-Each top becomes polygons (its cells' union, split where it has holes inside) at its median height. The start is
-the widest point of the ground within `END_STRIP_M` of its first x, the goal the one of its last (``--start``,
-``--goal-x`` say otherwise); the nominal ground (``surface_z``, what heights over a hole are measured from) is the
-start's top.
+Each flat top becomes polygons (its cells' union, split where it has holes inside) at its median height; each
+sloped top, polygons with its plane (``slope_deg``, ``slope_dir_deg``, and ``z`` the plane's height at each
+polygon's area centroid). The start is the widest point of the ground within `END_STRIP_M` of its first x, the goal
+the one of its last (``--start``, ``--goal-x`` say otherwise); the nominal ground (``surface_z``, what heights over
+a hole are measured from) is the start's top.
 `ImportReport` says what was kept and dropped; ``contactnet terrain render`` draws the result.
 """
 
@@ -37,13 +47,22 @@ from pathlib import Path
 
 import numpy as np
 
-from contactnet.terrain.geometry import Terrain
+from contactnet.terrain.geometry import MAX_SAFE_SLOPE_RAD, Terrain
 from contactnet.terrain.schema import TerrainError
 
 #: A top whose best plane is steeper than this is sloped; one that is not flat and not sloped is split with a finer
 #: step between neighbours, down to `MIN_STEP_M` (then it is rough).
 MIN_SLOPE_DEG = 1.0
 MIN_STEP_M = 1e-4
+#: A cell is on a plane when its differences to its two neighbours (along x, and along y) agree within half its
+#: gradient (per cell) plus this, m: 1 mm lets a millimetre-quantised map's planes through (differences of 1 and 2
+#: mm on a 10 degree ramp at 1 cm), while a step between two flat tops (differences 0 and h) never passes above 1.3
+#: mm and leaves a strip of 2 cells at most (narrower than a sloped top may be).
+PLANE_TOLERANCE_M = 0.001
+#: A plane found grows by its neighbouring cells within 3 residuals' standard deviations (at least this, m) of it,
+#: this many rings: its own edge cells (a flat top's, half a cell's rise off it, are not).
+GROW_TOLERANCE_M = 1e-4
+GROW_RINGS = 2
 #: The file endings `import_terrain` reads.
 HEIGHT_MAP_SUFFIXES = (".npy", ".png")
 MESH_SUFFIXES = (".stl", ".obj", ".ply")
@@ -75,10 +94,12 @@ class ImportReport:
     tops: int
     steppable_m2: float
     dropped: tuple[str, ...] = field(default_factory=tuple)
+    sloped: int = 0  # how many of the tops are sloped
 
     def lines(self) -> list[str]:
         rows, cols = self.cells
-        return [f"{rows} x {cols} cells of {100 * self.resolution_m:g} cm: {self.tops} top(s), "
+        sloped = f" ({self.sloped} sloped)" if self.sloped else ""
+        return [f"{rows} x {cols} cells of {100 * self.resolution_m:g} cm: {self.tops} top(s){sloped}, "
                 f"{self.steppable_m2:.3f} m^2 steppable", *self.dropped]
 
 
@@ -188,18 +209,143 @@ def mesh_height_map(path: Path, resolution_m: float) -> tuple[np.ndarray, tuple[
 
 def segment(heights: np.ndarray, resolution_m: float, origin_xy: Sequence[float],
             config: SegmentConfig = SegmentConfig()) -> tuple[list[dict], list[str], int]:
-    """The steppable tops of a height map as terrain regions (polygons with their ``z``), a line per part dropped, and
-    how many tops were kept."""
+    """The steppable tops of a height map as terrain regions (polygons with their ``z``, sloped ones with their plane
+    too), a line per part dropped, and how many tops were kept."""
+    return _segment(heights, resolution_m, origin_xy, config)[:3]
+
+
+def _segment(heights: np.ndarray, resolution_m: float, origin_xy: Sequence[float],
+             config: SegmentConfig) -> tuple[list[dict], list[str], int, int]:
+    """`segment`, and how many of the tops kept are sloped."""
     finite = np.isfinite(heights)
     if not finite.any():
         raise TerrainError("the height map has no finite height")
     median = float(np.median(heights[finite]))
     usable = finite & (np.where(finite, heights, median) >= median - config.max_drop_m)
-    segmenter = _Segmenter(heights, np.where(usable, heights, np.nan), resolution_m, origin_xy, config)
-    segmenter.split(usable, config.max_step_m)
-    if not segmenter.regions:
-        raise TerrainError("no steppable top was found" + (f" ({segmenter.dropped[0]})" if segmenter.dropped else ""))
-    return segmenter.regions, segmenter.dropped, segmenter.kept
+    filled = np.where(usable, heights, np.nan)
+    planes = _SlopedTops(heights, filled, resolution_m, origin_xy, config)
+    claimed = planes.find()
+    segmenter = _Segmenter(heights, np.where(claimed, np.nan, filled), resolution_m, origin_xy, config)
+    segmenter.split(usable & ~claimed, config.max_step_m)
+    regions, dropped = segmenter.regions + planes.regions, planes.dropped + segmenter.dropped
+    if not regions:
+        raise TerrainError("no steppable top was found" + (f" ({dropped[0]})" if dropped else ""))
+    return regions, dropped, segmenter.kept + planes.kept, planes.kept
+
+
+class _SlopedTops:
+    """Rule 2 of the segmentation (the module's docstring): the planar patches steeper than `MIN_SLOPE_DEG`, kept
+    as sloped tops up to the steppable limit, dropped beyond it. ``find`` returns the cells it decided on."""
+
+    def __init__(self, heights: np.ndarray, filled: np.ndarray, resolution_m: float, origin_xy: Sequence[float],
+                 config: SegmentConfig) -> None:
+        self.heights, self.filled, self.res, self.origin, self.config = heights, filled, resolution_m, origin_xy, config
+        self.regions: list[dict] = []
+        self.dropped: list[str] = []
+        self.kept = 0
+
+    def find(self) -> np.ndarray:
+        import shapely
+
+        candidates = _plane_cells(self.filled, self.res)
+        claimed = np.zeros(candidates.shape, dtype=bool)
+        if not candidates.any():
+            return claimed
+        ones_x = np.ones((candidates.shape[0], candidates.shape[1] - 1), dtype=bool)
+        ones_y = np.ones((candidates.shape[0] - 1, candidates.shape[1]), dtype=bool)
+        labels = _components(candidates, ones_x, ones_y)
+        # A patch is wide enough when its outline shrunk by this is not empty: a foot fits, and more than the strip
+        # of 2 cells a small step between flat tops may leave.
+        shrink = 1.01 * max(self.config.min_width_m / 2, self.res)
+        for label in range(1, int(labels.max()) + 1):
+            cells = labels == label
+            if cells.sum() < 9:
+                continue
+            plane, residual_m = _plane_fit_xy(cells, self.heights[cells], self.res, self.origin)
+            if residual_m > self.config.max_roughness_m:
+                continue
+            cells = self._grown(cells, plane, max(3.0 * residual_m, GROW_TOLERANCE_M), ~claimed & (labels == 0))
+            outline = _cells_polygon(cells, self.res, self.origin)
+            if outline.buffer(-shrink).is_empty:
+                continue
+            claimed |= cells
+            slope_rad = math.atan(math.hypot(plane[0], plane[1]))
+            x, y = _cell_xy(cells, self.res, self.origin)
+            where = f"near ({x:.2f}, {y:.2f}) m"
+            if slope_rad > MAX_SAFE_SLOPE_RAD:
+                self.dropped.append(f"dropped a top {where}: too steep, sloped {math.degrees(slope_rad):.1f} degrees "
+                                    f"(> {math.degrees(MAX_SAFE_SLOPE_RAD):.1f}, the steepest safe top), "
+                                    f"{cells.sum() * self.res ** 2 * 1e4:.0f} cm^2")
+                continue
+            self.kept += 1
+            slope_deg = round(math.degrees(slope_rad), 6)
+            direction_deg = round(math.degrees(math.atan2(plane[1], plane[0])), 6) + 0.0  # no -0.0
+            for polygon in _without_holes(outline):
+                ring = np.asarray(polygon.exterior.coords)[:-1].round(9)
+                centroid = shapely.Polygon(ring).centroid
+                z = plane[0] * centroid.x + plane[1] * centroid.y + plane[2]
+                self.regions.append({"shape": "polygon", "vertices": ring.tolist(), "z": round(float(z), 6),
+                                     "slope_deg": slope_deg, "slope_dir_deg": direction_deg})
+        return claimed
+
+    def _grown(self, cells: np.ndarray, plane: tuple[float, float, float], tolerance_m: float,
+               free: np.ndarray) -> np.ndarray:
+        """``cells`` and, `GROW_RINGS` times, their free 4-neighbours within ``tolerance_m`` of the plane: the plane's
+        edge cells the test of `_plane_cells` missed (its differences to a flat top beyond the edge disagree)."""
+        rows, cols = cells.shape
+        x = self.origin[0] + self.res * np.arange(cols)[None, :]
+        y = self.origin[1] + self.res * np.arange(rows)[:, None]
+        with np.errstate(invalid="ignore"):
+            near = free & (np.abs(self.filled - (plane[0] * x + plane[1] * y + plane[2])) <= tolerance_m)
+        for _ in range(GROW_RINGS):
+            ring = np.zeros_like(cells)
+            ring[1:, :] |= cells[:-1, :]
+            ring[:-1, :] |= cells[1:, :]
+            ring[:, 1:] |= cells[:, :-1]
+            ring[:, :-1] |= cells[:, 1:]
+            cells = cells | (ring & near)
+        return cells
+
+
+def _plane_cells(filled: np.ndarray, resolution_m: float) -> np.ndarray:
+    """The cells on a plane steeper than `MIN_SLOPE_DEG` (rule 2 of the module's docstring): along x and along y, the
+    differences to the two neighbours agree within half the cell's gradient plus `PLANE_TOLERANCE_M` (one
+    difference, at a hole or the map's edge, agrees with itself), and so do the cell's 4 neighbours (or they are
+    holes)."""
+    def differences(axis: int) -> tuple[np.ndarray, np.ndarray]:
+        step = np.diff(filled, axis=axis)
+        pad = [(0, 0), (0, 0)]
+        pad[axis] = (1, 0)
+        backward = np.pad(step, pad, constant_values=np.nan)
+        pad[axis] = (0, 1)
+        forward = np.pad(step, pad, constant_values=np.nan)
+        mean = np.where(np.isnan(backward), forward, np.where(np.isnan(forward), backward, 0.5 * (backward + forward)))
+        bend = np.abs(forward - backward)
+        return np.nan_to_num(mean), np.nan_to_num(bend)
+
+    gx, bend_x = differences(1)
+    gy, bend_y = differences(0)
+    gradient = np.hypot(gx, gy)
+    tolerance = 0.5 * gradient + PLANE_TOLERANCE_M
+    candidates = (np.isfinite(filled) & (gradient >= resolution_m * math.tan(math.radians(MIN_SLOPE_DEG)))
+                  & (bend_x <= tolerance) & (bend_y <= tolerance))
+    # Eroded by the cells that are neither on a plane nor holes: a flat top's edge cell next to a ramp (differences
+    # 0 and half a cell's rise) may pass the test above; its flat neighbour does not, so it is left out.
+    ok = np.pad(candidates | ~np.isfinite(filled), 1, constant_values=True)
+    return candidates & ok[:-2, 1:-1] & ok[2:, 1:-1] & ok[1:-1, :-2] & ok[1:-1, 2:]
+
+
+def _plane_fit_xy(cells: np.ndarray, values: np.ndarray, resolution_m: float,
+                  origin_xy: Sequence[float]) -> tuple[tuple[float, float, float], float]:
+    """The best plane z = a x + b y + c (world frame) through a patch's heights, and the residuals' standard
+    deviation (m)."""
+    i, j = np.nonzero(cells)
+    x, y = origin_xy[0] + resolution_m * j, origin_xy[1] + resolution_m * i
+    x_mean, y_mean = float(x.mean()), float(y.mean())
+    design = np.column_stack([x - x_mean, y - y_mean, np.ones(len(i))])
+    (a, b, c), *_ = np.linalg.lstsq(design, values, rcond=None)
+    residual = values - design @ np.array([a, b, c])
+    return (float(a), float(b), float(c - a * x_mean - b * y_mean)), float(residual.std())
 
 
 class _Segmenter:
@@ -276,8 +422,8 @@ class _Segmenter:
         if residual_m > self.config.max_roughness_m or slope_deg < MIN_SLOPE_DEG:
             return False
         self.dropped.append(f"dropped a top {self._where(cells)}: sloped {slope_deg:.1f} degrees, its heights spread "
-                            f"over {100 * float(np.ptp(values)):.1f} cm (> {100 * self.config.max_spread_m:g} cm: "
-                            "tops are flat)")
+                            f"over {100 * float(np.ptp(values)):.1f} cm, not a sloped top (narrower than "
+                            f"{100 * max(self.config.min_width_m, 2 * self.res):g} cm, or steps, not one plane)")
         return True
 
 
@@ -382,7 +528,7 @@ def import_terrain(source: str | Path, resolution_m: float | None = None, z_scal
     else:
         resolution_m = resolution_m or 0.01
         heights = read_height_map(path, z_scale)
-    regions, dropped, kept = segment(heights, resolution_m, origin_xy, config)
+    regions, dropped, kept, sloped = _segment(heights, resolution_m, origin_xy, config)
     tops = _tops_by_x(regions)
     start = tuple(start_xy) if start_xy is not None else _end_point(tops, first=True)
     goal = float(goal_x) if goal_x is not None else _end_point(tops, first=False)[0]
@@ -394,7 +540,7 @@ def import_terrain(source: str | Path, resolution_m: float | None = None, z_scal
     surface_z = float(probe.height_at(np.array([start]), outside=float(np.median([r["z"] for r in regions])))[0])
     terrain = Terrain(name=name or path.stem, start_xy=start, goal_x=goal, regions=regions, surface_z=surface_z,
                       description=f"imported from {path.name}", source=str(path))
-    report = ImportReport(heights.shape, resolution_m, kept, float(terrain.steppable.area), tuple(dropped))
+    report = ImportReport(heights.shape, resolution_m, kept, float(terrain.steppable.area), tuple(dropped), sloped)
     return terrain, report
 
 
