@@ -18,6 +18,8 @@ const POLL_MS = 1000;
 const POLL_BUSY_MS = 500;  // while a count-down runs or the server is away
 let stream = null;  // the EventSource of /api/state/stream while it is open
 let streamAt = 0;  // performance.now() of its last state
+let linkNamedTerrain = false;  // the page's address named a terrain: the user's choice, no compare offer
+let dismissedOffer = null;  // the compare offer the user closed (session, terrain, offer)
 const STREAM_FRESH_MS = 5000;  // the stream sends a state at least every 2 s: older means it is down
 
 function wsHost() {
@@ -206,6 +208,7 @@ function renderState(s) {
     ? `${[s.planner_active, ...s.compare.map((c) => c.planner)].join(" vs ")}: press to turn compare mode off`
     : `run a second robot (${s.planner === "fixed" ? "contactnet" : "fixed"} planner) beside this one, same terrain and command`;
   document.body.classList.toggle("comparing", comparing);
+  renderCompareOffer(s);
   if (playing()) Overlays.hide();
   else Overlays.render(s, sceneActions);
 }
@@ -289,6 +292,31 @@ function follow() {
     if (stream === source) stream = null;
     setTimeout(follow, reachable ? 1000 : 3000);
   };
+}
+
+/** Compare mode on a terrain where its planners are known to do the same (State.compare_offer, set by the server
+ *  only for the terrain the session started on): a card offers, in one click, the terrain where they differ and
+ *  says why. A terrain the user picked (in the page or in the address) is kept: no offer. */
+function renderCompareOffer(s) {
+  const card = $("compare-offer");
+  const offer = s.compare_offer;
+  const key = offer ? [s.session_id, s.terrain, offer.terrain, offer.planners.join(",")].join("|") : null;
+  const show = Boolean(offer) && !linkNamedTerrain && key !== dismissedOffer && !playing();
+  card.hidden = !show;
+  if (!show) return;
+  $("compare-offer-text").textContent = offer.reason;
+  const go = $("compare-offer-go");
+  go.textContent = `Compare on ${offer.terrain.replace(/_/g, " ")}`;
+  go.title = `load ${offer.terrain} with ${offer.planners.join(" vs ")} (both robots restart from its start)`;
+  go.dataset.terrain = offer.terrain;
+  card.dataset.key = key;
+}
+
+async function takeCompareOffer() {
+  const terrain = $("compare-offer-go").dataset.terrain;
+  if (!terrain) return;
+  $("compare-offer").hidden = true;
+  await act("Compare", () => post("/api/session/terrain", { name: terrain }));
 }
 
 async function toggleCompare() {
@@ -506,6 +534,11 @@ function wireControls() {
   });
   $("record-button").addEventListener("click", toggleRecording);
   $("compare-toggle").addEventListener("click", toggleCompare);
+  $("compare-offer-go").addEventListener("click", takeCompareOffer);
+  $("compare-offer-close").addEventListener("click", () => {
+    dismissedOffer = $("compare-offer").dataset.key || null;
+    $("compare-offer").hidden = true;
+  });
   $("share-button").addEventListener("click", share);
   $("menu-toggle").addEventListener("click", () => {
     const open = document.body.classList.toggle("menu-open");
@@ -536,6 +569,7 @@ async function main() {
   liveUrl = viewerUrl(info);
   $("viewer-full").href = liveUrl;
   const wanted = Scenario.fromQuery(location.search);
+  linkNamedTerrain = Boolean(wanted && wanted.terrain);
   try {
     const first = await api("/api/state");
     if (first.session_id) sessionId = first.session_id;

@@ -17,6 +17,7 @@ from pydantic import (
     model_validator,
 )
 
+from app.live.compare import compare_offer
 from app.live.settings import PUSH_DURATION_LIMIT_S, PUSH_FORCE_LIMIT_N, SIM_SPEED_RANGE, VELOCITY_LIMIT_M_S
 from app.live.view import STATUS_KINDS, LiveView, RunSummary, is_stand, status_kind, status_line
 from contactnet import registry
@@ -305,6 +306,15 @@ class Scenario(BaseModel):
     compare: list[str] | None = Field(description="compare mode's planners, main first; null when off")
 
 
+class CompareOfferModel(BaseModel):
+    """Compare mode on a terrain where its planners are known to do the same: a terrain where they differ."""
+
+    terrain: str = Field(description="the terrain to load (POST /api/session/terrain {\"name\": terrain}); compare "
+                         "mode stays on")
+    planners: list[str] = Field(description="compare mode's planners there, main first (the ones running now)")
+    reason: str = Field(description="one sentence: why that terrain shows the difference")
+
+
 class State(StepCounters):
     """The live session now (world frame: x forward along the terrain, z up; SI units)."""
 
@@ -371,6 +381,10 @@ class State(StepCounters):
     notices: list[NoticeModel] = Field(description="the last few notices, oldest first")
     compare: list[RunResult] | None = Field(description="compare mode: the other robots now; null when off")
     scenario: Scenario = Field(description="the query of a link that opens this scenario (see Scenario)")
+    compare_offer: CompareOfferModel | None = Field(
+        None, description="compare mode on a terrain the session started on where its two planners are known to do "
+        "the same (ContactNet and the fixed gait both cross the stepping stones): the terrain where they differ, and "
+        "why; null otherwise (compare off, a terrain the user loaded, other planners or robots)")
 
 
 class TerrainEntry(BaseModel):
@@ -458,6 +472,15 @@ def scenario_of(view: LiveView) -> Scenario:
     return Scenario(terrain=terrain, removed=removed, seed=seed, gait=s.gait, planner=s.planner, compare=compare)
 
 
+def compare_offer_of(view: LiveView) -> CompareOfferModel | None:
+    """`State.compare_offer` (`app.live.compare.compare_offer`)."""
+    s = view.status
+    planners = None if view.compare is None else (s.planner, *(r.planner for r in view.compare))
+    offer = compare_offer(s.terrain, s.terrain_chosen, planners, s.robot)
+    return None if offer is None else CompareOfferModel(terrain=offer.terrain, planners=list(offer.planners),
+                                                        reason=offer.reason)
+
+
 def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
     s, snap, run = view.status, view.snapshot, view.run
     q = snap.q
@@ -514,6 +537,7 @@ def state_of(view: LiveView, viser_port: int, recording: bool) -> State:
         notices=[NoticeModel(seq=n.seq, level=n.level, text=n.text) for n in view.notices],
         compare=None if view.compare is None else [_result(r) for r in view.compare],
         scenario=scenario_of(view),
+        compare_offer=compare_offer_of(view),
     )
 
 

@@ -4,6 +4,9 @@ with the same gait, command and pushes (the paper's Fig. 6 made live).
 `CompareRobots` belongs to the session thread (`app/live/session.py`) like the main `Locomotion`: it builds one
 `Locomotion` (its own PyBullet world) per other planner, steps those still walking when the main one is
 stepped, and sums each up as a `CompareRobot` (drawn as a ghost) or a `CompareResult` (a run's end).
+
+`compare_offer` says where compare mode teaches: on the terrains where ContactNet and the fixed gait are known to
+do the same, it offers the one where they differ (narrow stones).
 """
 
 from __future__ import annotations
@@ -35,6 +38,45 @@ def end_of(loco: Locomotion) -> str | None:
     if loco.reached_goal:
         return "goal reached"
     return None
+
+
+#: Terrains on which ContactNet and the fixed gait are known to do the same with Solo12 (compare mode shows no
+#: difference): `contactnet simulate --terrain T --gait G --planner P --json`, vx 0.05 m/s, measured 2026-12 on the
+#: shipped models: stepping_stones walk and trot, both planners cross (x 1.40 m in 28 s); flat walk, both walk 3.0 m
+#: in 60 s. Only shipped names count: an edited terrain is labelled "<name> (edited)".
+SAME_TERRAINS = frozenset({"flat", "stepping_stones"})
+#: Where they differ: on narrow_stones the fixed gait falls (walk: at x 0.48 m, 9.6 s, "the FR foot stepped into a
+#: gap"; trot: at x 0.52 m, 10.6 s) while ContactNet crosses (x 0.97 m in 19.3 s, walk and trot, 0 unsafe landings).
+SHOWCASE_TERRAIN = "narrow_stones"
+SHOWCASE_PLANNERS = frozenset({"contactnet", "fixed"})
+SHOWCASE_ROBOTS = frozenset({"solo12"})  # measured with Solo12 only
+SHOWCASE_REASON = (
+    "Both planners walk on the {terrain} without a fall, so compare shows no difference here; on narrow stones the fixed gait steps into "
+    "a gap and falls while ContactNet ranks the footholds and crosses."
+)
+
+
+@dataclass(frozen=True)
+class CompareOffer:
+    """A terrain where compare mode shows what the current one cannot: load `terrain` (compare mode stays on)."""
+
+    terrain: str
+    planners: tuple[str, ...]
+    reason: str  # one sentence: why this terrain
+
+
+def compare_offer(
+    terrain_label: str, terrain_chosen: bool, planners: tuple[str, ...] | None, robot: str
+) -> CompareOffer | None:
+    """The terrain to offer while compare mode runs ``planners`` (main first) on ``terrain_label``: narrow stones
+    when the two planners are ContactNet and the fixed gait, the robot Solo12 and the terrain one of
+    `SAME_TERRAINS` that the user did not pick (``terrain_chosen``: a terrain loaded in the session, not the one
+    it started on); None otherwise (compare off, a terrain the user chose, an edited terrain, other planners)."""
+    if not planners or terrain_chosen or terrain_label not in SAME_TERRAINS or robot not in SHOWCASE_ROBOTS:
+        return None
+    if set(planners) != SHOWCASE_PLANNERS:
+        return None
+    return CompareOffer(SHOWCASE_TERRAIN, tuple(planners), SHOWCASE_REASON.format(terrain=terrain_label.replace("_", " ")))
 
 
 @dataclass

@@ -185,6 +185,7 @@ class LiveSession:
             self._robot = load_robot(settings.robot, self._robot_cache_dir)
             self._terrain, self._terrain_label = self._initial_terrain
             self._terrain_base_label = self._terrain_label  # "<base> (edited)" after an edit
+            self._terrain_chosen = False  # a terrain loaded later (SetTerrain) is the user's choice
             self._terrain_history = EditHistory(self._terrain.to_dict())
             self._terrain_version = 0
             self._gait_name, self._planner_name = settings.gait, settings.planner
@@ -515,6 +516,7 @@ class LiveSession:
         history = EditHistory(command.terrain.to_dict())  # a new terrain forgets the undo steps
         self._rebuild(terrain=(command.terrain, command.label))
         self._terrain_history, self._terrain_base_label = history, command.label
+        self._terrain_chosen = True
         self._notify(f"Terrain {command.label} loaded: the robot starts from its start.")
 
     @_handle.register
@@ -645,6 +647,7 @@ class LiveSession:
             retarget=self._retarget,
             observer=self._observer,
             sim=self._sim,
+            terrain_chosen=self._terrain_chosen,
         )
         self._seq += 1
         self._view = LiveView(

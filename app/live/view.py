@@ -65,6 +65,8 @@ class SessionStatus:
     retarget: bool = False  # swing retargeting is on (`contactnet.planning.retarget`)
     observer: bool = False  # the disturbance observer is on (`contactnet.planning.observer`)
     sim: str = "pybullet"  # the physics engine
+    #: the terrain was loaded in this session (a user's choice), not the one the session started on
+    terrain_chosen: bool = False
 
 
 @dataclass(frozen=True)
