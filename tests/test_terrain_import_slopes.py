@@ -113,3 +113,20 @@ def test_flat_tops_stay_flat_regions_without_slope_keys(tmp_path):
     np.save(tmp_path / "stairs.npy", heights)
     imported, report = import_terrain(tmp_path / "stairs.npy", resolution_m=0.01, origin_xy=origin)
     assert sloped_regions(imported) == [] and report.sloped == 0 and "sloped" not in report.lines()[0]
+
+
+def test_terrain_import_on_the_command_line_says_how_many_tops_are_sloped(tmp_path):
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    np.save(tmp_path / "ramp.npy", gentle_and_steep(10.0))
+    out = tmp_path / "ramp.json"
+    result = subprocess.run([sys.executable, "-m", "contactnet", "terrain", "import", str(tmp_path / "ramp.npy"),
+                             "--out", str(out), "--max-roughness", "0.001"],
+                            capture_output=True, text=True, cwd=Path(__file__).resolve().parents[1], timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert "3 top(s) (1 sloped)" in result.stdout
+    (region,) = [r for r in json.loads(out.read_text())["regions"] if "slope_deg" in r]
+    assert region["slope_deg"] == pytest.approx(10.0)

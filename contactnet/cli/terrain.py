@@ -58,6 +58,9 @@ def add_terrain_parser(sub) -> None:  # noqa: ANN001 - argparse's subparsers
                      metavar="M", help=f"neighbours within this height are one top (default {defaults.max_step_m})")
     imp.add_argument("--max-spread", type=bounded_float("--max-spread", 0.0, 1.0), default=defaults.max_spread_m,
                      metavar="M", help=f"a flat top's heights within this (default {defaults.max_spread_m})")
+    imp.add_argument("--max-roughness", type=bounded_float("--max-roughness", 0.0, 1.0),
+                     default=defaults.max_roughness_m, metavar="M",
+                     help=f"a sloped top's heights within this (std) of its plane (default {defaults.max_roughness_m})")
     imp.add_argument("--max-drop", type=bounded_float("--max-drop", 0.0, 100.0), default=defaults.max_drop_m,
                      metavar="M", help=f"deeper than this below the median: a hole (default {defaults.max_drop_m})")
     imp.add_argument("--min-width", type=bounded_float("--min-width", 0.0, 10.0), default=defaults.min_width_m,
@@ -106,7 +109,7 @@ def _terrain_import(args: argparse.Namespace) -> int:
     if out.exists() and not args.force:
         raise UserError(f"{out} exists; pass --force to overwrite it")
     config = SegmentConfig(max_step_m=args.max_step, max_spread_m=args.max_spread, max_drop_m=args.max_drop,
-                           min_width_m=args.min_width)
+                           min_width_m=args.min_width, max_roughness_m=args.max_roughness)
     terrain, report = import_terrain(args.source, resolution_m=args.resolution, z_scale=args.z_scale,
                                      origin_xy=args.origin, start_xy=args.start, goal_x=args.goal_x, config=config,
                                      name=args.name)
