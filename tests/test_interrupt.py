@@ -26,9 +26,10 @@ def python_sigint_handler():
 
 
 def _kill_self_after(delay_s: float) -> threading.Timer:
-    timer = threading.Timer(delay_s, os.kill, (os.getpid(), signal.SIGINT))
-    timer.start()
-    return timer
+    """A timer that sends this process a SIGINT ``delay_s`` after it is started. Start it inside the ``try`` that
+    expects the KeyboardInterrupt: with a delay of a few ms the signal may arrive while ``start`` still waits for
+    the timer's thread (a busy machine: seen here with two other processes per core)."""
+    return threading.Timer(delay_s, os.kill, (os.getpid(), signal.SIGINT))
 
 
 def test_a_sigint_inside_the_block_is_raised_when_it_ends():
@@ -104,6 +105,7 @@ def test_a_ctrl_c_while_casadi_states_the_mpc_problem_is_never_lost(robot):
     for attempt in range(30):
         timer = _kill_self_after(rng.uniform(0.0, 0.04))  # building takes about 50 ms
         try:
+            timer.start()
             TrajectoryOptimizer(model, config)
             timer.join()  # the signal is sent by now: one recorded and not raised would raise here
             lost.append(attempt)
@@ -126,6 +128,7 @@ def test_a_ctrl_c_at_a_random_moment_of_a_walk_is_raised(robot):
         for attempt in range(15):
             timer = _kill_self_after(rng.uniform(0.0, 0.1))
             try:
+                timer.start()
                 loco.advance(1000)  # a second of walking: longer than the delay on any machine here
                 timer.join()
                 lost.append(attempt)
