@@ -99,3 +99,31 @@ def test_the_offered_scenario_shows_the_difference_live(client):
     assert run["terrain"] == "narrow_stones" and run["success"], run
     (other,) = run["compare"]
     assert other["planner"] == "fixed" and other["fell"] and not other["success"], other
+
+
+def test_side_by_side_puts_the_other_robot_on_a_copy_of_the_terrain(client, app):
+    """The split view: the 3D view's "Side by side" checkbox moves the other robot onto its own copy of the terrain,
+    one lane (the terrain's width + 0.3 m) along +y; off, it is a ghost over the same terrain again."""
+    import numpy as np
+
+    from app.scene.live_scene import lane_offset_m
+
+    client.post("/api/compare", json={"planners": ["contactnet", "fixed"]})
+    scene = app.viewer.scene
+    checkbox = app.viewer.panel.gait_planner.side_by_side
+    wait_for(lambda: scene.ghosts.ghosts and scene.ghosts.ghosts[0].visible, what="the ghost drawn")
+    dy = lane_offset_m(app.session.view.terrain)
+    assert 0.3 < dy < 2.0
+
+    def ghost_y_off() -> float:  # the ghost's y less the other robot's simulated y
+        view = app.session.view
+        return float(scene.ghosts.ghosts[0].root.position[1]) - float(view.compare[0].snapshot.q[1])
+
+    checkbox.value = True  # as a click in the 3D view's panel
+    assert scene.side_by_side
+    wait_for(lambda: abs(ghost_y_off() - dy) < 0.02, what="the other robot on its lane")
+    assert len(scene._lane_nodes) == 2  # the terrain's copy and its goal line
+    assert np.allclose(scene._lane_nodes[0].position, (0.0, dy, 0.0))
+    checkbox.value = False
+    wait_for(lambda: abs(ghost_y_off()) < 0.02 and not scene._lane_nodes, what="the ghost over the terrain again")
+    client.post("/api/compare", json={"planners": []})

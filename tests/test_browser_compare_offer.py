@@ -97,3 +97,9 @@ def test_compare_from_the_default_page_offers_narrow_stones(tool, page):
     assert not state.fell and state.compare[0].planner == "fixed"
     page.locator("#tracks .track.bad").first.wait_for()  # its progress bar says it fell
     shot(page, "compare_narrow_stones")
+
+    # The split view: the 3D view's "Side by side" moves the fallen fixed-gait robot onto a copy of the terrain.
+    app.viewer.panel.gait_planner.side_by_side.value = True  # as a click in the 3D view's panel
+    wait_for(lambda: app.viewer.scene._lane_nodes, timeout=30, what="the lane drawn")
+    time.sleep(2.0)
+    shot(page, "compare_side_by_side")

@@ -164,6 +164,16 @@ def _has_heights(terrain: Terrain) -> bool:
     return len(terrain.levels) > 1 or terrain.levels[0][0] != terrain.surface_z or terrain.sloped
 
 
+#: side by side (`LiveScene.side_by_side`): free space between the terrain and the copy beside it, m
+LANE_GAP_M = 0.3
+
+
+def lane_offset_m(terrain: Terrain) -> float:
+    """How far along +y compare mode's side-by-side lanes lie from each other: the terrain's width and a gap."""
+    _, miny, _, maxy = terrain.bounds
+    return float(maxy - miny) + LANE_GAP_M
+
+
 def goal_line_z(terrain: Terrain) -> float:
     """World z of the goal line: the highest top it crosses (``surface_z`` where it crosses none)."""
     minx, miny, maxx, maxy = terrain.bounds
@@ -299,6 +309,11 @@ class LiveScene:
         self._com_first: np.ndarray | None = None
         self._terrain_version: int | None = None
         self._terrain_nodes: list = []
+        #: compare mode side by side: each other robot walks a copy of the terrain beside the main one (its lane),
+        #: instead of a ghost over the same terrain; a display choice of this 3D view (the simulation is the same)
+        self.side_by_side = False
+        self._lane_nodes: list = []
+        self._lane_key: tuple | None = None
         self._plan_key: tuple | None = None
         self._candidates_key: int | None = None
         self._com_plan_last: np.ndarray | None = None
@@ -328,9 +343,42 @@ class LiveScene:
                 self.planned_com.points = _segments(_on_ground(com_plan, view.terrain, 0.004))
             self._draw_com_path(view.com_path, view.terrain)
             self.marks.update(view)
+            self._draw_lanes(view)
             self.ghosts.update(view)
 
     # ---- pieces ------------------------------------------------------------------------------------
+    def _draw_lanes(self, view: LiveView) -> None:
+        """Side by side: a copy of the terrain (and its goal line) per other robot of compare mode, `lane_offset_m`
+        apart along +y, and the ghosts moved onto them; nothing (and the ghosts over the main terrain) otherwise."""
+        compare = getattr(view, "compare", None)
+        lanes = len(compare) if (self.side_by_side and compare) else 0
+        dy = lane_offset_m(view.terrain) if lanes else 0.0
+        self.ghosts.lane_dy_m = dy
+        key = (view.terrain_version, lanes) if lanes else None
+        if key == self._lane_key:
+            return
+        for node in self._lane_nodes:
+            node.remove()
+        self._lane_nodes, self._lane_key = [], key
+        if not lanes:
+            return
+        terrain = view.terrain
+        mesh = terrain.mesh(thickness=TERRAIN_DISPLAY_THICKNESS_M)
+        _, miny, _, maxy = terrain.bounds
+        goal_z = goal_line_z(terrain) + 0.002
+        scene = self.server.scene
+        for i in range(lanes):
+            y = (i + 1) * dy
+            self._lane_nodes += [
+                scene.add_mesh_simple(f"/compare/lane_{i}/mesh", mesh.vertices, mesh.faces, color=TERRAIN_COLOR,
+                                      flat_shading=True, cast_shadow=False, position=(0.0, y, 0.0)),
+                scene.add_line_segments(
+                    f"/compare/lane_{i}/goal",
+                    np.array([[[terrain.goal_x, miny + y - 0.05, goal_z], [terrain.goal_x, maxy + y + 0.05, goal_z]]]),
+                    GOAL_COLOR, thickness=0.008,
+                ),
+            ]
+
     def _draw_terrain(self, view: LiveView) -> None:
         for node in self._terrain_nodes:
             node.remove()

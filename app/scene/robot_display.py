@@ -222,6 +222,7 @@ class CompareGhosts:
         self.labels: list[viser.LabelHandle] = []  # [main robot, ghost 0, ghost 1, ...]
         self._texts: list[str] = []
         self._on = False
+        self.lane_dy_m = 0.0  #: side by side: other robot i is drawn (i + 1) * lane_dy_m along +y (0: over the main one)
 
     def _label(self, index: int, text: str, base: np.ndarray) -> None:
         position = np.asarray(base, dtype=float) + np.array([0.0, 0.0, self.label_height_m + index * self.label_stack_m])
@@ -259,7 +260,8 @@ class CompareGhosts:
                 )
             ghost = self.ghosts[i]
             ghost.visible = True
-            q = np.asarray(other.snapshot.q, dtype=float)
+            q = np.array(other.snapshot.q, dtype=float)
+            q[1] += (i + 1) * self.lane_dy_m  # on its lane when side by side
             ghost.set(q)
             self._label(i + 1, robot_state_text(other.planner_active or other.planner, other.done, float(other.x_m),
                                                 int(other.steps)), q[:3])

@@ -66,6 +66,11 @@ class ControlPanel:
         self.push = PushPanel(gui, session, order=20)
         self.plots = PlotsPanel(gui, order=30, leg_names=scene.leg_names)
         self.gait_planner = GaitPlannerPanel(gui, session, server.get_event_loop(), order=40)
+
+        @self.gait_planner.side_by_side.on_update
+        def _(event) -> None:
+            scene.side_by_side = bool(self.gait_planner.side_by_side.value)
+
         self.terrain = TerrainPanel(gui, terrains, order=45)
         self.editor = EditorPanel(server, terrains, order=50)
         self.recording = RecordingPanel(gui, recorder, order=60, session=session)

@@ -62,6 +62,10 @@ class GaitPlannerPanel:
             self.compare_button = gui.add_button(
                 compare_label(False, self.compare_with.value), icon=viser.Icon.ARROWS_SPLIT, hint=COMPARE_HINT
             )
+            self.side_by_side = gui.add_checkbox(
+                "Side by side", False, hint="compare mode: the other robot walks a copy of the terrain beside this one "
+                "(a split view) instead of a ghost over the same terrain; the 3D view only, the runs are the same"
+            )
         self._comparing = False
 
         controls = self.controls
