@@ -352,7 +352,7 @@ class EditorPanel:
         uploaded = self.import_upload.value
         name = uploaded.name
 
-        def load() -> None:  # segmented into flat tops (contactnet/terrain/importing.py), what was dropped said
+        def load() -> None:  # segmented into flat and sloped tops (contactnet/terrain/importing.py), what was dropped said
             terrain, report = import_upload(uploaded.content, name)
             self.terrains.load_terrain(terrain, label=f"{terrain.name} (imported)")
             lines = report.lines()
