@@ -157,6 +157,17 @@ def served(app):  # noqa: ANN001, ANN201
 
 
 @contextlib.contextmanager
+def serving(app):  # noqa: ANN001, ANN201
+    """``app``'s HTTP API served on a free loopback port while in the block, and ``app`` closed after it (also on
+    an error); yields (app, its base URL): a module fixture's whole body."""
+    try:
+        with served(app) as port:
+            yield app, f"http://127.0.0.1:{port}"
+    finally:
+        app.close()
+
+
+@contextlib.contextmanager
 def served_flat_tool(data):  # noqa: ANN001, ANN201 - a Path
     """The tool on flat ground (heuristic planner, standing still, walking at once) with its terrains and recordings
     in ``data``, its API served on a free loopback port while in the block; yields (app, port)."""

@@ -8,7 +8,7 @@ import shutil
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, served, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -26,9 +26,8 @@ def live(tmp_path_factory):
     shutil.copy(folder / "cli-run.viser", folder / "old.viser")  # as made before metadata: no sidecar
     app = ContactnetApp(ServeSettings(terrain="flat", planner="heuristic", vx_m_s=0.0, paused=True,
                                       viser_port=free_port(), recordings_dir=folder))
-    with served(app) as port:
-        yield app, f"http://127.0.0.1:{port}"
-    app.close()
+    with serving(app) as served_app:
+        yield served_app
 
 
 @pytest.fixture(scope="module")

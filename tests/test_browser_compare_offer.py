@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, served, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -28,11 +28,8 @@ def tool(tmp_path_factory):
             recordings_dir=tmp_path_factory.mktemp("recordings"),
         )
     )
-    try:
-        with served(app) as port:
-            yield app, f"http://127.0.0.1:{port}"
-    finally:
-        app.close()
+    with serving(app) as served_app:
+        yield served_app
 
 
 @pytest.fixture(scope="module")

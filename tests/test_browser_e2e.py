@@ -7,7 +7,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, served, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, serving, wait_for
 
 from app.live.commands import SetPaused, SetPlanner, SetVelocity
 
@@ -33,9 +33,8 @@ def live(tmp_path_factory):
             models_dir=models,
         )
     )
-    with served(app) as port:
-        yield app, f"http://127.0.0.1:{port}"
-    app.close()
+    with serving(app) as served_app:
+        yield served_app
 
 
 @pytest.fixture(scope="module")

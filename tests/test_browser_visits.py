@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, live_app, served, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, live_app, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -18,11 +18,8 @@ pytestmark = browser_marks()
 def live(tmp_path_factory):
     app = live_app(tmp_path_factory, terrain="flat", planner="heuristic", gait="walk", vx_m_s=0.05,
                    wait_for_viewer=False, max_sessions=3, terrains_dir=tmp_path_factory.mktemp("terrains"))
-    try:
-        with served(app) as port:
-            yield app, f"http://127.0.0.1:{port}"
-    finally:
-        app.close()
+    with serving(app) as served_app:
+        yield served_app
 
 
 @pytest.fixture(scope="module")
