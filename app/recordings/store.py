@@ -169,7 +169,7 @@ class RecordingStore:
             return self.info(name)
 
     def rename(self, name: str, new_name: str) -> RecordingInfo:
-        """Rename recording `name` (and its sidecar) to `new_name`; FileExistsError if that exists."""
+        """Rename recording `name` (and its sidecar and data track) to `new_name`; FileExistsError if that exists."""
         with self._lock:
             source = self._existing(name)
             target = self.path(new_name)
@@ -182,30 +182,22 @@ class RecordingStore:
                 os.replace(source, target)
             except OSError as exc:
                 raise storage_error(exc, doing) from None
-            try:
-                os.replace(sidecar_path(source), sidecar_path(target))
-            except FileNotFoundError:
+            moved = [(source, target)]  # put back in reverse order if a companion file cannot follow
+            for companion, what in ((sidecar_path, "metadata file"), (track_path, "data track")):
                 try:
-                    sidecar_path(target).unlink(missing_ok=True)  # a stale sidecar must not describe it
-                except OSError as exc:
-                    log.warning("recording %s: a stale metadata file is left (%s)", new_name, exc.strerror or exc)
-            except OSError as exc:  # the sidecar cannot follow: put the recording back, as it was
-                with contextlib.suppress(OSError):
-                    os.replace(target, source)
-                raise storage_error(exc, doing) from None
-            try:
-                os.replace(track_path(source), track_path(target))
-            except FileNotFoundError:
-                try:
-                    track_path(target).unlink(missing_ok=True)  # a stale track must not describe it
-                except OSError as exc:
-                    log.warning("recording %s: a stale data track is left (%s)", new_name, exc.strerror or exc)
-            except OSError as exc:  # the track cannot follow: put the recording and its sidecar back
-                with contextlib.suppress(OSError):
-                    os.replace(target, source)
-                with contextlib.suppress(OSError):
-                    os.replace(sidecar_path(target), sidecar_path(source))
-                raise storage_error(exc, doing) from None
+                    os.replace(companion(source), companion(target))
+                except FileNotFoundError:
+                    try:
+                        companion(target).unlink(missing_ok=True)  # a stale one must not describe it
+                    except OSError as exc:
+                        log.warning("recording %s: a stale %s is left (%s)", new_name, what, exc.strerror or exc)
+                except OSError as exc:  # it cannot follow: put the recording (and what followed it) back, as it was
+                    for moved_from, moved_to in reversed(moved):
+                        with contextlib.suppress(OSError):
+                            os.replace(moved_to, moved_from)
+                    raise storage_error(exc, doing) from None
+                else:
+                    moved.append((companion(source), companion(target)))
             self._reported.pop(name, None)
             return self.info(new_name)
 
