@@ -233,9 +233,9 @@ def _segment(heights: np.ndarray, resolution_m: float, origin_xy: Sequence[float
     return regions, dropped, segmenter.kept + planes.kept, planes.kept
 
 
-class _SlopedTops:
-    """Rule 2 of the segmentation (the module's docstring): the planar patches steeper than `MIN_SLOPE_DEG`, kept
-    as sloped tops up to the steppable limit, dropped beyond it. ``find`` returns the cells it decided on."""
+class _Rule:
+    """What a rule of the segmentation reads (the height map, which cells are filled, the map's grid and the
+    config) and what it gives: its regions, its dropped parts' report lines, how many tops it kept."""
 
     def __init__(self, heights: np.ndarray, filled: np.ndarray, resolution_m: float, origin_xy: Sequence[float],
                  config: SegmentConfig) -> None:
@@ -243,6 +243,11 @@ class _SlopedTops:
         self.regions: list[dict] = []
         self.dropped: list[str] = []
         self.kept = 0
+
+
+class _SlopedTops(_Rule):
+    """Rule 2 of the segmentation (the module's docstring): the planar patches steeper than `MIN_SLOPE_DEG`, kept
+    as sloped tops up to the steppable limit, dropped beyond it. ``find`` returns the cells it decided on."""
 
     def find(self) -> np.ndarray:
         import shapely
@@ -348,17 +353,10 @@ def _plane_fit_xy(cells: np.ndarray, values: np.ndarray, resolution_m: float,
     return (float(a), float(b), float(c - a * x_mean - b * y_mean)), float(residual.std())
 
 
-class _Segmenter:
+class _Segmenter(_Rule):
     """The recursion of `segment`: a group of cells is split into tops at a step; a top that is flat is kept (or
     dropped as narrow); one that is not is dropped as sloped when one plane explains it, else split again with half
     the step. What a split leaves over (cells of no kept top) is one line: sloped, or narrow and rough pieces."""
-
-    def __init__(self, heights: np.ndarray, filled: np.ndarray, resolution_m: float, origin_xy: Sequence[float],
-                 config: SegmentConfig) -> None:
-        self.heights, self.filled, self.res, self.origin, self.config = heights, filled, resolution_m, origin_xy, config
-        self.regions: list[dict] = []
-        self.dropped: list[str] = []
-        self.kept = 0
 
     def _where(self, cells: np.ndarray) -> str:
         x, y = _cell_xy(cells, self.res, self.origin)
