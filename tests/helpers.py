@@ -142,6 +142,31 @@ def live_app(tmp_path_factory, stand_models: bool = False, **settings):  # noqa:
                                        models_dir=models, **settings))
 
 
+def short_flat(goal_x: float = 0.06):  # noqa: ANN201 - a Terrain
+    """Flat ground with the goal line a few centimetres ahead (a run that ends in about a second)."""
+    from contactnet.terrain import Terrain, flat
+
+    data = flat().to_dict()
+    data.update(name="short", goal_x=goal_x)
+    return Terrain.from_dict(data)
+
+
+def make_session(tmp_path, terrain, **settings):  # noqa: ANN001, ANN201 - a started LiveSession
+    """A started live session on ``terrain`` (heuristic planner, standing command, short count-downs unless
+    ``settings``, ServeSettings fields, say otherwise) with its models and robot cache in ``tmp_path``."""
+    from functools import partial
+
+    from app.live.planners import default_planner_factory
+    from app.live.session import LiveSession
+    from app.live.settings import ServeSettings
+
+    values = dict(planner="heuristic", vx_m_s=0.0, viewer_start_delay_s=0.3, loop_delay_s=0.5) | settings
+    return LiveSession(
+        ServeSettings(**values), terrain, terrain.name,
+        planner_factory=partial(default_planner_factory, model_dir=tmp_path), robot_cache_dir=tmp_path,
+    ).start()
+
+
 @contextlib.contextmanager
 def served(app):  # noqa: ANN001, ANN201
     """``app``'s HTTP API served on a free loopback port while in the block; yields the port."""

@@ -9,38 +9,20 @@ from __future__ import annotations
 import dataclasses
 import json
 import time
-from functools import partial
 
 import pytest
-from helpers import served, wait_for
+from helpers import make_session, served, short_flat, wait_for
 
 from app.live.commands import ApplyPush, Notify, SetLoop, SetPaused, SetSpeed, TogglePause
-from app.live.planners import default_planner_factory
-from app.live.session import LiveSession
-from app.live.settings import ServeSettings
 from app.live.view import STANDING, ViewTracker, is_stand, status_kind, status_line
 from app.recordings.recorder import view_of
 from app.viewer.panels.common import submit
 from contactnet import registry
 from contactnet.locomotion import Locomotion
 from contactnet.sim.pybullet_world import SimConfig
-from contactnet.terrain import Terrain, flat
+from contactnet.terrain import flat
 
 pytestmark = pytest.mark.app
-
-
-def short_flat(goal_x: float = 0.06) -> Terrain:
-    data = flat().to_dict()
-    data.update(name="short", goal_x=goal_x)
-    return Terrain.from_dict(data)
-
-
-def make_session(tmp_path, terrain: Terrain, **settings) -> LiveSession:
-    values = dict(planner="heuristic", vx_m_s=0.0, viewer_start_delay_s=0.3, loop_delay_s=0.5) | settings
-    return LiveSession(
-        ServeSettings(**values), terrain, terrain.name,
-        planner_factory=partial(default_planner_factory, model_dir=tmp_path), robot_cache_dir=tmp_path,
-    ).start()
 
 
 def test_a_walking_robot_that_stands_a_horizon_stays_walking(robot):

@@ -4,9 +4,9 @@ notices, terrain edits with and without a restart, and compare mode (app/live/se
 from __future__ import annotations
 
 import time
-from functools import partial
 
 import pytest
+from helpers import make_session, short_flat
 
 from app.live import editor
 from app.live.commands import (
@@ -24,32 +24,11 @@ from app.live.commands import (
     UndoTerrainEdit,
     ViewerConnected,
 )
-from app.live.planners import default_planner_factory
-from app.live.session import LiveSession
-from app.live.settings import ServeSettings
 from app.live.view import status_line
 from app.viewer.panels.status import run_markdown
-from contactnet.terrain import Terrain, flat
+from contactnet.terrain import flat
 
 pytestmark = pytest.mark.app
-
-
-def short_flat(goal_x: float = 0.06) -> Terrain:
-    """Flat ground with the goal line a few centimetres ahead (a run that ends in about a second)."""
-    data = flat().to_dict()
-    data.update(name="short", goal_x=goal_x)
-    return Terrain.from_dict(data)
-
-
-def make_session(tmp_path, terrain: Terrain, **settings) -> LiveSession:
-    values = dict(planner="heuristic", vx_m_s=0.0, viewer_start_delay_s=0.3, loop_delay_s=0.5) | settings
-    return LiveSession(
-        ServeSettings(**values),
-        terrain,
-        terrain.name,
-        planner_factory=partial(default_planner_factory, model_dir=tmp_path),
-        robot_cache_dir=tmp_path,
-    ).start()
 
 
 def test_waits_for_the_first_viewer_then_counts_down(tmp_path):
