@@ -437,23 +437,40 @@ def test_terrain_upload(app, browser):
     assert app.terrains.current == current and state(app).terrain == "narrow_stones (uploaded)"
 
 
-def test_a_height_map_upload_is_imported_and_a_bad_one_said(app, browser):
+def test_a_height_map_upload_is_previewed_then_used_and_a_bad_one_said(app, browser):
     import io
 
-    panel = app.viewer.panel.editor
+    imports = app.viewer.panel.editor.imports
     heights = np.zeros((50, 200))
     heights[:, 80:88] = np.nan  # an 8 cm gap across the path
     heights[:, 120:] = 0.04  # a 4 cm step up
     buffer = io.BytesIO()
     np.save(buffer, heights)
-    browser.upload(panel.import_upload, "gap_and_step.npy", buffer.getvalue())
+    before = state(app).terrain
+    browser.upload(imports.upload, "gap_and_step.npy", buffer.getvalue())
+    wait_for(lambda: imports.pending is not None, what="the import's preview")
+    # previewed, not used: the robot stays where it was; the report says what was kept
+    assert state(app).terrain == before
+    assert imports.use_button.visible and imports.image.visible
+    # three tops: before the gap, between the gap and the step, on the step
+    assert "3 top(s)" in imports.report.content and "gap_and_step.npy" in imports.report.content
+    assert imports.image.image.shape[0] > 50  # the top view, not the empty placeholder
+    browser.click(imports.use_button)
     wait_for(lambda: state(app).terrain == "gap_and_step (imported)", what="the imported terrain")
+    assert imports.pending is None and not imports.use_button.visible
     terrain = app.session.view.terrain
     assert sorted(round(z, 3) for z, _ in terrain.levels) == [0.0, 0.04]
     assert not terrain.is_safe(np.array([[0.84, 0.25]]))[0] and terrain.is_safe(np.array([[0.5, 0.25]]))[0]
+    # discarded: nothing changes
+    browser.upload(imports.upload, "again.npy", buffer.getvalue())
+    wait_for(lambda: imports.pending is not None, what="the second preview")
+    browser.click(imports.discard_button)
+    wait_for(lambda: imports.pending is None, what="the preview discarded")
+    assert state(app).terrain == "gap_and_step (imported)"
     current = app.terrains.current
-    browser.upload(panel.import_upload, "noise.npy", b"not an array")
+    browser.upload(imports.upload, "noise.npy", b"not an array")
     time.sleep(1.0)
+    assert imports.pending is None
     assert app.terrains.current == current and state(app).terrain == "gap_and_step (imported)"
 
 

@@ -2,7 +2,9 @@
 viser page itself: a click on a raised stone selects it, the typed field and the slider set its height
 (each change one edit of the session's terrain, the two widgets in sync, a height beyond the schema's
 bound refused with the field named), undo takes it back; on the paper's random field a click with the
-"raise cell" tool lifts one grid cell by the typed cell step. Screenshots go to artifacts/."""
+"raise cell" tool lifts one grid cell by the typed cell step; a height map chosen in the file dialog is previewed
+(what was kept as steppable, the ramp shaded) and walked only once "Use imported terrain" is pressed. Screenshots
+go to artifacts/."""
 
 from __future__ import annotations
 
@@ -185,3 +187,42 @@ def test_raise_a_grid_cell_with_the_click_tool(live, page):
     time.sleep(2.0)  # the renderer draws the raised cell
     page.screenshot(path=str(ARTIFACTS / "viser_raised_cell.png"))
     app.viewer.panel.camera.set_mode(viser_client(app), "follow")
+
+
+def test_upload_a_height_map_see_what_was_kept_then_walk_it(live, page, tmp_path):
+    """A height map with a 10 degree ramp and a gap, chosen in the browser's file dialog: the panel previews
+    what was kept (the top view with the ramp shaded, the report) and the robot moves only when "Use
+    imported terrain" is pressed (issue 30, item 4)."""
+    app = live
+    imports = app.viewer.panel.editor.imports
+    heights = np.zeros((50, 300))  # 1 cm per pixel: 3 m x 0.5 m
+    x = np.arange(300) * 0.01
+    ramp = (x >= 1.0) & (x < 1.5)
+    heights[:, ramp] = np.tan(np.radians(10.0)) * (x[ramp] - 1.0)
+    heights[:, x >= 1.5] = np.tan(np.radians(10.0)) * 0.5
+    heights[:, (x >= 2.2) & (x < 2.28)] = np.nan  # an 8 cm gap
+    path = tmp_path / "ramp_and_gap.npy"
+    np.save(path, heights)
+    before = app.terrains.label
+    with page.expect_file_chooser() as chooser:
+        page.get_by_role("button", name="Upload height map or mesh").click()
+    chooser.value.set_files(str(path))
+    use = page.get_by_role("button", name="Use imported terrain")
+    use.wait_for(timeout=60_000)
+    page.get_by_text("ramp_and_gap.npy:", exact=False).first.wait_for(timeout=30_000)  # the report, in the browser's panel
+    assert "1 sloped" in imports.report.content
+    assert app.terrains.label == before  # previewed, not used
+    preview = page.locator("img[src^='data:image'], img[src^='blob:']").last
+    preview.wait_for(timeout=30_000)
+    assert preview.evaluate("image => image.naturalWidth") > 200  # the top view, drawn
+    preview.scroll_into_view_if_needed()
+    page.screenshot(path=str(ARTIFACTS / "viser_import_preview.png"))
+    use.click()
+    wait_for(lambda: app.terrains.label == "ramp_and_gap (imported)", timeout=60, what="the imported terrain in use")
+    terrain = app.session.view.terrain
+    assert terrain.sloped
+    assert terrain.height_at(np.array([[1.25, 0.25]]))[0] == pytest.approx(0.25 * math.tan(math.radians(10)), abs=0.01)
+    assert not terrain.is_safe(np.array([[2.24, 0.25]]))[0]
+    use.wait_for(state="hidden", timeout=30_000)
+    time.sleep(2.0)  # the renderer draws the ramp
+    page.screenshot(path=str(ARTIFACTS / "viser_imported_ramp.png"))

@@ -93,12 +93,8 @@ def render(terrain: TerrainView, ax: Axes | None = None, show_start: bool = True
     return ax
 
 
-def render_png(terrain: TerrainView, path: str | os.PathLike[str], dpi: int = 120,
-               feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> Path:
-    """Render the top view (start marked, and ``feet_xy_start`` if given) to a PNG with the Agg backend.
-
-    No display and no pyplot state; the parent directories are created. Returns the path written.
-    """
+def _figure(terrain: TerrainView, feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None) -> Any:
+    """The top view on a figure of its own (the Agg backend: no display, no pyplot state)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -106,10 +102,29 @@ def render_png(terrain: TerrainView, path: str | os.PathLike[str], dpi: int = 12
     FigureCanvasAgg(figure)
     render(terrain, ax=figure.add_subplot(), show_start=True, feet_xy_start=feet_xy_start)
     figure.tight_layout()
+    return figure
+
+
+def render_png(terrain: TerrainView, path: str | os.PathLike[str], dpi: int = 120,
+               feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> Path:
+    """Render the top view (start marked, and ``feet_xy_start`` if given) to a PNG with the Agg backend.
+
+    No display and no pyplot state; the parent directories are created. Returns the path written.
+    """
+    figure = _figure(terrain, feet_xy_start)
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     figure.savefig(target, dpi=dpi)
     return target
+
+
+def render_rgb(terrain: TerrainView, dpi: int = 80,
+               feet_xy_start: Sequence[Sequence[float]] | np.ndarray | None = None) -> np.ndarray:
+    """The top view as an image, (H, W, 3) uint8 RGB: e.g. the browser's preview of an imported map."""
+    figure = _figure(terrain, feet_xy_start)
+    figure.set_dpi(dpi)
+    figure.canvas.draw()
+    return np.asarray(figure.canvas.buffer_rgba())[..., :3].copy()
 
 
 def _height_colours(ax: Axes, tops_z: Sequence[float]) -> Any:

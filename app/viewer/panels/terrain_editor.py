@@ -1,7 +1,7 @@
 """The "Terrain editor" folder and the 3D interaction that edits the session's terrain.
 
 A click tool (punch or fill a hole, add a stone, select one, raise or lower a grid cell by the "Cell step"),
-undo, redo, delete, save and upload. viser 1.1's `scene.on_click` gives a ray; the server finds where it
+undo, redo, delete, save and upload (a height map or mesh is previewed first: `terrain_import.py`). viser 1.1's `scene.on_click` gives a ray; the server finds where it
 meets the terrain's tops (`app/scene/terrain_pick.py`: on a terrain with heights, the raised stone the user
 sees, not the plane z = surface_z behind it). Selected stones get transform controls (move in x, y and
 turn about z; releasing them moves the stone) and the "Stone height (cm)" slider and typed field (the
@@ -28,10 +28,11 @@ import viser
 from app.live import editor
 from app.live.editing import TerrainService
 from app.live.editor import EditError
-from app.live.terrain_files import import_upload, validate_upload
+from app.live.terrain_files import validate_upload
 from app.live.view import LiveView
 from app.scene.terrain_pick import ray_hit_xy, ray_to_plane
 from app.viewer.panels.common import tell
+from app.viewer.panels.terrain_import import ImportPreview
 from contactnet.terrain import TerrainError
 from contactnet.terrain.height_edits import cell_square, raise_cell, region_top_z, set_region_height
 
@@ -82,11 +83,7 @@ class EditorPanel:
             self.upload = gui.add_upload_button(
                 "Upload terrain JSON", icon=viser.Icon.UPLOAD, mime_type="application/json"
             )
-            self.import_upload = gui.add_upload_button(
-                "Upload height map or mesh", icon=viser.Icon.UPLOAD, mime_type=".npy,.png,.stl,.obj,.ply",
-                hint="a height map (.npy in metres, 1 cm per pixel; .png) or a mesh (.stl, .obj, .ply, metres, z up): "
-                     "its flat steppable tops become the terrain (contactnet terrain import for other settings)",
-            )
+            self.imports = ImportPreview(gui, terrains, self._run, self._say)
         self.history_buttons.on_click(self._on_history)
         self.height_slider.on_update(lambda event: self._on_height(self.height_slider, event))
         self.height_number.on_update(lambda event: self._on_height(self.height_number, event))
@@ -95,7 +92,6 @@ class EditorPanel:
         self.cancel_button.on_click(lambda event: self._end_confirm() or self._say("Not saved."))
         self.name.on_update(lambda event: self._end_confirm())
         self.upload.on_upload(self._on_upload)
-        self.import_upload.on_upload(self._on_import)
         self.tool.on_update(self._on_tool)
         server.scene.on_click()(self._on_click)
         terrains.on_change(self._changed)
@@ -347,19 +343,6 @@ class EditorPanel:
             # (the session's own notice says it was loaded and the robot restarted)
 
         self._run(event.client, "Upload terrain", load)
-
-    def _on_import(self, event) -> None:
-        uploaded = self.import_upload.value
-        name = uploaded.name
-
-        def load() -> None:  # segmented into flat and sloped tops (contactnet/terrain/importing.py), what was dropped said
-            terrain, report = import_upload(uploaded.content, name)
-            self.terrains.load_terrain(terrain, label=f"{terrain.name} (imported)")
-            lines = report.lines()
-            more = f"; {len(lines) - 1} part(s) dropped: {lines[1]}" if len(lines) > 1 else ""
-            self._notify(event.client, "Terrain imported", f"{name}: {lines[0]}{more}")
-
-        self._run(event.client, "Import terrain", load)
 
     def refresh(self, view: LiveView) -> None:
         """The "Save as" field follows the session's terrain name (a file or generator name, not a label
