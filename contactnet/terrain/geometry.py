@@ -32,6 +32,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from contactnet.terrain import render as _render
+from contactnet.terrain.frozen import freeze_region, thaw
 from contactnet.terrain.levels import Level, eroded_levels, terrain_levels_keyed
 from contactnet.terrain.locate import HeightLocator, PointLocator
 from contactnet.terrain.mesh import extruded_mesh
@@ -44,12 +45,10 @@ from contactnet.terrain.schema import (
     check_top_level,
     field_error,
     finite_float,
-    freeze_region,
     loads_terrain_json,
     parse_fields,
     read_terrain_json,
     show,
-    thaw,
     write_terrain_json,
 )
 from contactnet.terrain.top_parts import TopParts

@@ -5,7 +5,7 @@ A terrain file (``terrains/*.json``) is one JSON object with ``name``, ``start``
 may carry ``z``, the height of its flat top (default ``surface_z``, at most ``MAX_HEIGHT_OFFSET_M`` from
 it); where regions overlap, the highest top wins; ``slope_deg`` makes it sloped (``contactnet.terrain.planes``).
 Every problem raises `TerrainError` with a one-line message naming the file and the field, e.g.
-``terrains/bad.json: regions[3].size: expected ...``. This module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells) and
+``terrains/bad.json: regions[3].size: expected ...``. This module turns raw JSON values into normalized ones (floats, defaults filled in, sorted cells; a `Terrain` freezes them: ``contactnet.terrain.frozen``) and
 back, and reads and writes the files (``contactnet.strict_json``: size, depth, number length and
 duplicate keys limited; pretty, atomic writes). Of geometry it knows only a region's bounds, for the
 extent check, and how many outline vertices a region has, for the complexity budget.
@@ -273,40 +273,6 @@ def _check_keys(raw: Mapping[str, Any], allowed: Sequence[str], required: Sequen
     for key in required:
         if key not in raw:
             raise field_error(source, f"{prefix}.{key}" if prefix else key, "missing required field")
-
-
-def freeze(value: Any) -> Any:
-    """Recursively turn dicts into read-only mappings and lists into tuples."""
-    kind = type(value)
-    if kind is float or kind is int or kind is str:  # fast paths for what normalized regions hold
-        return value
-    if kind is list or kind is tuple:
-        return tuple(map(freeze, value))
-    if isinstance(value, Mapping):
-        return MappingProxyType({k: freeze(v) for k, v in value.items()})
-    if isinstance(value, (list, tuple)):
-        return tuple(freeze(v) for v in value)
-    return value
-
-
-def freeze_region(region: Mapping[str, Any]) -> Mapping[str, Any]:
-    """`freeze` of a normalized region (from `parse_fields`), fast: its lists of numbers and of
-    number pairs (vertices, removed cells) become tuples in C-level passes."""
-    frozen: dict[str, Any] = {}
-    for key, value in region.items():
-        if type(value) is list:
-            value = tuple(map(tuple, value)) if value and type(value[0]) is list else tuple(value)
-        frozen[key] = value
-    return MappingProxyType(frozen)
-
-
-def thaw(value: Any) -> Any:
-    """Inverse of `freeze`: plain dicts and lists for JSON."""
-    if isinstance(value, Mapping):
-        return {k: thaw(v) for k, v in value.items()}
-    if isinstance(value, tuple):
-        return [thaw(v) for v in value]
-    return value
 
 
 # ---------------------------------------------------------------------------------------------
