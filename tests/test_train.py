@@ -10,6 +10,7 @@ import pytest
 import torch
 
 import contactnet.jobs.train as train_module
+from contactnet import registry
 from contactnet.jobs.train import (
     DATASET_FORMAT,
     Dataset,
@@ -308,3 +309,23 @@ def test_committed_sample_is_real_oracle_data_that_trains(gait):
     assert len(np.unique(np.nanargmin(np.where(np.isfinite(ds.V), ds.V, np.nan), axis=1))) >= 10
     result = train(ds, TrainConfig(epochs=40, split="instance", seed=0), progress=False)
     assert result.metrics["train_top5"] > 0.4  # chance is 1 in 20 (walk) or 1 in 32 (trot)
+
+
+def test_mirror_adds_each_training_instance_mirrored_and_leaves_the_test_split(walk_data):
+    from contactnet.planning.mirror import mirrored
+
+    u, V, episode = walk_data
+    dataset = Dataset.from_arrays(u, V, episode, gait="walk")
+    plain = train(dataset, TrainConfig(epochs=2, seed=3), progress=False)
+    both = train(dataset, TrainConfig(epochs=2, seed=3, mirror=True), progress=False)
+    assert both.counts["train_instances"] == 2 * plain.counts["train_instances"]
+    assert both.counts["mirrored_instances"] == plain.counts["train_instances"] and plain.counts["mirrored_instances"] == 0
+    assert both.counts["test_instances"] == plain.counts["test_instances"]
+    # the normalizer saw the mirror images: every lateral input's range symmetric about zero
+    train_rows = split_rows(episode, 0.7, "episode", 3)[0]
+    expected = np.concatenate([u[train_rows], mirrored(u[train_rows], V[train_rows], registry.gait_by_name("walk"))[0]])
+    np.testing.assert_allclose(both.normalizer.low, expected.min(axis=0), rtol=1e-6)
+    np.testing.assert_allclose(both.normalizer.high, expected.max(axis=0), rtol=1e-6)
+    lateral = [INPUT_NAMES.index(name) for name in ("com_vy", "cmd_vy")]
+    np.testing.assert_allclose(both.normalizer.low[lateral], -both.normalizer.high[lateral], rtol=1e-6)
+    assert not np.allclose(plain.normalizer.low[lateral], -plain.normalizer.high[lateral], rtol=1e-6)

@@ -176,6 +176,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
     resolve(args.terrain)  # a bad terrain is a one-line user error before anything starts
     sim_of(args)
+    if args.engine is not None or args.address is not None:
+        args.engine = args.engine or "local"
+        _check_engine(args)  # e.g. --engine ray without Ray installed: one line, before anything starts
     try:
         settings = settings_from_args(args)
     except ValueError as exc:
@@ -222,7 +225,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     return train_command(
         args.gait, args.data, args.out, robot=args.robot, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
         seed=args.seed, split=args.split, threads=args.threads, max_minutes=args.max_minutes,
-        save_partial=args.save_partial, progress=not args.quiet,
+        save_partial=args.save_partial, progress=not args.quiet, mirror=args.mirror,
     )
 
 
@@ -387,6 +390,12 @@ def build_parser() -> argparse.ArgumentParser:
                        metavar="S", help="reclaim a visitor's session S seconds after its page closed (default 120)")
     serve.add_argument("--shared", action="store_true", default=None,
                        help="one robot for everyone: every visitor drives the default session")
+    serve.add_argument("--engine", choices=("local", "ray"), default=None,
+                       help="where visitors' simulations run: local, threads of the server (default); ray, a Ray "
+                            "actor per session (pip install contactnet[ray]) on --address, else $RAY_ADDRESS, else a "
+                            "local Ray of this machine's CPUs; the server only streams their snapshots")
+    serve.add_argument("--address", metavar="A",
+                       help="--engine ray: an existing Ray cluster (host:port, auto, ray://host:port)")
     serve.set_defaults(func=cmd_serve)
 
     sim = sub.add_parser("simulate", help="run one simulation headless")
@@ -444,6 +453,9 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("--split", choices=["episode", "instance"], default="episode",
                        help="70/30 split by whole episodes (default) or by instances (the paper's)")
+    train.add_argument("--mirror", action="store_true",
+                       help="train on every training instance and its left-right mirror image (twice the data; "
+                            "the test split stays as generated)")
     train.add_argument("--threads", type=positive_int("--threads", 256), default=1)
     train.add_argument("--max-minutes", type=bounded_float("--max-minutes", 0.01, 10**5), default=None)
     train.add_argument("--save-partial", action="store_true", help="on Ctrl-C, save the model trained so far")

@@ -16,7 +16,9 @@ near-duplicates; splitting them across train and test would leak and flatter the
 `split="instance"` is the paper's plain random 70/30 split of instances.
 
 Training: MSE between the network output and the rank targets, Adam, batch 100, lr 1e-3, 1000
-epochs (the paper's settings). The whole dataset lives in memory as tensors; an epoch is one
+epochs (the paper's settings). ``mirror`` (``--mirror``) adds the left-right mirror image of every training
+instance (``contactnet.planning.mirror``: the ranking cost is symmetric, so its labels are exact); the test split
+stays as generated. The whole dataset lives in memory as tensors; an epoch is one
 permutation gather plus slicing, and the parameters/gradients live in one flat buffer so the
 Adam step is a handful of vector ops instead of one set per layer (bit-for-bit torch.optim.Adam's
 arithmetic, checked in the tests; about 35 % less time per epoch than torch.optim.Adam here).
@@ -40,6 +42,7 @@ import numpy as np
 from contactnet import registry
 from contactnet.extras import import_torch
 from contactnet.jobs.runner import check_file
+from contactnet.planning.mirror import mirrored
 from contactnet.planning.network import (
     INPUT_NAMES,
     N_INPUTS,
@@ -271,6 +274,7 @@ class TrainConfig:
     threads: int = 1
     max_minutes: float | None = None
     eval_every: int = 10  # epochs between train/test top-k evaluations (history, progress bar)
+    mirror: bool = False  # add every training instance's left-right mirror (contactnet.planning.mirror)
 
     def __post_init__(self) -> None:
         if self.epochs < 1 or self.batch_size < 1 or self.threads < 1 or self.eval_every < 1:
@@ -389,16 +393,20 @@ def train(dataset: Dataset, config: TrainConfig = TrainConfig(), progress: bool 
         raise DatasetError(f"{dataset.path or 'dataset'}: fewer than 2 instances with a feasible candidate")
     data = dataset.subset(rows) if rows.size < dataset.n_instances else dataset
     train_rows, test_rows = split_rows(data.episode, config.train_fraction, config.split, config.seed)
-    normalizer = Normalizer.fit(data.u[train_rows], names=data.input_names)
-    x_all = torch.from_numpy(normalizer.normalize(data.u).astype(np.float32))
-    x_train, x_test = x_all[train_rows].contiguous(), x_all[test_rows].contiguous()
-    y_train = torch.from_numpy(rank_targets(data.V[train_rows]))
-    v_train, v_test = data.V[train_rows], data.V[test_rows]
-    n_train = len(train_rows)
+    u_train, v_train, v_test = data.u[train_rows], data.V[train_rows], data.V[test_rows]
+    if config.mirror:  # the training split and its mirror image; the test split as generated
+        u_mirror, v_mirror = mirrored(u_train, v_train, registry.gait_by_name(data.gait))
+        u_train, v_train = np.concatenate([u_train, u_mirror]), np.concatenate([v_train, v_mirror])
+    normalizer = Normalizer.fit(u_train, names=data.input_names)
+    x_train = torch.from_numpy(normalizer.normalize(u_train).astype(np.float32)).contiguous()
+    x_test = torch.from_numpy(normalizer.normalize(data.u[test_rows]).astype(np.float32)).contiguous()
+    y_train = torch.from_numpy(rank_targets(v_train))
+    n_train = len(u_train)
     counts = {
         "instances": dataset.n_instances, "episodes": dataset.n_episodes,
         "dropped_infeasible": int(dataset.n_instances - rows.size),
         "train_instances": int(n_train), "test_instances": int(len(test_rows)),
+        "mirrored_instances": int(n_train - len(train_rows)),
         "train_episodes": int(np.unique(data.episode[train_rows]).size),
         "test_episodes": int(np.unique(data.episode[test_rows]).size),
     }
@@ -518,13 +526,14 @@ def summary_text(dataset: Dataset, result: TrainResult, out_path: Path | None) -
     c, m, cfg = result.counts, result.metrics, result.config
     paper = registry.gait_by_name(dataset.gait).paper_top5  # None: the paper has no figure for this gait
     split = "by episode" if cfg.split == "episode" else "by instance (paper)"
+    mirror = " (half of them the mirror images of the other half)" if c.get("mirrored_instances") else ""
     lines = [
         f"contactnet train: {dataset.gait} model of {dataset.robot}"
         + (f" -> {out_path}" if out_path else " (not saved)"),
         f"  data    {dataset.path}: {c['instances']:,} instances, {c['episodes']:,} episodes"
         + (f" ({c['dropped_infeasible']} all-infeasible rows dropped)" if c["dropped_infeasible"] else ""),
         f"  split   {split}, {cfg.train_fraction:.0%} train: {c['train_instances']:,} train / "
-        f"{c['test_instances']:,} test instances ({c['train_episodes']:,} / {c['test_episodes']:,} episodes)",
+        f"{c['test_instances']:,} test instances ({c['train_episodes']:,} / {c['test_episodes']:,} episodes){mirror}",
         f"  epochs  {result.epochs_done}/{cfg.epochs} ({result.stopped}) in {result.seconds / 60:.1f} min, "
         f"{result.seconds_per_epoch:.2f} s/epoch; batch {cfg.batch_size}, lr {cfg.lr:g}, seed {cfg.seed}",
         "            train %   test %   paper train / test %",
@@ -538,7 +547,8 @@ def summary_text(dataset: Dataset, result: TrainResult, out_path: Path | None) -
 def train_command(gait: str, data_dir: str | os.PathLike, out_path: str | os.PathLike, epochs: int = 1000,
                   batch_size: int = 100, lr: float = 1e-3, seed: int = 0, split: str = "episode",
                   train_fraction: float = 0.7, threads: int = 1, max_minutes: float | None = None,
-                  save_partial: bool = False, progress: bool = True, robot: str | None = None) -> int:
+                  save_partial: bool = False, progress: bool = True, robot: str | None = None,
+                  mirror: bool = False) -> int:
     """`contactnet train`: load DIR, check the gait (and the robot, unless `robot` is None), train, save the
     model file (which records the dataset's robot), print a summary.
 
@@ -555,7 +565,7 @@ def train_command(gait: str, data_dir: str | os.PathLike, out_path: str | os.Pat
         print(f"warning: dataset {data_dir} is incomplete ({dataset.manifest.get('episodes')} of "
               f"{dataset.manifest.get('episodes_planned')} episodes); training on what is there", file=sys.stderr)
     config = TrainConfig(epochs=epochs, batch_size=batch_size, lr=lr, seed=seed, split=split,
-                         train_fraction=train_fraction, threads=threads, max_minutes=max_minutes)
+                         train_fraction=train_fraction, threads=threads, max_minutes=max_minutes, mirror=mirror)
     print(f"training {gait}: {dataset.n_instances:,} instances from {data_dir}, {epochs} epochs "
           f"(Ctrl-C stops; nothing is saved{'' if not save_partial else ' but the partial model'})", file=sys.stderr)
     result = train(dataset, config, progress=progress, stop_on_interrupt=True)
