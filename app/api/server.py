@@ -8,6 +8,7 @@ a `ContactnetApp` directly. `create_api` sets the API up and adds its route grou
 `app/api/terrain_routes.py`, `app/api/recording_routes.py`; the request and response models are in `app/api/models.py`.
 """
 
+import contextlib
 import functools
 import gc
 import logging
@@ -34,7 +35,15 @@ from app.api.recording_routes import add_recording_routes
 from app.api.session_routes import add_session_routes
 from app.api.terrain_routes import add_terrain_routes
 from app.api.visit_routes import add_visit_routes
-from app.api.visits import CURRENT_VISIT, Visit, VisitPool, VisitRouting, default_max_sessions
+from app.api.visits import (
+    CURRENT_VISIT,
+    SESSION_CPU_CORES,
+    Visit,
+    VisitPool,
+    VisitRouting,
+    default_max_sessions,
+)
+from app.live.backend import SessionBackend
 from app.live.editing import TerrainService
 from app.live.editor import MAX_UPLOAD_BYTES
 from app.live.planners import default_planner_factory
@@ -72,7 +81,16 @@ class ContactnetApp:
         self.recordings = RecordingStore(settings.recordings_folder())
         self._library = TerrainLibrary(settings.user_terrains_dir())
         max_sessions = settings.max_sessions if settings.max_sessions is not None else default_max_sessions()
-        self.visits = VisitPool(self._new_visit, max_sessions, settings.session_idle_s, shared=settings.shared)
+        self._engine = contextlib.ExitStack()  # Ray, for --engine ray (stopped at close if started here)
+        if settings.engine == "ray":
+            from contactnet.jobs.ray_engine import session as ray_session
+
+            self._engine.enter_context(ray_session(settings.address))
+        try:
+            self.visits = VisitPool(self._new_visit, max_sessions, settings.session_idle_s, shared=settings.shared)
+        except BaseException:
+            self._engine.close()
+            raise
         # Terrain uploads are validated here, never on the event loop (two at a time; more wait their turn).
         self.validation_pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix="terrain-upload")
         self.api = create_api(self)
@@ -86,12 +104,15 @@ class ContactnetApp:
         the others on ports the OS picks."""
         settings = self.settings
         terrain, label = self._initial_terrain(settings.terrain, self.robot)
-        session = LiveSession(
-            settings,
-            terrain,
-            label,
-            planner_factory=functools.partial(default_planner_factory, model_dir=settings.models_dir),
-        ).start()
+        planners = functools.partial(default_planner_factory, model_dir=settings.models_dir)
+        session: SessionBackend
+        if settings.engine == "ray":  # the simulation in a Ray actor; this process streams its snapshots
+            from app.live.ray_session import RaySession
+
+            session = RaySession(settings, terrain, label, planner_factory=planners, num_cpus=SESSION_CPU_CORES)
+        else:
+            session = LiveSession(settings, terrain, label, planner_factory=planners)
+        session.start()
         try:
             terrains = TerrainService(session, self._library, scale=self.robot.description.size_scale)
             recorder = LiveRecorder(self.recordings, self.robot, rate_hz=settings.record_hz)
@@ -122,7 +143,7 @@ class ContactnetApp:
         return CURRENT_VISIT.get() or self.visits.default
 
     @property
-    def session(self) -> LiveSession:
+    def session(self) -> SessionBackend:
         return self.visit().session
 
     @property
@@ -155,6 +176,7 @@ class ContactnetApp:
             notes = self.visits.close()
         finally:
             self.validation_pool.shutdown(wait=False, cancel_futures=True)
+            self._engine.close()
         return "; ".join(notes) or None
 
 

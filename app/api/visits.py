@@ -1,8 +1,9 @@
 """A robot per visitor: every browser gets a live session of its own (`Visit`), kept in a `VisitPool`.
 
-A visit is what one visitor drives: a `LiveSession` (robot, terrain, settings), its 3D view (a `Viewer`: a viser
-server of its own, on a port the OS picks), the terrain service in front of the session and a recorder. The
-terrain library and the recordings folder are shared by all visits.
+A visit is what one visitor drives: a live session (robot, terrain, settings: a `SessionBackend`, simulated in
+this process or in a Ray actor: ``serve --engine``), its 3D view (a `Viewer`: a viser server of its own, on a port
+the OS picks), the terrain service in front of the session and a recorder. The terrain library and the recordings
+folder are shared by all visits.
 
 Who is who: the front page (``GET /``) gives the browser a cookie (`VISIT_COOKIE`, HttpOnly, SameSite=Strict)
 naming its visit, created on the first visit. Every request that carries the cookie acts on that visit
@@ -14,7 +15,9 @@ whose visit has been reclaimed gets a 410 from the API (the page then asks for a
 Lifetime: a visit is reclaimed (its recording in progress saved, its threads and ports closed) once no browser
 has had its 3D view open and none of its requests came for ``idle_s`` seconds; the default visit is never
 closed, only released for the next browser (under a new id: the cookie of the browser that left no longer names
-it). At most ``max_sessions`` visits run (the default one included);
+it). A visit whose simulation was lost (a Ray actor or its node died) is reclaimed at the reaper's next look,
+and its cookie then gets a 410 that says so (the default visit is replaced by a new one). At most ``max_sessions``
+visits run (the default one included);
 a browser that comes when all are taken gets a page that says so, with links to watch the running ones.
 
 Watching: each visit has a public ``watch_id`` (never its cookie, which would let the holder drive it). A
@@ -40,8 +43,8 @@ from starlette.responses import JSONResponse
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 if TYPE_CHECKING:
+    from app.live.backend import SessionBackend
     from app.live.editing import TerrainService
-    from app.live.session import LiveSession
     from app.recordings.recorder import LiveRecorder
     from app.viewer.live_viewer import Viewer
 
@@ -55,6 +58,7 @@ SESSION_CPU_CORES = 0.33
 #: (measured: 3 sessions kept real time on 0.92 cores; 4 took 1.05 cores and ran at 0.70-0.74 of real time).
 PROCESS_CPU_CORES = 1.0
 DEFAULT_IDLE_S = 120.0
+LOST_KEPT = 256
 REAP_PERIOD_S = 5.0
 
 
@@ -72,7 +76,7 @@ def _new_id(nbytes: int) -> str:
 class Visit:
     """One visitor's live session, its 3D view, its terrain service and its recorder."""
 
-    session: LiveSession
+    session: SessionBackend
     terrains: TerrainService
     recorder: LiveRecorder
     viewer: Viewer
@@ -129,6 +133,7 @@ class VisitPool:
         self.default.visit_id = self.boot_id + self.default.visit_id
         self._visits: dict[str, Visit] = {self.default.visit_id: self.default}
         self.reclaimed = 0
+        self._lost: dict[str, str] = {}  # visit id -> why its simulation was lost (the last LOST_KEPT)
         self._stop = threading.Event()
         self._reaper = threading.Thread(target=self._reap_loop, name="visit-reaper", daemon=True)
         self._reaper.start()
@@ -179,7 +184,9 @@ class VisitPool:
 
     # ---- reclaiming --------------------------------------------------------------------------------------
     def reap(self, now: float | None = None) -> list[str]:
-        """Close the visits idle for longer than ``idle_s`` (the default one is only released); their watch ids."""
+        """Close the visits idle for longer than ``idle_s`` (the default one is only released) and those whose
+        simulation was lost (`reap_lost`); their watch ids."""
+        gone = self.reap_lost()
         now = time.monotonic() if now is None else now
         closing = []
         with self._lock:
@@ -203,7 +210,42 @@ class VisitPool:
                 continue
             self.reclaimed += 1
             log.info("visit %s reclaimed after %.0f s idle%s", visit.watch_id, self.idle_s, f"; {note}" if note else "")
-        return [v.watch_id for v in closing]
+        return gone + [v.watch_id for v in closing]
+
+    def reap_lost(self) -> list[str]:
+        """Reclaim the visits whose simulation was lost (``session.lost``: a Ray actor or its node died); a
+        request with such a visit's cookie then gets a 410 saying so (`lost_reason`). The default visit is
+        replaced by a new one. Their watch ids."""
+        with self._lock:
+            lost = [v for v in self._visits.values() if v.session.lost]
+            for visit in lost:
+                del self._visits[visit.visit_id]
+                self._lost[visit.visit_id] = visit.session.lost
+                while len(self._lost) > LOST_KEPT:
+                    self._lost.pop(next(iter(self._lost)))
+        for visit in lost:
+            log.warning("visit %s reclaimed: %s", visit.watch_id, visit.session.lost)
+            try:
+                note = visit.close()
+            except Exception:  # noqa: BLE001 - one visit's failure must not stop the reaper
+                log.exception("closing visit %s failed", visit.watch_id)
+                note = None
+            if note:
+                log.warning("visit %s: %s", visit.watch_id, note)
+            self.reclaimed += 1
+            if visit.default:  # the tool always has one: a new default session (its viewer on the same port)
+                with self._building:
+                    fresh = self._build(True)
+                    fresh.visit_id = self.boot_id + fresh.visit_id
+                    with self._lock:
+                        self.default = fresh
+                        self._visits[fresh.visit_id] = fresh
+        return [v.watch_id for v in lost]
+
+    def lost_reason(self, visit_id: str | None) -> str | None:
+        """Why the visit ``visit_id`` was reclaimed when its simulation was lost (None: it was not)."""
+        with self._lock:
+            return self._lost.get(visit_id) if visit_id else None
 
     def _reap_loop(self) -> None:
         while not self._stop.wait(min(REAP_PERIOD_S, max(self.idle_s / 4, 0.05))):
@@ -264,7 +306,10 @@ class VisitRouting:
         visit = self.pool.get(visit_id)
         path = scope.get("path", "")
         if visit is None and visit_id and path.startswith("/api/") and not path.startswith("/api/visits"):
-            if visit_id.startswith(self.pool.boot_id):
+            lost = self.pool.lost_reason(visit_id)
+            if lost:
+                detail = f"your live session was closed: {lost}"
+            elif visit_id.startswith(self.pool.boot_id):
                 detail = f"your live session was closed after {self.pool.idle_s:g} s without a visit"
             else:
                 detail = "the server restarted since your live session began"

@@ -168,6 +168,11 @@ class LiveSession:
         """The session thread runs (not stopped: a reclaimed visit's session is not)."""
         return self._thread is not None and self._thread.is_alive()
 
+    @property
+    def lost(self) -> str | None:
+        """Never lost: the simulation runs in this process (`app.live.backend.SessionBackend`)."""
+        return None
+
     def wait_view(self, predicate: Callable[[LiveView], bool], timeout: float = 10.0) -> LiveView:
         """Block until the latest view satisfies predicate (tests, benchmarks)."""
         deadline = time.monotonic() + timeout

@@ -31,6 +31,8 @@ SIM_SPEED_RANGE = (0.1, 2.0)
 RECORD_RATE_RANGE_HZ = (0.5, 60.0)
 #: Largest request body of the JSON commands (everything but a terrain upload), in bytes.
 COMMAND_BODY_LIMIT_BYTES = 64 * 1024
+#: ``serve --engine``: where visitors' simulations run (`app.live.backend`): threads of the server, or Ray actors.
+SESSION_ENGINES = ("local", "ray")
 #: Host names that always reach the tool (DNS rebinding protection: any other Host header is refused).
 LOOPBACK_HOSTS = ("127.0.0.1", "localhost", "::1")
 
@@ -83,6 +85,12 @@ class ServeSettings:
     max_sessions: int | None = None
     session_idle_s: float = 120.0  #: a visitor's session is reclaimed after this long without its page open
     shared: bool = False  #: every visitor drives the one default session (no per-visitor sessions)
+    #: where visitors' simulations run (`SESSION_ENGINES`, `app.live.backend`): ``local``, threads of this process;
+    #: ``ray``, one Ray actor per session (`app.live.ray_session`, docs/sessions-on-ray.md)
+    engine: str = "local"
+    #: ``engine="ray"``: the Ray cluster to use (host:port, auto, ray://host:port); None: $RAY_ADDRESS, else a
+    #: local Ray of this machine's CPUs (a Ray already started in this process is used as it is)
+    address: str | None = None
 
     def __post_init__(self) -> None:
         from contactnet import registry
@@ -107,6 +115,12 @@ class ServeSettings:
             and 1 <= self.max_sessions <= 64
         ):
             fail("max_sessions", "None or a number of sessions in 1..64")
+        if self.engine not in SESSION_ENGINES:
+            fail("engine", f"one of {', '.join(SESSION_ENGINES)}")
+        if self.address is not None and not (isinstance(self.address, str) and self.address.strip()):
+            fail("address", "None or a Ray cluster address (host:port, auto, ray://host:port)")
+        if self.address is not None and self.engine != "ray":
+            fail("address", "None unless engine is 'ray' (a cluster address needs --engine ray)")
         if not (_finite(self.session_idle_s) and 1.0 <= self.session_idle_s <= 86400.0):
             fail("session_idle_s", "in [1, 86400] s")
         for field in ("viewer_start_delay_s", "loop_delay_s"):
@@ -214,6 +228,8 @@ CLI_FIELDS = {
     "max_sessions": "max_sessions",
     "session_idle": "session_idle_s",
     "shared": "shared",
+    "engine": "engine",
+    "address": "address",
 }
 
 

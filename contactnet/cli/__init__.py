@@ -9,7 +9,7 @@ import json
 import sys
 from pathlib import Path
 
-from app.live.settings import VELOCITY_LIMIT_M_S
+from app.live.settings import SESSION_ENGINES, VELOCITY_LIMIT_M_S
 from contactnet import registry
 from contactnet.cli.robot import add_robot_parser
 from contactnet.cli.terrain import add_terrain_parser
@@ -390,7 +390,7 @@ def build_parser() -> argparse.ArgumentParser:
                        metavar="S", help="reclaim a visitor's session S seconds after its page closed (default 120)")
     serve.add_argument("--shared", action="store_true", default=None,
                        help="one robot for everyone: every visitor drives the default session")
-    serve.add_argument("--engine", choices=("local", "ray"), default=None,
+    serve.add_argument("--engine", choices=SESSION_ENGINES, default=None,
                        help="where visitors' simulations run: local, threads of the server (default); ray, a Ray "
                             "actor per session (pip install contactnet[ray]) on --address, else $RAY_ADDRESS, else a "
                             "local Ray of this machine's CPUs; the server only streams their snapshots")
