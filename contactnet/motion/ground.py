@@ -13,6 +13,8 @@ The body follows the slope of its feet as well (``body_pitch``): nose up by half
 feet's mean top to the front feet's, so that on stairs the hind legs do not stretch straight while the
 front ones fold (a level body), nor do the knees of the legs on the lower tops drop toward the higher ones
 (a body parallel to the slope). Level on flat ground.
+
+The optimizer's friction pyramids stand on the tops' normals under the footholds (``ground_normals``).
 """
 
 from __future__ import annotations
@@ -43,10 +45,20 @@ def body_pitch(tops_z: np.ndarray, front_to_hind_m: float, share: float = PITCH_
     return share * np.arctan2(hind - front, front_to_hind_m)
 
 
+def ground_normals(terrain: Terrain, feet_world: np.ndarray) -> np.ndarray | None:
+    """Unit normals (..., 3) of the tops under feet (..., 3) or (..., 2) (``Terrain.normal_at``; +z over holes), the
+    optimizer's friction pyramids' axes (``TrajoptProblem.contact_normals_world``); None on a terrain without sloped
+    tops (every normal +z: nothing to look up)."""
+    if not terrain.sloped:
+        return None
+    feet = np.asarray(feet_world, dtype=float)
+    return terrain.normal_at(feet[..., 0:2].reshape(-1, 2)).reshape(*feet.shape[:-1], 3)
+
+
 def front_to_hind_m(foot_nominal_base: np.ndarray) -> float:
     """Distance along x from the hind feet to the front feet in the nominal stance (legs FL, FR, HL, HR)."""
     feet = np.asarray(foot_nominal_base, dtype=float)
     return float(0.5 * (feet[0, 0] + feet[1, 0]) - 0.5 * (feet[2, 0] + feet[3, 0]))
 
 
-__all__ = ["PITCH_SHARE", "body_pitch", "front_to_hind_m", "support_height"]
+__all__ = ["PITCH_SHARE", "body_pitch", "front_to_hind_m", "ground_normals", "support_height"]

@@ -6,7 +6,9 @@ forces and the CoM / base trajectory that track the user velocity with the singl
 drive the whole-body controller. The robot enters through ``SrbdModel.for_robot(description)``.
 
 Every solver works in the *heading frame* (rotated by the reference yaw about z, origin at the current
-CoM xy) and returns world-frame trajectories and forces.
+CoM xy) and returns world-frame trajectories and forces. The friction pyramids stand on the ground's normal under
+each stance foot (``TrajoptProblem.contact_normals_world``, +z by default): the fast paths solve for each foot's
+force in its contact frame (``model.contact_frames``), the casadi reference writes the rows with the normals.
 
 Fast path: the SRBD linearized about the reference. It is a convex QP, solved
 

@@ -7,6 +7,11 @@
   measured one at a time);
 * ``kind="nlp"``: the nonlinear SRBD with ipopt, warm-started from the previous solve (the reference the
   fast paths are tested against).
+
+Both state the friction pyramids about +z on flat ground (``PYRAMIDS`` "flat") and, for problems with a tilted
+normal, plainly about each stance foot's normal ("normals", a second instance the optimizer builds at its first
+use); the MPC solve (``piqp_direct``) states the tilted problems with the forces in contact coordinates
+("coordinates"), whose rows and Hessian stay constant.
 """
 
 from __future__ import annotations
@@ -102,52 +107,99 @@ def _qpsol_status(plugin: str, stats: dict) -> str:
     return f"error: {plugin} {raw}"
 
 
-def srbd_problem(model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights, kind: str) -> dict:
-    """The multiple-shooting SRBD problem in casadi SX (``kind`` "qp": linearized, "nlp": nonlinear), as a
-    qpsol/nlpsol problem dict: variables stage-wise ``[f_k (12), x_{k+1} (12)]``, constraints per stage
-    ``[dynamics (12), pyramid rows (16)]``, parameters ``[x0, feet, x_ref, f_ref, support, p_bar, ext]``."""
+#: How ``srbd_problem`` states the friction pyramids and the force term of the cost:
+#:
+#: * "flat": about +z: the variables are the heading-frame forces, the pyramid rows those of ``_foot_rows`` (the
+#:   normal force's bounds are variable bounds), the force weights along x, y, z (the MPC solve on flat ground);
+#: * "normals": about each foot's normal, written plainly: the variables are the heading-frame forces, each foot's
+#:   contact frame ``[t1 t2 n]`` is a parameter, the rows are ``t1.f - mu n.f <= 0``, ``-t1.f - mu n.f <= 0``,
+#:   the same with ``t2``, ``-n.f <= 0`` and ``n.f <= fz_max``, and the force error is weighted along
+#:   ``t1, t2, n`` (the reference, any ground);
+#: * "coordinates": about each foot's normal by a change of variables: the variables are each foot's force in its
+#:   contact coordinates ``f_c`` (the dynamics see ``f = R f_c``, ``R`` a parameter), the rows and bounds those of
+#:   "flat" on ``f_c`` and the reference forces given in contact coordinates: the Hessian and the rows stay
+#:   constant (the MPC solve on sloped ground, ``piqp_direct``).
+#:
+#: "normals" and "coordinates" take the contact frames as the last parameters, the columns ``t1, t2, n`` of each
+#: foot side by side (36 numbers per node).
+PYRAMIDS = ("flat", "normals", "coordinates")
+
+
+def _foot_frame(frames, k: int, leg: int):  # noqa: ANN001, ANN202 - casadi SX
+    """The contact frame R = [t1 t2 n] (3x3 SX) of ``leg`` at node ``k`` from the frames parameter (36, N)."""
     import casadi as ca
 
-    n = config.n_nodes
+    column = frames[9 * leg : 9 * leg + 9, k]
+    return ca.horzcat(column[0:3], column[3:6], column[6:9])
+
+
+def srbd_problem(model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights, kind: str,
+                 pyramids: str = "flat") -> dict:
+    """The multiple-shooting SRBD problem in casadi SX (``kind`` "qp": linearized, "nlp": nonlinear; ``pyramids``
+    one of ``PYRAMIDS``), as a qpsol/nlpsol problem dict: variables stage-wise ``[f_k (12), x_{k+1} (12)]``,
+    constraints per stage ``[dynamics (12), pyramid rows (16; "normals": 24)]``, parameters ``[x0, feet, x_ref,
+    f_ref, support, p_bar, ext]`` and, but with "flat", ``frames``."""
+    import casadi as ca
+
+    if pyramids not in PYRAMIDS:
+        raise ValueError(f"unknown pyramids {pyramids!r}: one of {PYRAMIDS}")
+    n, mu = config.n_nodes, model.mu
     x0 = ca.SX.sym("x0", NX)
     feet, x_ref, f_ref = ca.SX.sym("feet", NU, n), ca.SX.sym("xr", NX, n), ca.SX.sym("fr", NU, n)
     support, p_bar, ext = ca.SX.sym("support", n), ca.SX.sym("pbar", 3, n), ca.SX.sym("ext", 3)
+    frames = ca.SX.sym("frames", 9 * N_LEGS, n)
     step = _casadi_step if kind == "nlp" else _casadi_linear_step
-    q, wf = weights.node_state_weights(n), np.tile(np.asarray(weights.force, dtype=float), N_LEGS)
-    pyramid = ca.DM(_foot_rows(model.mu)[0:4])
+    q, w_force = weights.node_state_weights(n), np.asarray(weights.force, dtype=float)
+    pyramid = ca.DM(_foot_rows(mu)[0:4])
     variables, g, cost, x_prev = [], [], 0, x0
     for k in range(n):
         f_k, x_k = ca.SX.sym(f"f{k}", NU), ca.SX.sym(f"x{k + 1}", NX)
         variables += [f_k, x_k]
-        g.append(x_k - step(model, config.dt_s, x_prev, f_k, feet[:, k], support[k], p_bar[:, k], ext))
-        g.extend(pyramid @ f_k[3 * i : 3 * i + 3] for i in range(N_LEGS))
-        cost += ca.sumsqr(np.sqrt(q[k]) * (x_k - x_ref[:, k])) + ca.sumsqr(np.sqrt(wf) * (f_k - f_ref[:, k]))
+        feet_f = [f_k[3 * i : 3 * i + 3] for i in range(N_LEGS)]
+        if pyramids == "coordinates":
+            f_heading = ca.vertcat(*(_foot_frame(frames, k, i) @ feet_f[i] for i in range(N_LEGS)))
+        else:
+            f_heading = f_k
+        g.append(x_k - step(model, config.dt_s, x_prev, f_heading, feet[:, k], support[k], p_bar[:, k], ext))
+        if pyramids == "normals":
+            force_term = 0
+            for i in range(N_LEGS):
+                rot, f = _foot_frame(frames, k, i), feet_f[i]
+                t1, t2, normal = rot[:, 0], rot[:, 1], rot[:, 2]
+                g.extend([ca.dot(t1, f) - mu * ca.dot(normal, f), -ca.dot(t1, f) - mu * ca.dot(normal, f),
+                          ca.dot(t2, f) - mu * ca.dot(normal, f), -ca.dot(t2, f) - mu * ca.dot(normal, f),
+                          -ca.dot(normal, f), ca.dot(normal, f)])
+                force_term += ca.sumsqr(np.sqrt(w_force) * (rot.T @ (f - f_ref[3 * i : 3 * i + 3, k])))
+        else:
+            g.extend(pyramid @ f for f in feet_f)
+            force_term = ca.sumsqr(np.sqrt(np.tile(w_force, N_LEGS)) * (f_k - f_ref[:, k]))
+        cost += ca.sumsqr(np.sqrt(q[k]) * (x_k - x_ref[:, k])) + force_term
         x_prev = x_k
-    return {
-        "x": ca.vertcat(*variables),
-        "f": cost,
-        "g": ca.vertcat(*g),
-        "p": ca.vertcat(x0, ca.vec(feet), ca.vec(x_ref), ca.vec(f_ref), support, ca.vec(p_bar), ext),
-    }
+    parameters = [x0, ca.vec(feet), ca.vec(x_ref), ca.vec(f_ref), support, ca.vec(p_bar), ext]
+    if pyramids != "flat":
+        parameters.append(ca.vec(frames))
+    return {"x": ca.vertcat(*variables), "f": cost, "g": ca.vertcat(*g), "p": ca.vertcat(*parameters)}
 
 
 class _CasadiOcp:
     """Multiple-shooting SRBD problem in casadi, built once, solved with parameters.
 
-    Variables stage-wise ``[f_k (12), x_{k+1} (12)]``; constraints per stage ``[dynamics (12), pyramid rows
-    (16)]``; contact (forces of swing feet fixed to 0, ``0 <= f_z <= fz_max``) and the CoM height band
-    enter as variable bounds. ``kind="nlp"``: nonlinear SRBD with ipopt (cold and warm-started instances);
-    ``kind="qp"``: the linearized SRBD of the fast path with a casadi qpsol plugin (sparse).
-    Problems are given in the heading frame.
+    Variables stage-wise ``[f_k (12), x_{k+1} (12)]``; constraints per stage ``[dynamics (12), pyramid rows]``;
+    swing feet (forces fixed to 0) and the CoM height band enter as variable bounds. ``pyramids`` (``PYRAMIDS``):
+    "flat" (about +z: 4 rows per foot, the normal force's bounds variable bounds) or "normals" (about each stance
+    foot's normal, written plainly: 6 rows per foot). ``kind="nlp"``: nonlinear SRBD with ipopt (cold and
+    warm-started instances); ``kind="qp"``: the linearized SRBD of the fast path with a casadi qpsol plugin
+    (sparse). Problems are given in the heading frame.
     """
 
     def __init__(
-        self, model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights, kind: str, plugin: str
+        self, model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights, kind: str, plugin: str,
+        pyramids: str = "flat",
     ):
         import casadi as ca
 
-        self.model, self.config, self.kind, self.plugin = model, config, kind, plugin
-        prob = srbd_problem(model, config, weights, kind)
+        self.model, self.config, self.kind, self.plugin, self.pyramids = model, config, kind, plugin, pyramids
+        prob = srbd_problem(model, config, weights, kind, pyramids)
         self.warm = None
         if kind == "nlp":
             base = {
@@ -177,30 +229,36 @@ class _CasadiOcp:
         """Constant parts of the arguments (``_arguments``): force bounds of a stance foot, constraint bounds."""
         n, model = self.config.n_nodes, self.model
         self.previous: dict | None = None
-        self._stance_force_lo = np.array([-np.inf, -np.inf, 0.0])
-        self._stance_force_hi = np.array([np.inf, np.inf, model.fz_max_n])
-        stage_g_lo = np.concatenate([np.zeros(NX), np.full(4 * N_LEGS, -np.inf)])  # dynamics = 0, pyramid <= 0
-        self._lbg, self._ubg = np.tile(stage_g_lo, n), np.zeros(n * len(stage_g_lo))
+        if self.pyramids == "normals":  # the rows bound the normal force
+            self._stance_force_lo, self._stance_force_hi = np.full(3, -np.inf), np.full(3, np.inf)
+            foot_hi = np.array([0.0, 0.0, 0.0, 0.0, 0.0, model.fz_max_n])
+        else:
+            self._stance_force_lo = np.array([-np.inf, -np.inf, 0.0])
+            self._stance_force_hi = np.array([np.inf, np.inf, model.fz_max_n])
+            foot_hi = np.zeros(4)
+        # dynamics = 0, pyramid rows <= their bounds
+        stage_g_lo = np.concatenate([np.zeros(NX), np.full(len(foot_hi) * N_LEGS, -np.inf)])
+        stage_g_hi = np.concatenate([np.zeros(NX), np.tile(foot_hi, N_LEGS)])
+        self._lbg, self._ubg = np.tile(stage_g_lo, n), np.tile(stage_g_hi, n)
 
     def _arguments(self, problem: ProblemBatch) -> dict[str, np.ndarray]:
         """Parameters, bounds and the reference initial guess of a (heading-frame) problem (batch of 1)."""
         n, model = self.config.n_nodes, self.model
         x0, contact = problem.x0[0], problem.contact[0]
         x_ref = problem.reference_states(self.config.dt_s)[0]
-        f_ref = reference_forces(contact, model.mass_kg, model.gravity, problem.ext[0]).reshape(n, NU)
+        f_ref = reference_forces(contact, model.mass_kg, model.gravity, problem.ext[0])
+        frames = problem.contact_frames()
+        frames = np.broadcast_to(np.eye(3), (n, N_LEGS, 3, 3)) if frames is None else frames[0]
+        if self.pyramids == "coordinates":  # the reference forces in the variables' coordinates R' f_ref
+            f_ref = (f_ref[..., None, :] @ frames)[..., 0, :]
+        f_ref = f_ref.reshape(n, NU)
         p_bar = x_ref[:n, 0:3].copy()
         p_bar[0] = x0[0:3]
-        p = np.concatenate(
-            [
-                x0,
-                problem.feet[0].ravel(),
-                x_ref[1:].ravel(),
-                f_ref.ravel(),
-                contact.any(axis=1),
-                p_bar.ravel(),
-                problem.ext[0],
-            ]
-        )
+        parameters = [x0, problem.feet[0].ravel(), x_ref[1:].ravel(), f_ref.ravel(), contact.any(axis=1),
+                      p_bar.ravel(), problem.ext[0]]
+        if self.pyramids != "flat":  # the columns t1, t2, n of each foot's frame, node by node
+            parameters.append(np.swapaxes(frames, -1, -2).ravel())
+        p = np.concatenate(parameters)
         # Bounds, stage-wise [f_k, x_{k+1}]: forces of stance feet in 0 <= f_z <= fz_max (swing feet: 0), the CoM
         # height within its band.
         lbx, ubx = np.full((n, NU + NX), -np.inf), np.full((n, NU + NX), np.inf)

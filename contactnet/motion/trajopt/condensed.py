@@ -5,6 +5,12 @@ angular velocity, moments about the reference CoM plus the first-order tipping t
 ``(p - p_ref) x F_ref``. The result is a convex QP in the forces alone (``CondensedQp``), batched over
 the candidates of one state; the matrices shared by problems with the same reference yaw and support
 pattern are built once (``build_condensed_qp``'s cache). ``contactnet.motion.trajopt.ipm`` solves it.
+
+Friction pyramids about tilted ground normals: the QP's variables are then each foot's force in its contact
+coordinates, ``f = R f_c`` with ``R = [t1 t2 n]`` (``model.contact_frames``), so that the pyramid rows stay the
+standard ones of ``_foot_rows``: the wrench map becomes ``J R`` (``CondensedQp.frames``), the force gradient
+``R' g_force``; the force Hessian ``diag(h_force)`` is unchanged because the force weights act along the contact
+axes (``TrajoptWeights.force``). On flat ground (every normal +z) ``frames`` is None and nothing is rotated.
 """
 
 from __future__ import annotations
@@ -21,14 +27,17 @@ from contactnet.motion.trajopt.problem import ProblemBatch, TrajoptProblem
 
 @dataclass
 class CondensedQp:
-    """Batch of B condensed QPs in the foot forces f (B, N, 4, 3)::
+    """Batch of B condensed QPs in the foot forces f (B, N, 4, 3), each in its foot's contact coordinates (the
+    heading frame's on flat ground, ``frames`` None)::
 
         min  1/2 f' H f + g' f + const,   H = diag(h_force) + J' Q_w J,   g = J' g_w + g_force
-        s.t. friction pyramid and 0 <= f_z <= fz_max on stance feet, f = 0 on swing feet,
+        s.t. friction pyramid and 0 <= f_n <= fz_max on stance feet (the rows of ``_foot_rows``), f = 0 on
+             swing feet,
              z_lo <= Gz J f <= z_hi          (CoM height band, relative to the free response)
 
     ``J`` maps the forces of node k to the node wrench (total force, moment about the linearization
-    point ``pbar_k``): ``w_k = sum_i J_ki f_ki`` with ``J_ki = [I; [r_ki - pbar_k]x]``. The states of
+    point ``pbar_k``): ``w_k = sum_i J_ki f_ki`` with ``J_ki = [I; [r_ki - pbar_k]x] R_ki`` (``R_ki`` the foot's
+    contact frame, ``frames``; the identity when None). The states of
     nodes 1..N are ``x_free + G w``; ``G`` depends only on the reference yaw and on which nodes have
     support, so it is shared by the candidates of one state (``gamma[group]``).
     """
@@ -49,6 +58,8 @@ class CondensedQp:
     z_hi: np.ndarray  #: (B, N) upper bound of Gz J f
     mu: float
     fz_max: float
+    #: (B, N, 4, 3, 3) each foot's contact frame [t1 t2 n] in the heading frame; None: the identity (flat ground)
+    frames: np.ndarray | None = None
 
     @property
     def batch(self) -> int:
@@ -62,16 +73,20 @@ class CondensedQp:
         """The QPs of a subset of the candidates (boolean mask or indices)."""
         fields = {k: getattr(self, k) for k in self.__dataclass_fields__}
         for k, v in fields.items():
-            if isinstance(v, np.ndarray) and k not in ("gamma", "h_force"):
+            if isinstance(v, np.ndarray) and k not in ("gamma", "h_force"):  # (frames: None stays None)
                 fields[k] = v[keep]
         return CondensedQp(**fields)
 
+    def to_heading(self, forces: np.ndarray) -> np.ndarray:
+        """Forces (B, N, 4, 3) in the heading frame from the QP's variables (contact coordinates)."""
+        return forces if self.frames is None else (self.frames @ forces[..., None])[..., 0]
+
     def wrenches(self, forces: np.ndarray) -> np.ndarray:
-        """Node wrenches (B, N, 6) of forces (B, N, 4, 3)."""
+        """Node wrenches (B, N, 6) of heading-frame forces (B, N, 4, 3)."""
         return np.concatenate([forces.sum(axis=2), np.cross(self.arm, forces).sum(axis=2)], axis=-1)
 
     def states(self, forces: np.ndarray) -> np.ndarray:
-        """State trajectories (B, N+1, 12) of the linearized model under forces (B, N, 4, 3)."""
+        """State trajectories (B, N+1, 12) of the linearized model under heading-frame forces (B, N, 4, 3)."""
         w = self.wrenches(forces).reshape(self.batch, -1, 1)
         x = self.x_free + (self.gamma[self.group] @ w).reshape(self.x_free.shape)
         return np.concatenate([self.x0[:, None], x], axis=1)
@@ -175,7 +190,8 @@ def build_condensed_qp(
 ) -> CondensedQp:
     """Linearize about the references and condense the QPs of a batch of problems (same N).
 
-    The friction pyramids are aligned with the frame of the problems. ``cache`` (a dict owned by the
+    The friction pyramids are about the problems' normals (``ProblemBatch.normals``, in the frame of the
+    problems; +z when None), the variables in each foot's contact coordinates. ``cache`` (a dict owned by the
     caller, reused only with the same model, weights and dt) keeps the matrices shared by problems with
     the same reference yaw and support pattern.
     """
@@ -210,6 +226,9 @@ def build_condensed_qp(
     err = (x_free - x_ref[:, 1:]).reshape(b, -1)
     w_force = np.asarray(weights.force, dtype=float)
     f_ref = reference_forces(batch.contact, model.mass_kg, model.gravity, batch.ext)
+    frames = batch.contact_frames()
+    if frames is not None:  # the reference forces in contact coordinates R' f_ref (the weights act along those axes)
+        f_ref = (f_ref[..., None, :] @ frames)[..., 0, :]
     z_rel = x_ref[:, 1:, 2] - x_free[..., 2]
     band = model.com_height_band_m
     return CondensedQp(
@@ -229,4 +248,5 @@ def build_condensed_qp(
         z_hi=z_rel + band,
         mu=model.mu,
         fz_max=model.fz_max_n,
+        frames=frames,
     )

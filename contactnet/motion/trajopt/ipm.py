@@ -69,7 +69,8 @@ class _Cholesky:
 class _IpmOperators:
     """Operators of a condensed QP batch for the interior-point iterations.
 
-    Forces are handled as (B, N, 12) (the 4 feet of a node side by side). Constraint rows, per candidate:
+    Forces are handled as (B, N, 12) (the 4 feet of a node side by side), in the QP's variables (each foot's
+    contact coordinates, ``CondensedQp.frames``: the wrench map includes the rotation). Constraint rows, per candidate:
     ``[foot rows (N*4*6), height upper (N), height lower (N)]`` (the height rows only ``with_height``),
     ``A f + s = b``, ``s >= 0``. Swing feet have zero columns in the wrench map and masked rows.
     """
@@ -102,6 +103,8 @@ class _IpmOperators:
         jac = np.zeros((b, n, N_LEGS, 6, 3))
         jac[..., 0:3, :] = np.eye(3)
         jac[..., 3:6, :] = skew(qp.arm)
+        if qp.frames is not None:  # the variables are contact coordinates: J R per foot
+            jac = jac @ qp.frames
         jac *= qp.contact[..., None, None]  # (B, N, 4, 6, 3), zero for swing feet
         self.foot_mask = qp.contact[..., None, None].astype(float)  # (B, N, 4, 1, 1)
         self.jac = np.swapaxes(jac, 2, 3).reshape(b, n, 6, NU)  # (B, N, 6, 12)
@@ -237,7 +240,7 @@ def _max_step(v: np.ndarray, dv: np.ndarray) -> np.ndarray:
 class IpmResult:
     """Per-candidate result of the batched interior-point method."""
 
-    forces: np.ndarray  #: (B, N, 4, 3)
+    forces: np.ndarray  #: (B, N, 4, 3) in the heading frame
     cost: np.ndarray  #: (B,)
     status: list[str]
     iterations: np.ndarray  #: (B,) int
@@ -330,7 +333,7 @@ def _ipm_run(qp: CondensedQp, with_height: bool, max_iter: int, tol: float, mu0:
     """
     ops = _IpmOperators(qp, with_height)
     b, n = qp.batch, qp.n_nodes
-    f = -ops.g_force / ops.h_force  # the reference forces: strictly inside the pyramids (zero in swing)
+    f = -ops.g_force / ops.h_force  # the reference forces (zero in swing): inside the pyramids below atan(mu) slopes
     w = ops.wrench(f)
     s = np.where(ops.row_mask > 0, np.maximum(ops.rhs - ops.rows(f, w), 1e-2), 1.0)
     it = _Iterate(f, w, s, mu0 * ops.row_mask / s)
@@ -363,7 +366,7 @@ def _ipm_run(qp: CondensedQp, with_height: bool, max_iter: int, tol: float, mu0:
         alpha = np.where(live & ~stalled, alpha, 0.0)
         d = tuple(np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0) for x in d) if stalled.any() else d
         it = it.moved(d, alpha)
-    out.forces = out.forces.reshape(b, n, N_LEGS, 3)
+    out.forces = qp.to_heading(out.forces.reshape(b, n, N_LEGS, 3))
     return out
 
 

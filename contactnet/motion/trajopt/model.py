@@ -16,8 +16,10 @@ Discretization (forces constant over a node of ``dt``): positions and angles use
 update ``q+ = q + dt q' + dt^2/2 q''`` (angle rate map frozen at the start of the node), velocities
 ``v+ = v + dt v'``.
 
-Constraints (flat ground, normal +z, in the heading frame): ``|f_x|, |f_y| <= mu f_z``,
-``0 <= f_z <= fz_max`` on stance feet, no force on swing feet. The CoM height stays within
+Constraints on stance feet, about the ground's normal ``n`` under each foot (``TrajoptProblem.contact_normals_world``;
+default +z, flat ground): with the foot's contact frame ``R = [t1 t2 n]`` (``contact_frames``: ``t1`` the heading
+frame's x projected onto the ground, ``t2 = n x t1``), ``|f.t1|, |f.t2| <= mu f.n``, ``0 <= f.n <= fz_max``; on
+flat ground ``|f_x|, |f_y| <= mu f_z``, ``0 <= f_z <= fz_max`` in the heading frame. No force on swing feet. The CoM height stays within
 ``com_height_band_m`` of the reference (the robot must neither fall nor jump: this is what makes a plan
 without support infeasible).
 """
@@ -88,7 +90,11 @@ class TrajoptWeights:
     com_vel: tuple[float, float, float] = (10.0, 10.0, 10.0)
     rpy: tuple[float, float, float] = (100.0, 100.0, 30.0)
     ang_vel: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    #: Weight of the force tracking, per N^2 (x, y, z).
+    #: Weight of the force tracking, per N^2, along each foot's contact axes (t1, t2, n): on flat ground the
+    #: heading frame's (x, y, z). Equal weights (the default, and every use) make the term the same in any
+    #: axes, so a tilted normal leaves it unchanged; unequal ones weigh the tangential and the normal parts of the
+    #: error (a rotation of the heading frame's x, y, z weights would couple the axes and break the solvers'
+    #: per-foot structure).
     force: tuple[float, float, float] = (1e-3, 1e-3, 1e-3)
     #: The last node's state weight is multiplied by this.
     terminal_factor: float = 1.0
@@ -150,8 +156,22 @@ def reference_forces(contact: np.ndarray, mass_kg: float, gravity: float,
     return f
 
 
+def contact_frames(normals: np.ndarray) -> np.ndarray:
+    """Contact frames (..., 3, 3) of unit normals (..., 3) given in the heading frame: columns ``t1`` (the frame's x
+    projected onto the plane normal to ``n``; its y where x is almost along ``n``), ``t2 = n x t1`` and ``n``.
+    Exactly the identity for ``n = +z``. A force ``f`` has the contact coordinates ``R' f``."""
+    n = np.asarray(normals, dtype=float)
+    axis = np.zeros_like(n)
+    along_x = np.abs(n[..., 0]) > 0.9
+    axis[..., 0], axis[..., 1] = ~along_x, along_x
+    t1 = axis - (axis * n).sum(axis=-1, keepdims=True) * n
+    t1 /= np.linalg.norm(t1, axis=-1, keepdims=True)
+    return np.stack([t1, np.cross(n, t1), n], axis=-1)
+
+
 def _foot_rows(mu: float) -> np.ndarray:
-    """Rows (6, 3) of the foot constraints C f <= d: friction pyramid, -f_z <= 0, f_z <= fz_max."""
+    """Rows (6, 3) of the foot constraints C f <= d in contact coordinates (t1, t2, n): friction pyramid,
+    -f_n <= 0, f_n <= fz_max."""
     return np.array(
         [
             [1.0, 0.0, -mu],

@@ -38,7 +38,9 @@ class TrajectoryOptimizer:
     * ``"nlp-ipopt"``: the nonlinear SRBD (reference), warm-started from the previous solve.
 
     All solvers work in the heading frame (reference yaw, CoM xy at the origin) and return world-frame
-    trajectories and forces. Numerical failures never raise: ``success=False`` and a status.
+    trajectories and forces. The friction pyramids are about each stance foot's ground normal
+    (``TrajoptProblem.contact_normals_world``, +z by default); the problem structures of the one-at-a-time solvers
+    for tilted normals are built at their first such problem, so that flat ground costs nothing more. Numerical failures never raise: ``success=False`` and a status.
     The robot enters through ``model`` (``SrbdModel.for_robot(description)``).
     """
 
@@ -54,6 +56,7 @@ class TrajectoryOptimizer:
         solver = self.config.solver
         self._cache: dict = {}  # condensing matrices per support pattern (few patterns occur)
         self._ocp: _CasadiOcp | None = None
+        self._ocp_tilted: _CasadiOcp | None = None  # the problem about tilted normals, built at its first use
         if solver != "auto" and not solver.startswith(("nlp-", "qp-")):
             raise ValueError(f"unknown solver {solver!r}: 'auto', 'qp-ipm', 'qp-<qpsol plugin>' or 'nlp-ipopt'")
         # casadi states the problem and piqp/casadi solve it: C extensions that may swallow a Ctrl-C raised in
@@ -81,7 +84,7 @@ class TrajectoryOptimizer:
         t0 = time.perf_counter()
         try:
             with sigint_deferred():
-                sol = self._ocp.solve(batch.in_heading_frame(), warm_start)
+                sol = self._ocp_for(batch).solve(batch.in_heading_frame(), warm_start)
         except Exception as exc:  # noqa: BLE001 - a numerical failure must come back as a status
             return _failed(f"error: {type(exc).__name__}: {exc}", self.n_nodes, time.perf_counter() - t0)
         rot, origin = batch.rotations(), batch.origins()
@@ -89,6 +92,22 @@ class TrajectoryOptimizer:
         sol.forces_world = sol.forces_world @ rot[0].T
         sol.solve_time_s = time.perf_counter() - t0
         return sol
+
+    def _ocp_for(self, batch: ProblemBatch) -> _CasadiOcp:
+        """The problem structure that solves ``batch`` (of one): ``_ocp`` (pyramids about +z) on flat ground; with a
+        tilted normal, one built at its first use: piqp on the forces in contact coordinates ("auto"), the pyramid
+        rows written with the normals (the casadi solvers; ``casadi_ref.PYRAMIDS``)."""
+        if batch.normals is None:
+            return self._ocp
+        if self._ocp_tilted is None:
+            with sigint_deferred():
+                if isinstance(self._ocp, PiqpOcp):
+                    self._ocp_tilted = PiqpOcp(self.model, self.config, self.weights, "coordinates")
+                else:
+                    ocp = self._ocp
+                    self._ocp_tilted = _CasadiOcp(self.model, self.config, self.weights, ocp.kind, ocp.plugin,
+                                                  "normals")
+        return self._ocp_tilted
 
     def solve_batch(self, problems: Sequence[TrajoptProblem]) -> list[TrajoptSolution]:
         """Solve many problems of this horizon (e.g. the candidate actions of one state).

@@ -12,7 +12,10 @@ set) than piqp's defaults: its tolerances are set to 1e-10, and its precondition
 
 The QP: ``min 1/2 z' H z + c' z`` subject to ``A z = b`` (the dynamics), ``G z <= 0`` (the friction pyramids)
 and the variable bounds (contact, force and CoM height limits): ``H`` and ``G`` are constant; ``c``, ``A``'s
-numbers (the moment arms of the feet) and ``b`` come from the parameters.
+numbers (the moment arms of the feet) and ``b`` come from the parameters. On flat ground the forces are in the
+heading frame (``casadi_ref.PYRAMIDS`` "flat"); when a foot's normal is tilted the optimizer uses a second
+``PiqpOcp`` ("coordinates") whose forces are each foot's contact coordinates (``f = R f_c``): the same ``H``
+and ``G``, ``R`` enters ``A``'s numbers (its pattern holds every entry of ``R``).
 """
 
 from __future__ import annotations
@@ -33,15 +36,20 @@ PIQP_SETTINGS = {"preconditioner_iter": 0, "eps_abs": 1e-10, "eps_rel": 1e-10, "
 
 class PiqpOcp(_CasadiOcp):
     """``_CasadiOcp`` (kind "qp") solved by piqp called directly (see the module doc); the same arguments and
-    results."""
+    results. ``pyramids``: "flat" (about +z) or "coordinates" (about each foot's normal, ``casadi_ref.PYRAMIDS``);
+    the solution's forces are in the heading frame either way."""
 
-    def __init__(self, model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights) -> None:
+    def __init__(self, model: SrbdModel, config: TrajoptConfig, weights: TrajoptWeights,
+                 pyramids: str = "flat") -> None:
         import casadi as ca
         import scipy.sparse
 
+        if pyramids not in ("flat", "coordinates"):
+            raise ValueError(f"piqp_direct states the pyramids 'flat' or 'coordinates', not {pyramids!r}")
         self.model, self.config, self.kind, self.plugin = model, config, "qp", "piqp-direct"
+        self.pyramids = pyramids
         self.warm = self.cold = None
-        prob = srbd_problem(model, config, weights, "qp")
+        prob = srbd_problem(model, config, weights, "qp", pyramids)
         z, p, n_z = prob["x"], prob["p"], prob["x"].shape[0]
         zero = ca.DM.zeros(n_z)
         self._argument_constants()  # the constraint bounds: equalities are the dynamics, the rest the pyramids
@@ -99,8 +107,11 @@ class PiqpOcp(_CasadiOcp):
         z = np.array(result.x).reshape(n, NU + NX)
         objective = float(result.info.primal_obj) + float(data["f0"][0])
         x = np.concatenate([problem.x0, z[:, NU:]], axis=0)
-        return _result(status, objective, x, z[:, :NU].reshape(n, N_LEGS, 3), elapsed, int(result.info.iter),
-                       {"solver_status": str(code)})
+        forces = z[:, :NU].reshape(n, N_LEGS, 3)
+        frames = problem.contact_frames() if self.pyramids == "coordinates" else None
+        if frames is not None:  # contact coordinates -> heading frame
+            forces = (frames[0] @ forces[..., None])[..., 0]
+        return _result(status, objective, x, forces, elapsed, int(result.info.iter), {"solver_status": str(code)})
 
     def __getstate__(self) -> dict:  # piqp's solver is not pickled: the copy makes its own at its first solve
         state = self.__dict__.copy()

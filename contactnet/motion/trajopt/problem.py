@@ -8,7 +8,9 @@ returned ``cost`` is this value at the optimum (``trajectory_cost`` recomputes i
 
 Every solver works in the *heading frame* of a problem (rotated by the reference yaw about z, origin at
 the current CoM xy: ``ProblemBatch.in_heading_frame``) and returns world-frame trajectories and forces.
-The friction pyramids and the xy weights are aligned with that frame.
+The xy weights are aligned with that frame. The friction pyramids are built about the ground's normal under each
+stance foot (``TrajoptProblem.contact_normals_world``, default +z) in that foot's contact frame
+(``model.contact_frames``: on flat ground the heading frame's axes); the force weights act along its axes.
 """
 
 from __future__ import annotations
@@ -20,7 +22,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from contactnet.frames import rotation_z
-from contactnet.motion.trajopt.model import N_LEGS, NX, SrbdModel, TrajoptWeights, reference_forces
+from contactnet.motion.trajopt.model import (
+    N_LEGS,
+    NX,
+    SrbdModel,
+    TrajoptWeights,
+    contact_frames,
+    reference_forces,
+)
 
 
 @dataclass
@@ -46,6 +55,10 @@ class TrajoptProblem:
     #: observer estimates (``contactnet.planning.observer``); None: none. The plan then leans against it, and its
     #: reference forces include holding it (``reference_forces``).
     external_force_world: np.ndarray | None = None
+    #: (N, 4, 3) unit normals (world) of the ground under each foot at each node, e.g. ``Terrain.normal_at`` of the
+    #: footholds; the friction pyramids and the normal force's bounds are about them (swing feet: ignored). None:
+    #: +z everywhere (flat ground).
+    contact_normals_world: np.ndarray | None = None
 
     def ref_xy_start(self) -> np.ndarray:
         return np.asarray(self.x0 if self.com_xy_ref_start is None else self.com_xy_ref_start, dtype=float)[0:2]
@@ -76,6 +89,8 @@ def _check_shapes(problem: TrajoptProblem, n_nodes: int) -> None:
     }
     if problem.external_force_world is not None:
         shapes["external_force_world"] = (np.shape(problem.external_force_world), (3,))
+    if problem.contact_normals_world is not None:
+        shapes["contact_normals_world"] = (np.shape(problem.contact_normals_world), (n_nodes, N_LEGS, 3))
     for name in ("com_height_ref_m", "pitch_ref_rad"):
         if np.ndim(getattr(problem, name)) != 0:
             shapes[name] = (np.shape(getattr(problem, name)), (n_nodes + 1,))
@@ -149,6 +164,9 @@ def trajectory_cost(
     err = x_local[1:] - batch.in_heading_frame().reference_states(dt_s)[0, 1:]
     forces = np.asarray(forces_world, dtype=float) @ rot[0]
     f_err = forces - reference_forces(batch.contact[0], model.mass_kg, model.gravity, batch.ext[0] @ rot[0])
+    frames = batch.in_heading_frame().contact_frames()
+    if frames is not None:  # the error's contact coordinates: the force weights act along each foot's axes
+        f_err = (f_err[..., None, :] @ frames[0])[..., 0, :]
     return float(
         np.sum(weights.node_state_weights(n) * err**2) + np.sum(np.asarray(weights.force) * f_err**2)
     )
@@ -167,6 +185,9 @@ class ProblemBatch:
     yaw: np.ndarray  #: (B,)
     pitch: np.ndarray  #: (B, N+1) pitch reference of every node
     ext: np.ndarray  #: (B, 3) known external force on the body (zero: none)
+    #: (B, N, 4, 3) unit ground normals under the feet (+z for swing feet); None: +z everywhere (flat ground, and
+    #: then no rotation costs anything)
+    normals: np.ndarray | None = None
 
     @classmethod
     def of(cls, problems: Sequence[TrajoptProblem], n_nodes: int) -> ProblemBatch:
@@ -188,19 +209,29 @@ class ProblemBatch:
                             for p in problems]).reshape(-1, n_nodes + 1),
             ext=np.array([np.zeros(3) if p.external_force_world is None else p.external_force_world
                           for p in problems], dtype=float).reshape(-1, 3),
+            normals=_stacked_normals(problems, contact),
         )
 
     def __len__(self) -> int:
         return len(self.x0)
 
     def take(self, keep: np.ndarray) -> ProblemBatch:
-        return ProblemBatch(*(getattr(self, f)[keep] for f in self.__dataclass_fields__))
+        return ProblemBatch(*(None if getattr(self, f) is None else getattr(self, f)[keep]
+                              for f in self.__dataclass_fields__))
 
     def finite(self) -> np.ndarray:
         """(B,) True where every number is finite."""
         scalars = np.isfinite(np.concatenate((self.x0, self.ref_xy, self.vel, self.height, self.yaw[:, None], self.pitch,
                                               self.ext), axis=1)).all(axis=1)
-        return np.isfinite(self.feet).all(axis=(1, 2, 3)) & scalars
+        feet = np.isfinite(self.feet).all(axis=(1, 2, 3))
+        if self.normals is not None:
+            feet &= np.isfinite(self.normals).all(axis=(1, 2, 3))
+        return feet & scalars
+
+    def contact_frames(self) -> np.ndarray | None:
+        """(B, N, 4, 3, 3) every foot's contact frame (``model.contact_frames`` of its normal, in this batch's
+        frame); None when every normal is +z (the identity)."""
+        return None if self.normals is None else contact_frames(self.normals)
 
     def rotations(self) -> np.ndarray:
         """Rotations (B, 3, 3) about z by the reference yaws."""
@@ -225,6 +256,7 @@ class ProblemBatch:
             yaw=np.zeros(len(self)),
             pitch=self.pitch,
             ext=(self.ext[:, None] @ rot)[:, 0],
+            normals=None if self.normals is None else self.normals @ rot[:, None],
         )
 
     def reference_states(self, dt_s: float) -> np.ndarray:
@@ -238,6 +270,20 @@ class ProblemBatch:
         ref[..., 7] = self.pitch
         ref[..., 8] = self.yaw[:, None]
         return ref
+
+
+def _stacked_normals(problems: Sequence[TrajoptProblem], contact: np.ndarray) -> np.ndarray | None:
+    """The problems' contact normals (B, N, 4, 3), unit length, +z on swing feet and where a problem gives none;
+    None when every stance foot's normal is +z."""
+    if all(p.contact_normals_world is None for p in problems):
+        return None
+    up = np.array([0.0, 0.0, 1.0])
+    normals = np.array([up if p.contact_normals_world is None else p.contact_normals_world for p in problems],
+                       dtype=float)
+    normals = np.broadcast_to(normals.reshape(len(problems), -1, N_LEGS, 3), contact.shape + (3,))
+    with np.errstate(all="ignore"):  # a zero or non-finite normal stays non-finite: ``finite`` rejects the problem
+        normals = np.where(contact[..., None], normals / np.linalg.norm(normals, axis=-1, keepdims=True), up)
+    return None if not normals[..., 0:2].any() else normals
 
 
 def _states_to_frame(x: np.ndarray, rot: np.ndarray, origin: np.ndarray, yaw: np.ndarray) -> np.ndarray:
