@@ -288,9 +288,13 @@ def serve(settings: ServeSettings) -> int:
             )
         else:
             opening = f"contactnet: open {base}"
+        where = ""
+        if settings.engine == "ray":
+            where = (f"\n  simulations: a Ray actor per visitor's session, on "
+                     f"{settings.address or os.environ.get('RAY_ADDRESS') or 'a local Ray of this machine'}")
         print(
             f"{opening}\n  3D view: viser on port {app.viser_port}; API docs: {base}docs; your terrains: "
-            f"{app.terrains.store.directory}; recordings: {app.recordings.directory}",
+            f"{app.terrains.store.directory}; recordings: {app.recordings.directory}{where}",
             file=sys.stderr,
             flush=True,
         )

@@ -3,6 +3,8 @@
     contactnet bench live                  (the defaults below)
     python -m app.bench.live [--seconds 60] [--cases 0,1:normal,1:idle,5:idle,1:idle:compare] [--json]
     contactnet bench live --sessions 1,2,3,4   (a robot per visitor: N sessions at once, `run_sessions`)
+    python -m app.bench.live --sessions 1,3 --engine local,ray   (the same, the simulations in this process, then
+                                                                   in Ray actors: `serve --engine ray`)
 
 Each case starts the whole tool (FastAPI + viser + live session; flat terrain, walk, vx 0.05 m/s,
 scene updates at 30 Hz), opens N headless chromium pages of the front page (playwright, Debian
@@ -186,10 +188,12 @@ def run_case(
 DEFAULT_CASES = "0,1:normal,1:idle,5:idle,1:idle:compare"
 
 
-def run_sessions(n_sessions: int, seconds: float, workdir: Path) -> dict:
+def run_sessions(n_sessions: int, seconds: float, workdir: Path, engine: str = "local") -> dict:
     """N visitors at once (a robot each: `app.api.visits`), each through the front page with its own cookie jar,
     all walking; every session's real-time factor over ``seconds``. No browser draws (their CPU is the visitors'
-    machines'); each session's scene is still updated at 30 Hz for its viser server."""
+    machines'); each session's scene is still updated at 30 Hz for its viser server. ``engine`` ``ray``: each
+    session in a Ray actor (a Ray must be running in this process: `bench_sessions` starts one); the row then
+    also gives the actors' CPU and the bytes of the views they sent."""
     from statistics import median
 
     from fastapi.testclient import TestClient
@@ -201,7 +205,7 @@ def run_sessions(n_sessions: int, seconds: float, workdir: Path) -> dict:
 
     app = ContactnetApp(ServeSettings(terrain="flat", gait="walk", vx_m_s=0.05, wait_for_viewer=False,
                                       viser_port=free_port(), recordings_dir=workdir / "recordings",
-                                      terrains_dir=workdir / "terrains", max_sessions=n_sessions))
+                                      terrains_dir=workdir / "terrains", max_sessions=n_sessions, engine=engine))
     try:
         t0 = time.monotonic()
         for _ in range(n_sessions):
@@ -215,15 +219,23 @@ def run_sessions(n_sessions: int, seconds: float, workdir: Path) -> dict:
         time.sleep(2.0)
         before = [(v.session.stats.running_sim_s, v.session.stats.running_wall_s, v.session.stats.lag_resets)
                   for v in visits]
-        cpu0, t0 = cpu_seconds([os.getpid()]), time.monotonic()
+        actors = [pid for v in visits if (pid := getattr(v.session, "worker_pid", None)) is not None]
+        transfers = [v.session.transfer for v in visits if hasattr(v.session, "transfer")]
+        views0 = [(t.views, t.bytes_total) for t in transfers]
+        cpu0, actors_cpu0, t0 = cpu_seconds([os.getpid()]), cpu_seconds(actors), time.monotonic()
         time.sleep(seconds)
-        server_cpu = (cpu_seconds([os.getpid()]) - cpu0) / (time.monotonic() - t0)
+        elapsed = time.monotonic() - t0
+        server_cpu = (cpu_seconds([os.getpid()]) - cpu0) / elapsed
+        actors_cpu = (cpu_seconds(actors) - actors_cpu0) / elapsed
         rtfs, resets = [], 0
         for visit, (sim0, wall0, resets0) in zip(visits, before, strict=True):
             stats = visit.session.stats
             rtfs.append((stats.running_sim_s - sim0) / max(stats.running_wall_s - wall0, 1e-9))
             resets += stats.lag_resets - resets0
+        views = sum(t.views - v0 for t, (v0, _) in zip(transfers, views0, strict=True))
+        view_bytes = sum(t.bytes_total - b0 for t, (_, b0) in zip(transfers, views0, strict=True))
         return {
+            "engine": engine,
             "sessions": n_sessions,
             "rtf_min": round(min(rtfs), 3),
             "rtf_median": round(median(rtfs), 3),
@@ -231,6 +243,9 @@ def run_sessions(n_sessions: int, seconds: float, workdir: Path) -> dict:
             "ok": min(rtfs) >= 0.95,
             "server_cpu_cores": round(server_cpu, 2),
             "cpu_per_session": round(server_cpu / n_sessions, 2),
+            "actor_cpu_cores": round(actors_cpu, 2) if actors else "-",
+            "views_per_s": round(views / elapsed / n_sessions, 1) if transfers else "-",
+            "view_bytes_mean": round(view_bytes / views) if views else "-",
             "lag_resets": resets,
             "sessions_start_s": round(start_s, 1),
         }
@@ -238,13 +253,21 @@ def run_sessions(n_sessions: int, seconds: float, workdir: Path) -> dict:
         app.close()
 
 
-def bench_sessions(counts: str = "1,2,3,4", seconds: float = 30.0) -> list[dict]:
-    """One row per session count of ``counts`` (comma-separated): can this machine keep them all in real time?"""
+def bench_sessions(counts: str = "1,2,3,4", seconds: float = 30.0, engines: str = "local") -> list[dict]:
+    """One row per engine of ``engines`` (comma-separated: local, ray) and session count of ``counts``: can this
+    machine keep them all in real time? For ``ray``, a local Ray of this machine's CPUs is started once."""
+    import contextlib
+
     rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for i, count in enumerate(counts.split(",")):
-            rows.append(run_sessions(int(count), seconds, Path(tmp) / str(i)))
-            print(f"done: {rows[-1]}", file=sys.stderr, flush=True)
+    with tempfile.TemporaryDirectory() as tmp, contextlib.ExitStack() as stack:
+        for engine in engines.split(","):
+            if engine == "ray":
+                from contactnet.jobs.ray_engine import session
+
+                stack.enter_context(session())
+            for i, count in enumerate(counts.split(",")):
+                rows.append(run_sessions(int(count), seconds, Path(tmp) / f"{engine}{i}", engine))
+                print(f"done: {rows[-1]}", file=sys.stderr, flush=True)
     return rows
 
 
@@ -278,10 +301,12 @@ def main() -> int:
     )
     parser.add_argument("--viewport", default="960x600")
     parser.add_argument("--sessions", help="comma-separated numbers of visitors' sessions at once (instead of --cases)")
+    parser.add_argument("--engine", default="local",
+                        help="with --sessions: comma-separated engines (local, ray), each a set of rows, same run")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.sessions:
-        rows = bench_sessions(args.sessions, args.seconds)
+        rows = bench_sessions(args.sessions, args.seconds, args.engine)
     else:
         rows = bench_live(args.seconds, args.cases, args.viewport)
     if args.json:
