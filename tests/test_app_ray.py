@@ -147,6 +147,16 @@ def test_a_lost_actor_is_one_line_and_its_visit_is_reclaimed(tool):
     assert gone.status_code == 410 and "Ray actor" in gone.json()["detail"] and "lost" in gone.json()["detail"]
     assert error is True or "lost" in error
     assert first.get("/api/state").json()["error"] is None  # the other visitor's robot is untouched
+    # the default visit's actor lost: the tool gets a new default session (a new actor), the old cookie a 410
+    default = tool.visits.default
+    os.kill(default.session.worker_pid, signal.SIGKILL)
+    wait_for(lambda: tool.visits.default is not default, timeout=90, what="a new default session")
+    assert tool.visits.default.session.worker_pid not in (None, default.session.worker_pid)
+    assert first.get("/api/state").status_code == 410
+    script = TestClient(tool.api, base_url=BASE)  # no cookie: the new default session
+    fresh = wait_for(lambda: (s := script.get("/api/state").json())["t_s"] > 0.2 and s, timeout=60,
+                     what="the new default session to run")
+    assert fresh["error"] is None
 
 
 @slow

@@ -249,11 +249,8 @@ class RaySession:
         return future
 
     def call(self, command: Command, timeout: float = 30.0) -> Any:
+        check_command(command)  # ValueError: a value the session must never see
         future: Future = Future()
-        try:
-            check_command(command)
-        except ValueError as exc:
-            raise exc from None
         if not self.alive:
             raise RuntimeError(self._lost or "the live session is not running")
         self._commands.put((command, timeout, future))
@@ -311,7 +308,7 @@ class RaySession:
                 future.set_exception(_cause(exc))
             except ray.exceptions.RayError as exc:  # the actor died
                 self._lose(_one_line(exc), exc)
-                future.set_exception(RuntimeError(self._lost))
+                future.set_exception(RuntimeError(self._lost or "the live session is not running"))
             else:
                 if data is not None:
                     self._install(data)
