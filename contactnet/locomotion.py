@@ -28,7 +28,7 @@ from contactnet.frames import rotate_xy
 from contactnet.motion.active_plan import ActivePlan
 from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
 from contactnet.motion.gait import GaitSpec
-from contactnet.motion.ground import body_pitch, front_to_hind_m
+from contactnet.motion.ground import body_pitch, front_to_hind_m, ground_normals
 from contactnet.motion.swing import swing_over_terrain
 from contactnet.motion.trajopt import (
     SrbdModel,
@@ -116,7 +116,7 @@ class Locomotion:
             trajopt = replace(trajopt, dt_s=gait.node_dt_s)
         if trajopt.n_nodes != gait.horizon_nodes:
             raise ValueError("the optimizer's horizon must be the gait's 3 step horizons")
-        self.optimizer = TrajectoryOptimizer(model, trajopt, config.trajopt_weights)
+        self.optimizer = TrajectoryOptimizer(model, trajopt, config.trajopt_weights, tilted_normals=terrain.sloped)
         self.ticks_per_node = round(gait.node_dt_s / sim_config.dt_s)
         self.ticks_per_step = self.ticks_per_node * gait.nodes_per_step
         self._reoptimize_ticks = self.ticks_per_node * config.reoptimize_every_nodes
@@ -420,7 +420,7 @@ class Locomotion:
             yaw_ref_rad=self.yaw_ref_rad,
             com_xy_ref_start=self.com_xy_ref.copy(),
             pitch_ref_rad=body_pitch(tops, self._front_to_hind_m),
-            external_force_world=known_world,
+            external_force_world=known_world, contact_normals_world=ground_normals(self.terrain, foot_pos),
         )
         solution = self.optimizer.solve(problem)
         self.trajopt_times_s.append(solution.solve_time_s)

@@ -169,7 +169,8 @@ def test_tilted_normals_allow_forces_outside_the_vertical_pyramid(optimizers, mo
 
 def test_vertical_normals_are_the_flat_problem(optimizers, desc: RobotDescription) -> None:
     """Normals given as +z (as ``Terrain.normal_at`` gives them on a flat top) are no normals: the same batch and
-    bit-for-bit the same solution; a normal of any length is made unit; a non-finite one is a non-finite input."""
+    bit-for-bit the same solution; a normal of any length is made unit; a batch may mix problems with and without
+    normals; a non-finite normal is a non-finite input."""
     problem = example_problem(desc, ((0,),), (0.1, 0.05))
     up = dataclasses.replace(problem, contact_normals_world=np.tile([-0.0, 0.0, 1.0], (8, 4, 1)))
     assert ProblemBatch.of([up], 8).normals is None
@@ -181,6 +182,9 @@ def test_vertical_normals_are_the_flat_problem(optimizers, desc: RobotDescriptio
     longer = dataclasses.replace(ramp, contact_normals_world=3.0 * ramp.contact_normals_world)
     a, b = optimizers[("qp-ipm", 8)].solve(ramp), optimizers[("qp-ipm", 8)].solve(longer)
     np.testing.assert_allclose(a.forces_world, b.forces_world, atol=1e-9)
+    batch = optimizers[("qp-ipm", 8)].solve_batch([problem, ramp])  # one without normals, one with
+    for sol, alone in zip(batch, (optimizers[("qp-ipm", 8)].solve(problem), a), strict=True):
+        np.testing.assert_allclose(sol.forces_world, alone.forces_world, atol=1e-7)
     bad = ramp.contact_normals_world.copy()
     bad[0, 0] = np.nan
     assert optimizers[("auto", 8)].solve(dataclasses.replace(ramp, contact_normals_world=bad)).status == (
@@ -223,3 +227,38 @@ def test_the_loop_takes_the_normals_under_the_footholds() -> None:
     np.testing.assert_allclose(normals[0, 0], RAMP_NORMAL, atol=1e-9)
     np.testing.assert_array_equal(np.abs(normals[0, 1]), [0.0, 0.0, 1.0])
     assert ground_normals(resolve("stepping_stones"), feet) is None
+
+
+def test_an_optimizer_built_for_slopes_pickles_and_solves_alike(model: SrbdModel, desc: RobotDescription) -> None:
+    """``tilted_normals=True`` (the loop on a terrain with sloped tops) builds the tilted MPC problem up front; the
+    optimizer still pickles (a worker's copy) and the copy solves a ramp problem to the very same numbers."""
+    import pickle
+
+    opt = TrajectoryOptimizer(model, TrajoptConfig(n_nodes=8), tilted_normals=True)
+    problem = on_ramp(example_problem(desc, ((0,),), (0.1, 0.0)))
+    copy = pickle.loads(pickle.dumps(opt))
+    a, b = opt.solve(problem), copy.solve(problem)
+    assert a.success and b.success
+    np.testing.assert_array_equal(a.forces_world, b.forces_world)
+
+
+def test_the_ranking_cost_takes_the_normals_under_the_candidates(robot) -> None:
+    """On a terrain with sloped tops (``CostState.normals_at``, from the planning context's terrain) every
+    candidate's problem carries the normals under its footholds and its optimal cost is about them; a predicted
+    state keeps them; on flat tops there are none (the problems of before)."""
+    from contactnet.planning.cost import RankingCost, nominal_state, predicted_state
+    from contactnet.registry import gait_for
+
+    gait = gait_for("walk", robot)
+    cost = RankingCost(gait, robot.description)
+    flat = nominal_state(robot.description, vel_cmd_world=(0.1, 0.0))
+    ramp = dataclasses.replace(flat, normals_at=lambda xy: np.tile(RAMP_NORMAL, (len(xy), 1)))
+    assert all(p.contact_normals_world is None for p in cost.problems(flat))
+    problems = cost.problems(ramp)
+    assert len(problems) == cost.n_choices
+    for problem in problems:
+        np.testing.assert_array_equal(problem.contact_normals_world,
+                                      np.broadcast_to(RAMP_NORMAL, problem.foot_pos_world.shape))
+    v_flat, v_ramp = cost.evaluate(flat).terms[:, 0], cost.evaluate(ramp).terms[:, 0]
+    assert np.all(np.isfinite(v_ramp)) and np.abs(v_ramp - v_flat).max() > 1e-6
+    assert predicted_state(ramp, np.zeros(2), (0,), 0.32).normals_at is ramp.normals_at

@@ -64,6 +64,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -107,6 +108,9 @@ class CostState:
     com_height_ref_m: float  #: absolute z of the CoM reference
     com_xy_ref_start: np.ndarray | None = None  #: (2,) start of the CoM xy reference (None: the CoM)
     ground_z: float = 0.0  #: ground height under the robot (``Terrain.ground_z``): where the swinging feet land
+    #: The ground's unit normals (M, 3) under points (M, 2) (``Terrain.normal_at``) on a terrain with sloped tops: the
+    #: optimizer's friction pyramids stand on them (``TrajoptProblem.contact_normals_world``); None: +z (flat tops).
+    normals_at: Callable[[np.ndarray], np.ndarray] | None = None
 
     @classmethod
     def from_context(cls, ctx, foot_radius_m: float) -> CostState:  # noqa: ANN001 - planner.PlanningContext
@@ -128,6 +132,7 @@ class CostState:
             vel_cmd_world=np.asarray(ctx.vel_cmd_world(), dtype=float),
             com_height_ref_m=float(ctx.com_height_ref_m) + ground_z,
             ground_z=ground_z,
+            normals_at=ctx.terrain.normal_at if ctx.terrain.sloped else None,
         )
 
     def x0(self) -> np.ndarray:
@@ -307,6 +312,8 @@ class RankingCost:
         ref = None if state.com_xy_ref_start is None else np.asarray(state.com_xy_ref_start, dtype=float)
         contact = self._contact
         feet = self._foot_plans(state) if foot_plans is None else foot_plans
+        normals = None if state.normals_at is None else state.normals_at(feet[..., 0:2].reshape(-1, 2)).reshape(
+            feet.shape)
         return [
             TrajoptProblem(
                 x0=x0,
@@ -316,6 +323,7 @@ class RankingCost:
                 com_height_ref_m=float(state.com_height_ref_m),
                 yaw_ref_rad=float(state.yaw_rad),
                 com_xy_ref_start=ref,
+                contact_normals_world=None if normals is None else normals[a],
             )
             for a in range(self.n_choices)
         ]
@@ -451,6 +459,7 @@ def predicted_state(
         com_height_ref_m=state.com_height_ref_m,
         com_xy_ref_start=ref,
         ground_z=state.ground_z,
+        normals_at=state.normals_at,
     )
 
 

@@ -41,7 +41,9 @@ class TrajectoryOptimizer:
     trajectories and forces. The friction pyramids are about each stance foot's ground normal
     (``TrajoptProblem.contact_normals_world``, +z by default); the problem structures of the one-at-a-time solvers
     for tilted normals are built at their first such problem, so that flat ground costs nothing more. Numerical failures never raise: ``success=False`` and a status.
-    The robot enters through ``model`` (``SrbdModel.for_robot(description)``).
+    The robot enters through ``model`` (``SrbdModel.for_robot(description)``). ``tilted_normals``: build the
+    problem structure for tilted normals now (a terrain with sloped tops), not at the first such solve (a few
+    hundred ms).
     """
 
     def __init__(
@@ -49,6 +51,7 @@ class TrajectoryOptimizer:
         model: SrbdModel,
         config: TrajoptConfig | None = None,
         weights: TrajoptWeights | None = None,
+        tilted_normals: bool = False,
     ) -> None:
         self.model = model
         self.config = config or TrajoptConfig()
@@ -68,6 +71,8 @@ class TrajectoryOptimizer:
                 self._ocp = _CasadiOcp(self.model, self.config, self.weights, "nlp", solver[4:])
             elif solver != "qp-ipm":
                 self._ocp = _CasadiOcp(self.model, self.config, self.weights, "qp", solver[3:])
+        if tilted_normals:
+            self._tilted_ocp()
 
     @property
     def n_nodes(self) -> int:
@@ -97,9 +102,11 @@ class TrajectoryOptimizer:
         """The problem structure that solves ``batch`` (of one): ``_ocp`` (pyramids about +z) on flat ground; with a
         tilted normal, one built at its first use: piqp on the forces in contact coordinates ("auto"), the pyramid
         rows written with the normals (the casadi solvers; ``casadi_ref.PYRAMIDS``)."""
-        if batch.normals is None:
-            return self._ocp
-        if self._ocp_tilted is None:
+        return self._ocp if batch.normals is None else self._tilted_ocp()
+
+    def _tilted_ocp(self) -> _CasadiOcp | None:
+        """The problem structure for tilted normals (built once; None with "qp-ipm", which needs none)."""
+        if self._ocp_tilted is None and self._ocp is not None:
             with sigint_deferred():
                 if isinstance(self._ocp, PiqpOcp):
                     self._ocp_tilted = PiqpOcp(self.model, self.config, self.weights, "coordinates")

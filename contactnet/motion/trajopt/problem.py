@@ -278,9 +278,8 @@ def _stacked_normals(problems: Sequence[TrajoptProblem], contact: np.ndarray) ->
     if all(p.contact_normals_world is None for p in problems):
         return None
     up = np.array([0.0, 0.0, 1.0])
-    normals = np.array([up if p.contact_normals_world is None else p.contact_normals_world for p in problems],
-                       dtype=float)
-    normals = np.broadcast_to(normals.reshape(len(problems), -1, N_LEGS, 3), contact.shape + (3,))
+    normals = np.array([np.broadcast_to(up, contact.shape[1:] + (3,)) if p.contact_normals_world is None
+                        else p.contact_normals_world for p in problems], dtype=float).reshape(contact.shape + (3,))
     with np.errstate(all="ignore"):  # a zero or non-finite normal stays non-finite: ``finite`` rejects the problem
         normals = np.where(contact[..., None], normals / np.linalg.norm(normals, axis=-1, keepdims=True), up)
     return None if not normals[..., 0:2].any() else normals
