@@ -487,7 +487,7 @@ def test_one_table_maps_library_errors_to_statuses():
     from app.live.commands import CommandConflict
     from app.live.editor import EditError, ShippedTerrainError
     from app.live.terrain_files import StoredTerrainError
-    from app.recordings.recorder import RecordingBusy
+    from app.recordings.live_recorder import RecordingBusy
 
     cases = {FileNotFoundError("x"): 404, CommandConflict("x"): 409, StoredTerrainError("x"): 409,
              ShippedTerrainError("x"): 409, RecordingBusy("x"): 409, FileExistsError("x"): 409, EditError("x"): 422,

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from helpers import wait_for
 
+from app.recordings.live_recorder import LiveRecorder
 from app.recordings.meta import read_meta
-from app.recordings.recorder import LiveRecorder, RecordingStore
+from app.recordings.recorder import RecordingStore
 from app.recordings.track import NO_TRACK, TrackError, check_track, read_track, track_path
 from contactnet.cli import main
 
@@ -130,7 +131,7 @@ def test_a_crash_keeps_the_track_with_the_recording(robot, tmp_path, monkeypatch
     from contactnet.planning.planner import HeuristicPlanner
     from contactnet.terrain import resolve
 
-    monkeypatch.setattr("app.recordings.recorder.JOURNAL_PERIOD_S", 0.0)  # every frame journaled
+    monkeypatch.setattr("app.recordings.live_recorder.JOURNAL_PERIOD_S", 0.0)  # every frame journaled
     recorder = LiveRecorder(RecordingStore(tmp_path), robot=robot)
     name = recorder.start("crash")
     terrain = resolve("flat")

@@ -32,14 +32,9 @@ from helpers import served_flat_tool, wait_for
 
 from app.live.terrain_files import TerrainLibrary
 from app.recordings import journal
+from app.recordings.live_recorder import LiveRecorder, RecordingNotSaved
 from app.recordings.meta import read_meta
-from app.recordings.recorder import (
-    LiveRecorder,
-    RecordingNotSaved,
-    quiet_viser_server,
-    read_recording,
-    stop_quietly,
-)
+from app.recordings.recorder import quiet_viser_server, read_recording, stop_quietly
 from app.recordings.store import RecordingStore
 from app.viewer.panels.recording import RecordingPanel
 from contactnet.atomic import STALE_TEMPORARY_S, atomic_open, remove_stale_temporaries
@@ -304,7 +299,7 @@ def feed_frames(recorder: LiveRecorder, seconds: float) -> int:
 
 @pytest.fixture
 def every_frame_journaled(monkeypatch):
-    monkeypatch.setattr("app.recordings.recorder.JOURNAL_PERIOD_S", 0.0)
+    monkeypatch.setattr("app.recordings.live_recorder.JOURNAL_PERIOD_S", 0.0)
 
 
 def test_a_journal_left_by_a_crash_becomes_a_recording_at_the_next_start(tmp_path, every_frame_journaled):
@@ -346,8 +341,9 @@ def test_a_killed_tool_keeps_its_recording_but_the_last_seconds(tmp_path):
     script = f"""
 import sys, time
 sys.path.insert(0, {str(REPO / "tests")!r})
-import app.recordings.recorder as recorder_module
-from app.recordings.recorder import LiveRecorder, RecordingStore
+import app.recordings.live_recorder as recorder_module
+from app.recordings.live_recorder import LiveRecorder
+from app.recordings.recorder import RecordingStore
 from test_write_failures import feed_frames
 recorder_module.JOURNAL_PERIOD_S = 0.0
 recorder = LiveRecorder(RecordingStore(sys.argv[1]))

@@ -53,7 +53,8 @@ from app.live.settings import (
     ServeSettings,
 )
 from app.live.terrain_files import TerrainLibrary
-from app.recordings.recorder import LiveRecorder, RecordingStore
+from app.recordings.live_recorder import LiveRecorder
+from app.recordings.recorder import RecordingStore
 from app.security.guards import AccessPolicy, RequestGuard
 from app.viewer.live_viewer import Viewer
 from contactnet import registry

@@ -45,7 +45,7 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 if TYPE_CHECKING:
     from app.live.backend import SessionBackend
     from app.live.editing import TerrainService
-    from app.recordings.recorder import LiveRecorder
+    from app.recordings.live_recorder import LiveRecorder
     from app.viewer.live_viewer import Viewer
 
 log = logging.getLogger("contactnet.app.visits")

@@ -19,7 +19,7 @@ import viser
 from app.live.editing import TerrainService
 from app.live.session import LiveSession
 from app.live.view import LiveView
-from app.recordings.recorder import LiveRecorder
+from app.recordings.live_recorder import LiveRecorder
 from app.scene.camera import CameraControl
 from app.scene.live_scene import LiveScene
 from app.viewer.panels.drive import DrivePanel

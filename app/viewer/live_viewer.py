@@ -22,7 +22,8 @@ import viser
 from app.live.commands import ViewerConnected
 from app.live.editing import TerrainService
 from app.live.session import LiveSession
-from app.recordings.recorder import LiveRecorder, stop_quietly
+from app.recordings.live_recorder import LiveRecorder
+from app.recordings.recorder import stop_quietly
 from app.scene.live_scene import LiveScene, default_camera
 from app.security.guards import AccessPolicy, guard_viser, prepare_viser_guard
 from app.viewer.gui import ControlPanel

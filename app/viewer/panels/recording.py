@@ -7,7 +7,8 @@ import logging
 import viser
 
 from app.live.view import LiveView
-from app.recordings.recorder import LiveRecorder, RecordingConflict
+from app.recordings.live_recorder import LiveRecorder
+from app.recordings.recorder import RecordingConflict
 from app.viewer.panels.common import ChangeTracker, tell
 
 log = logging.getLogger("contactnet.app.panels.recording")
