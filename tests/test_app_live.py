@@ -403,7 +403,6 @@ def test_every_command_has_its_handler():
     import typing
 
     from app.live import commands
-
     from app.live.session_commands import SessionCommands
 
     assert issubclass(LiveSession, SessionCommands)
