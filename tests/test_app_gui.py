@@ -458,6 +458,7 @@ def test_a_height_map_upload_is_previewed_then_used_and_a_bad_one_said(app, brow
     browser.click(imports.use_button)
     wait_for(lambda: state(app).terrain == "gap_and_step (imported)", what="the imported terrain")
     assert imports.pending is None and not imports.use_button.visible
+    wait_for(lambda: app.viewer.panel.editor.name.value == "gap_and_step", what="Save as: the file's name")
     terrain = app.session.view.terrain
     assert sorted(round(z, 3) for z, _ in terrain.levels) == [0.0, 0.04]
     assert not terrain.is_safe(np.array([[0.84, 0.25]]))[0] and terrain.is_safe(np.array([[0.5, 0.25]]))[0]

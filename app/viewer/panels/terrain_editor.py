@@ -346,12 +346,13 @@ class EditorPanel:
 
     def refresh(self, view: LiveView) -> None:
         """The "Save as" field follows the session's terrain name (a file or generator name, not a label
-        like "random (...)" or "x (uploaded)"); "(edited)" is dropped."""
+        like "random (...)"); "(edited)", "(uploaded)" and "(imported)" are dropped, so an imported map is saved
+        under its file's name (saving over an existing file asks first)."""
         label = view.status.terrain
         if label == self._label:
             return
         self._label = label
-        name = label.removesuffix(" (edited)")
+        name = label.removesuffix(" (edited)").removesuffix(" (uploaded)").removesuffix(" (imported)")
         try:
             editor.validate_name(name)
         except EditError:
