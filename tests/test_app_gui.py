@@ -448,7 +448,7 @@ def test_a_height_map_upload_is_previewed_then_used_and_a_bad_one_said(app, brow
     np.save(buffer, heights)
     before = state(app).terrain
     browser.upload(imports.upload, "gap_and_step.npy", buffer.getvalue())
-    wait_for(lambda: imports.pending is not None, what="the import's preview")
+    wait_for(lambda: imports.pending is not None, timeout=60, what="the import's preview")  # matplotlib draws it
     # previewed, not used: the robot stays where it was; the report says what was kept
     assert state(app).terrain == before
     assert imports.use_button.visible and imports.image.visible
@@ -464,7 +464,7 @@ def test_a_height_map_upload_is_previewed_then_used_and_a_bad_one_said(app, brow
     assert not terrain.is_safe(np.array([[0.84, 0.25]]))[0] and terrain.is_safe(np.array([[0.5, 0.25]]))[0]
     # discarded: nothing changes
     browser.upload(imports.upload, "again.npy", buffer.getvalue())
-    wait_for(lambda: imports.pending is not None, what="the second preview")
+    wait_for(lambda: imports.pending is not None, timeout=60, what="the second preview")
     browser.click(imports.discard_button)
     wait_for(lambda: imports.pending is None, what="the preview discarded")
     assert state(app).terrain == "gap_and_step (imported)"
