@@ -194,15 +194,24 @@ def test_candidate_view_ranks_every_cell(robot, models, gait):
     np.testing.assert_array_equal(view.safe, terrain.is_safe(view.xy_world, planner.margin_m))
 
 
-def test_model_errors_are_clear(robot, models, tmp_path):
+def test_model_errors_are_clear(robot, models, tmp_path, monkeypatch):
     with pytest.raises(ModelFileError, match="no such file"):
         make_planner("contactnet", WALK, robot, model=tmp_path / "missing.pt")
     from contactnet.registry import load_robot
 
-    # A robot with no shipped model: the error names what to do instead.
-    with pytest.raises(ModelFileError, match=r"no contactnet model for go2 walk .*--planner heuristic.*--model FILE"
-                                             r".*datagen --robot go2 --gait walk.*train --robot go2"):
-        make_planner("contactnet", WALK, load_robot("go2"))
+    # A robot with no shipped model (Unitree A1 as a robot file): the error names what to do instead.
+    from contactnet.robots.robot_file import ROBOT_FILES_ENV
+
+    monkeypatch.setenv(ROBOT_FILES_ENV, "")  # reading the file lists it for child processes: not after this test
+    a1 = tmp_path / "a1.toml"
+    a1.write_text('name = "a1_no_model"\ndescription_dir = "a1_description"\nurdf = "urdf/a1.urdf"\n'
+                  'srdf = "srdf/a1.srdf"\nstanding_pose = "standing"\nleg_prefixes = ["FL", "FR", "RL", "RR"]\n'
+                  'joint_suffixes = ["hip_joint", "thigh_joint", "calf_joint"]\nfoot_suffix = "foot"\n'
+                  'foot_radius_m = 0.02\nfz_max_n = 120.0\nkin_threshold_m = 0.15\nfall_base_height_m = 0.12\n')
+    with pytest.raises(ModelFileError, match=r"no contactnet model for a1_no_model walk .*--planner heuristic"
+                                             r".*--model FILE.*datagen --robot a1_no_model --gait walk"
+                                             r".*train --robot a1_no_model"):
+        make_planner("contactnet", WALK, load_robot(str(a1), cache_dir=tmp_path))
     broken = tmp_path / "broken.pt"
     broken.write_bytes(b"not a model")
     with pytest.raises(ModelFileError, match="broken.pt"):

@@ -22,7 +22,7 @@ def _own_robot_files(monkeypatch):
     """A robot file read here is listed in CONTACTNET_ROBOT_FILES for child processes: not for the other tests'."""
     from contactnet.robots.robot_file import ROBOT_FILES_ENV
 
-    monkeypatch.delenv(ROBOT_FILES_ENV, raising=False)
+    monkeypatch.setenv(ROBOT_FILES_ENV, "")  # set (empty), so that monkeypatch removes what a test adds to it
 
 A1 = """\
 name = "a1_file"
