@@ -4,8 +4,8 @@
 
 `contactnet/robots/go2.py` is the whole robot: where its URDF and SRDF lie in example-robot-data, its
 leg and joint names, foot radius, contact-force cap and a few controller gains. Everything else (mass,
-inertia, hips, stance, torque limits) is read from its files. No ContactNet model is trained for Go2
-yet, so this uses the heuristic planner (`contactnet datagen/train --robot go2` make one).
+inertia, hips, stance, torque limits) is read from its files. This uses the heuristic planner on flat ground;
+Go2's own ContactNet models (`--planner contactnet`, contactnet/models/go2_*.pt) are described in docs/robots.md.
 """
 
 from __future__ import annotations
