@@ -9,6 +9,7 @@ routes use nothing else of a session (docs/sessions-on-ray.md).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
@@ -55,3 +56,15 @@ class SessionBackend(Protocol):
 
     def wait_view(self, predicate: Callable[[LiveView], bool], timeout: float = 10.0) -> LiveView:
         """Block until the latest view satisfies ``predicate`` (tests, benchmarks)."""
+
+
+def wait_view(session: SessionBackend, predicate: Callable[[LiveView], bool], timeout: float = 10.0) -> LiveView:
+    """Poll ``session.view`` until it satisfies ``predicate`` (every backend's `wait_view`); TimeoutError after
+    ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        view = session.view
+        if view is not None and predicate(view):
+            return view
+        time.sleep(0.005)
+    raise TimeoutError("condition on the live view not met in time")

@@ -27,12 +27,12 @@ import pickle
 import queue
 import socket
 import threading
-import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
 from typing import Any
 
+from app.live.backend import wait_view
 from app.live.commands import Command, check_command
 from app.live.pacing import PacingStats
 from app.live.planners import PlannerFactory, default_planner_factory
@@ -257,13 +257,7 @@ class RaySession:
         return future.result(timeout + 5.0)
 
     def wait_view(self, predicate: Callable[[LiveView], bool], timeout: float = 10.0) -> LiveView:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            view = self._view
-            if view is not None and predicate(view):
-                return view
-            time.sleep(0.005)
-        raise TimeoutError("condition on the live view not met in time")
+        return wait_view(self, predicate, timeout)
 
     # ---- the threads ------------------------------------------------------------------------------------
     def _known(self) -> Known:

@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from app.live.backend import wait_view
 from app.live.commands import Command, check_command
 from app.live.compare import CompareRobots, end_of
 from app.live.editor import EditHistory
@@ -150,13 +151,7 @@ class LiveSession(SessionCommands):
 
     def wait_view(self, predicate: Callable[[LiveView], bool], timeout: float = 10.0) -> LiveView:
         """Block until the latest view satisfies predicate (tests, benchmarks)."""
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            view = self._view
-            if view is not None and predicate(view):
-                return view
-            time.sleep(0.005)
-        raise TimeoutError("condition on the live view not met in time")
+        return wait_view(self, predicate, timeout)
 
     # ---- the session thread ------------------------------------------------------------------------
     def _run(self) -> None:
