@@ -26,10 +26,16 @@ def random_models(tmp_path_factory):
 
 def pytest_collection_modifyitems(items) -> None:  # noqa: ANN001 - pytest's hook
     """Mark ``browser`` every test that drives Debian's chromium (its module's marks, or a ``browser`` fixture),
-    so ``pytest -m "not browser"`` runs everything else."""
+    so ``pytest -m "not browser"`` runs everything else.
+
+    With pytest-xdist (``make test`` runs ``-n auto --dist loadgroup``) a module's tests stay on one worker (its
+    module fixtures, such as a live server, start once) and the browser tests all run on one worker, one chromium at
+    a time: two software-WebGL browsers at once starve each other (screenshots slower than 30 s were seen)."""
     for item in items:
         if "browser" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
+        group = "browser" if item.get_closest_marker("browser") else item.module.__name__
+        item.add_marker(pytest.mark.xdist_group(group))
 
 
 def pytest_terminal_summary(terminalreporter) -> None:  # noqa: ANN001 - pytest's hook

@@ -457,7 +457,8 @@ def test_a_height_map_upload_is_previewed_then_used_and_a_bad_one_said(app, brow
     assert imports.image.image.shape[0] > 50  # the top view, not the empty placeholder
     browser.click(imports.use_button)
     wait_for(lambda: state(app).terrain == "gap_and_step (imported)", what="the imported terrain")
-    assert imports.pending is None and not imports.use_button.visible
+    # the preview closes once the terrain is loaded (a failed load keeps it): the same handler, a moment later
+    wait_for(lambda: imports.pending is None and not imports.use_button.visible, what="the preview closed")
     wait_for(lambda: app.viewer.panel.editor.name.value == "gap_and_step", what="Save as: the file's name")
     terrain = app.session.view.terrain
     assert sorted(round(z, 3) for z, _ in terrain.levels) == [0.0, 0.04]

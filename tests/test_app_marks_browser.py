@@ -61,13 +61,13 @@ def test_a_stand_by_choice_shows_in_the_3d_view_the_panel_and_the_gait_plot(live
     wait_for(lambda: np.max(plot.data[stand_past]) > STAND_BAND[0] + 0.5 * STAND_BAND[1], what="the stand band")
     assert np.max(plot.data[stand_past + 1]) > STAND_BAND[0] + 0.5 * STAND_BAND[1]  # planned stands too
     time.sleep(2.0)
-    page.screenshot(path=str(ARTIFACTS / "stand_view.png"))  # standing, the clock running
+    page.screenshot(path=str(ARTIFACTS / "stand_view.png"), timeout=120_000)  # standing, the clock running
     app.session.call(SetPaused(True))
     look_at(app, app.session.view.snapshot.q[:3] - [0.0, 0.0, 0.2], (-0.45, -0.6, 0.5))
-    page.screenshot(path=str(ARTIFACTS / "stand_close.png"))
+    page.screenshot(path=str(ARTIFACTS / "stand_close.png"), timeout=120_000)
     page.get_by_text("Gait schedule").first.scroll_into_view_if_needed()
     time.sleep(1.5)
-    page.screenshot(path=str(ARTIFACTS / "stand_gait_plot.png"))
+    page.screenshot(path=str(ARTIFACTS / "stand_gait_plot.png"), timeout=120_000)
 
 
 def test_a_retargeted_swing_flashes_at_its_new_landing(live, page):
@@ -107,7 +107,7 @@ def test_a_retargeted_swing_flashes_at_its_new_landing(live, page):
     assert app.state().swing_retargets == retargets
     page.get_by_text(f"swing retargets {retargets}").first.scroll_into_view_if_needed()
     time.sleep(2.0)
-    page.screenshot(path=str(ARTIFACTS / "retarget_view.png"))
+    page.screenshot(path=str(ARTIFACTS / "retarget_view.png"), timeout=120_000)
     look_at(app, flash.new_world, (-0.3, -0.4, 0.45))
-    page.screenshot(path=str(ARTIFACTS / "retarget_close.png"))
+    page.screenshot(path=str(ARTIFACTS / "retarget_close.png"), timeout=120_000)
     mode.value = "follow"

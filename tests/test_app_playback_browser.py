@@ -168,7 +168,7 @@ def check_player(page, frame, track: dict, screenshot: str) -> None:  # noqa: AN
     assert abs(scrubber(frame)[0] - pushes[0]["rec_t"]) < 0.01  # paused there
     status = page.locator("#status-line").inner_text()
     assert status.startswith("▶ recording") and header_t(page) == pytest.approx(pushes[0]["sim_t"], abs=0.1)
-    page.screenshot(path=str(ARTIFACTS / screenshot))
+    page.screenshot(path=str(ARTIFACTS / screenshot), timeout=120_000)
 
 
 def test_playback_shows_the_recording_with_markers_and_synced_plots(live, page):

@@ -127,5 +127,5 @@ def test_play_shows_the_title(live, page):
     assert page.locator("#playback-name").inner_text() == "My first run"
     page.frame_locator("#viewer").get_by_label("Show scene tree").first.wait_for(timeout=60_000)
     time.sleep(3.0)  # the scene fades in
-    page.screenshot(path=str(ARTIFACTS / "browser_recordings.png"))
+    page.screenshot(path=str(ARTIFACTS / "browser_recordings.png"), timeout=120_000)
     page.locator("#back-to-live").dispatch_event("click")

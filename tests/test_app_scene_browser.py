@@ -117,7 +117,7 @@ def click_a_disk(app, page, client, scene, cand, positions) -> None:  # noqa: AN
     assert scene._pick_labels[client.client_id].text == expected
     page.get_by_text(expected).first.wait_for(timeout=30_000)  # shown in the panel (and next to the disk)
     time.sleep(1.5)
-    page.screenshot(path=str(ARTIFACTS / "viser_disk_click.png"))
+    page.screenshot(path=str(ARTIFACTS / "viser_disk_click.png"), timeout=120_000)
 
 
 def test_an_orbit_keeps_following_and_recenter_restores_the_view(live, page):
@@ -159,7 +159,7 @@ def test_an_orbit_keeps_following_and_recenter_restores_the_view(live, page):
     assert np.linalg.norm(offset - orbited) < 0.1, (  # at the user's angle
         f"offset {offset}, the user's {orbited}, the control's {camera._browsers[client.client_id].offset}")
     app.session.call(SetPaused(True))
-    page.screenshot(path=str(ARTIFACTS / "viser_after_orbit.png"))
+    page.screenshot(path=str(ARTIFACTS / "viser_after_orbit.png"), timeout=120_000)
     page.get_by_role("button", name="Re-center").dispatch_event("click")  # no scrolling: see the e2e test
     wait_for(lambda: np.linalg.norm(recenter_offset() - default) < 0.05, timeout=60, what="the default view back")
     assert mode.value == "follow"
@@ -177,6 +177,6 @@ def test_compare_mode_draws_the_other_robot(live, page):
     wait_for(lambda: app.session.view.compare[0].snapshot.t_s > 1.0, timeout=60, what="a second of walking")
     page.get_by_text("fixed:").first.wait_for(timeout=30_000)  # its label in the 3D view
     time.sleep(1.5)
-    page.screenshot(path=str(ARTIFACTS / "viser_compare.png"))
+    page.screenshot(path=str(ARTIFACTS / "viser_compare.png"), timeout=120_000)
     app.session.call(SetCompare(()))
     wait_for(lambda: not ghosts.ghosts[0].visible, timeout=30, what="the ghost hidden")

@@ -66,7 +66,7 @@ def test_page_shows_the_session_and_the_3d_view(live, page):
     assert candidates.rank is not None and len(candidates.chosen) == 1  # the ranked disks drawn
     viewer.get_by_text(f"rank chosen {state.rank_chosen}").wait_for()
     time.sleep(1.5)  # let the renderer catch up with the last scene update
-    page.screenshot(path=str(ARTIFACTS / "browser_stepping_stones.png"))
+    page.screenshot(path=str(ARTIFACTS / "browser_stepping_stones.png"), timeout=120_000)
     assert app.viewer.panel.camera.following(client_id)
 
 
@@ -96,7 +96,7 @@ def test_push_button_and_velocity_keys_drive_the_robot(live, page):
     x0 = app.state().base_position[0]
     wait_for(lambda: app.state().base_position[0] > x0 + 0.1, timeout=20, what="the robot to walk 10 cm")
     viewer.get_by_text("cmd (+0.10, +0.00)").wait_for(timeout=60_000)  # a software renderer on a busy machine: seconds behind
-    page.screenshot(path=str(ARTIFACTS / "browser_flat_walking.png"))
+    page.screenshot(path=str(ARTIFACTS / "browser_flat_walking.png"), timeout=120_000)
 
 
 def test_recordings_from_the_page_and_the_command_line_play_back(live, page):
@@ -123,7 +123,7 @@ def test_recordings_from_the_page_and_the_command_line_play_back(live, page):
     assert page.locator("#playback-name").inner_text() == "cli-run.viser"
     page.frame_locator("#viewer").get_by_label("Show scene tree").first.wait_for(timeout=60_000)
     time.sleep(2.0)
-    page.screenshot(path=str(ARTIFACTS / "browser_playback.png"))
+    page.screenshot(path=str(ARTIFACTS / "browser_playback.png"), timeout=120_000)
     page.locator("#back-to-live").dispatch_event("click")
     page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=60_000)
 
@@ -136,6 +136,6 @@ def test_api_docs_render_without_internet(live, page):
     try:
         docs.goto(url + "/docs")
         docs.get_by_text("/api/state").first.wait_for(timeout=30_000)
-        docs.screenshot(path=str(ARTIFACTS / "browser_api_docs.png"))
+        docs.screenshot(path=str(ARTIFACTS / "browser_api_docs.png"), timeout=120_000)
     finally:
         docs.close()

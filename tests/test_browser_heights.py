@@ -138,7 +138,7 @@ def test_select_a_raised_stone_and_set_its_height(live, page):
     wait_for(lambda: typed.input_value() == "10", timeout=30, what="the typed field to follow the slider")
     page.locator("label", has_text="Typed height (cm)").first.scroll_into_view_if_needed()
     look_closely(page, app, star + [0.1, 0.0, 0.0])
-    page.screenshot(path=str(ARTIFACTS / "viser_stone_height.png"))
+    page.screenshot(path=str(ARTIFACTS / "viser_stone_height.png"), timeout=120_000)
     app.viewer.panel.camera.set_mode(viser_client(app), "follow")
 
     typed.fill("60")  # beyond the schema's bound (50 cm): refused, said, and the field shows the height again
@@ -185,7 +185,7 @@ def test_raise_a_grid_cell_with_the_click_tool(live, page):
              what="the cell at +4 cm")
     assert len(app.terrains.current["regions"]) == n + 1
     time.sleep(2.0)  # the renderer draws the raised cell
-    page.screenshot(path=str(ARTIFACTS / "viser_raised_cell.png"))
+    page.screenshot(path=str(ARTIFACTS / "viser_raised_cell.png"), timeout=120_000)
     app.viewer.panel.camera.set_mode(viser_client(app), "follow")
 
 
@@ -216,7 +216,7 @@ def test_upload_a_height_map_see_what_was_kept_then_walk_it(live, page, tmp_path
     preview.wait_for(timeout=30_000)
     assert preview.evaluate("image => image.naturalWidth") > 200  # the top view, drawn
     preview.scroll_into_view_if_needed()
-    page.screenshot(path=str(ARTIFACTS / "viser_import_preview.png"))
+    page.screenshot(path=str(ARTIFACTS / "viser_import_preview.png"), timeout=120_000)
     use.click()
     wait_for(lambda: app.terrains.label == "ramp_and_gap (imported)", timeout=60, what="the imported terrain in use")
     terrain = app.session.view.terrain
@@ -225,4 +225,4 @@ def test_upload_a_height_map_see_what_was_kept_then_walk_it(live, page, tmp_path
     assert not terrain.is_safe(np.array([[2.24, 0.25]]))[0]
     use.wait_for(state="hidden", timeout=30_000)
     time.sleep(2.0)  # the renderer draws the ramp
-    page.screenshot(path=str(ARTIFACTS / "viser_imported_ramp.png"))
+    page.screenshot(path=str(ARTIFACTS / "viser_imported_ramp.png"), timeout=120_000)
