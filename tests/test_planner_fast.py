@@ -28,6 +28,7 @@ from contactnet.planning.planner import (
     touchdown_times_s,
 )
 from contactnet.planning.ranking import ActionCells, OneLevelWalk
+from contactnet.planning.roll import rolled_margin
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, random_field, random_heights, resolve
 
@@ -85,10 +86,17 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                 order = [a for a, u in zip(order, urgent, strict=True) if u] + [
                     a for a, u in zip(order, urgent, strict=True) if not u]
         chosen = None
-        for rank, action in enumerate(order):
+        # on one level: room for the roll ahead first (the point ahead safe too), else the margin alone
+        rolled = None if heights else rolled_margin(planner.margin_m, planner.robot.foot_radius_m, cmd_world,
+                                                     planner.roll)
+        for rank, action in enumerate([*order, *order] if rolled is not None else order):
+            roomy = rolled is not None and rank < len(order)
+            rank = rank % len(order)
             legs = action_legs[action]
             points = cells[legs, action_cells[action]]
             if not terrain.is_safe(points, planner.margin_m).all():
+                continue
+            if roomy and not terrain.is_safe(points + np.array(rolled.ahead_xy_m), planner.margin_m).all():
                 continue
             if heights:
                 checks = checker.evaluate(terrain, legs, points, feet[legs], (base + hips_touchdown)[legs], tops,

@@ -46,6 +46,7 @@ from contactnet.planning.ranking import (
     step_in_place,
     urgent_first,
 )
+from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, rolled_margin
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
     IdleConfig,
@@ -192,6 +193,8 @@ class ContactNetPlanner:
     candidate grid is shifted towards the capture point (``contactnet.planning.capture``) and the robot does not stand;
     ``capture=None`` turns this off. With a zero command and a balanced state it stands instead of a swing that
     barely moves its feet (``contactnet.planning.stand.IdleConfig``, any model); ``idle=None`` turns this off.
+    On a single-height terrain a landing also keeps room ahead for the foot's roll while it stands, where some
+    action can (``contactnet.planning.roll``); ``roll=None`` turns this off. (Not yet on terrain with heights.)
 
     ``model``: a ``contactnet.planning.network.LoadedModel`` of this gait.
     """
@@ -200,7 +203,7 @@ class ContactNetPlanner:
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE,
-                 idle: IdleConfig | None = DEFAULT_IDLE) -> None:
+                 idle: IdleConfig | None = DEFAULT_IDLE, roll: RollConfig | None = DEFAULT_ROLL) -> None:
         if model.gait != gait.name or model.n_actions not in (gait.n_actions, gait.n_choices):
             raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} outputs), "
                              f"not {gait.name} ({gait.n_choices} choices: {gait.n_actions} actions and standing)")
@@ -209,7 +212,7 @@ class ContactNetPlanner:
         self.model = model
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
-        self.capture, self.idle = capture, idle
+        self.capture, self.idle, self.roll = capture, idle, roll
         self.footholds = FootholdChecker(robot)
         self._compiled: CompiledHeights | None = None  # the compiled height checks (``_compiled_heights``)
         self._heights_walk: HeightsWalk | PlainHeightsWalk | None = None  # and the walk with them on the last terrain
@@ -315,6 +318,9 @@ class ContactNetPlanner:
         if capture_xy is not None:
             bases[0] = [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]]
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
+        rolled = rolled_margin(self.margin_m, self.robot.foot_radius_m, cmd_world, self.roll)
+        roomy = None if rolled is None else OneLevelWalk(self._actions, terrain, rolled, hips_world, offsets_world,
+                                                         bases)
         costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):
@@ -323,7 +329,11 @@ class ContactNetPlanner:
             if j == 0 and capture_xy is not None:
                 stand_cost = None  # a pushed robot steps
             order = self._ranking(costs, j)
-            found = walk.first_safe(j, costs, self._group_range(j))
+            span = self._group_range(j)
+            # room for the foot's roll ahead first (contactnet.planning.roll), else the landing margin alone
+            found = None if roomy is None else roomy.first_safe(j, costs, span)
+            if found is None:
+                found = walk.first_safe(j, costs, span)
             if self._stands(costs, stand_cost, found):
                 step, points = stand_step(gait, costs, stand_cost), []
             elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,
@@ -485,8 +495,9 @@ class FixedGaitPlanner(ContactNetPlanner):
     name = "fixed"
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
-                 margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE) -> None:
-        super().__init__(gait, robot, model, margin_m, capture, idle=None)
+                 margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE,
+                 roll: RollConfig | None = DEFAULT_ROLL) -> None:
+        super().__init__(gait, robot, model, margin_m, capture, idle=None, roll=roll)
         self._next_group = 0
         self._may_stand = False  # the cyclic baseline always steps
 
