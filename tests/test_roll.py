@@ -45,19 +45,16 @@ def test_a_bad_edge_margin_says_which_field(bad):
 def test_the_allowance_follows_the_command():
     radius = 0.016
     ahead = rolled_margin(0.008, radius, (0.05, 0.0), DEFAULT_ROLL)
-    assert ahead == EdgeMargin(0.008, (0.012, 0.0))
+    assert ahead.around_m == 0.008 and ahead.ahead_xy_m == pytest.approx((0.012, 0.0))
     assert rolled_margin(0.008, radius, (0.0, 0.0), DEFAULT_ROLL) is None  # standing: no direction
     assert rolled_margin(0.008, radius, (0.05, 0.0), None) is None  # off
     assert rolled_margin(0.008, radius, (0.05, 0.0), RollConfig(allowance_radii=0.0)) is None
-    # a direction 2 degrees off the x axis is rounded onto it (the terrain's cached region is reused) ...
-    slightly = rolled_margin(0.008, radius, (math.cos(0.035), math.sin(0.035)), DEFAULT_ROLL)
-    assert slightly == ahead
-    # ... and a backwards command has its room behind, as long
+    # along the command, 0.75 radii long whatever the speed
     back = rolled_margin(0.008, radius, (-0.3, -0.3), DEFAULT_ROLL)
     assert back.ahead_xy_m[0] == pytest.approx(back.ahead_xy_m[1]) and back.ahead_xy_m[0] < 0
-    assert math.hypot(*back.ahead_xy_m) == pytest.approx(0.012, abs=1e-6)
-    with pytest.raises(ValueError, match="direction_step_deg"):
-        RollConfig(direction_step_deg=0.0)
+    assert math.hypot(*back.ahead_xy_m) == pytest.approx(0.012)
+    with pytest.raises(ValueError, match="allowance_radii"):
+        RollConfig(allowance_radii=float("nan"))
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)

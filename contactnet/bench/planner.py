@@ -53,6 +53,10 @@ def planning_contexts(gait, terrain, robot: RobotDescription, n: int, seed: int 
 CHUNK = 25
 
 
+#: The row of ContactNet with ``roll=None`` (``contactnet.planning.roll``).
+NO_ROLL = "contactnet, roll room off"
+
+
 def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool = False,
                   robot_name: str = DEFAULT_ROBOT, terrains: tuple[str, ...] = TERRAINS) -> list[dict]:
     """One planning call (3 network evaluations + safety checks) of ContactNet and the fixed gait, on the
@@ -81,11 +85,15 @@ def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool 
             for gait in (WALK.scaled(description.size_scale), TROT.scaled(description.size_scale)):  # sized
                 path = model_path(robot_name, gait.name)
                 model = path if path.exists() else _random_model_file(gait, robot_name)
-                for name in ("contactnet", "fixed"):
+                # and, on the flat field, ContactNet without the room for the foot's roll (its cost, as a ratio)
+                names = ("contactnet", "fixed", *((NO_ROLL,) if terrain_name == TERRAINS[0] else ()))
+                for name in names:
                     for holes in HOLES:
                         terrain = resolve(terrain_name, removed=holes, seed=0)
                         contexts = planning_contexts(gait, terrain, description, n_contexts)
-                        planner = make_planner(name, gait, robot, model=model)
+                        planner = make_planner("contactnet" if name == NO_ROLL else name, gait, robot, model=model)
+                        if name == NO_ROLL:
+                            planner.roll = None
                         row = {"gait": gait.name, "planner": name, "terrain": terrain_name, "holes": holes,
                                "model": "shipped" if path.exists() else "random weights", "ranks": []}
                         timed.append((row, _plan_call(planner, contexts, row["ranks"])))

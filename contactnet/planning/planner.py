@@ -319,8 +319,8 @@ class ContactNetPlanner:
             bases[0] = [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]]
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
         rolled = rolled_margin(self.margin_m, self.robot.foot_radius_m, cmd_world, self.roll)
-        roomy = None if rolled is None else OneLevelWalk(self._actions, terrain, rolled, hips_world, offsets_world,
-                                                         bases)
+        roomy = None if rolled is None else OneLevelWalk(self._actions, terrain, self.margin_m, hips_world,
+                                                         offsets_world, bases, rolled.ahead_xy_m)
         costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):

@@ -9,11 +9,11 @@ foot radius times the shin's turn, (stance travel) / (leg length): for Solo12's 
 1.0 cm; tangential forces stayed at 5 % of the normal ones (rolling, not slip).
 
 So the planner asks for more than the landing point's margin: the point ``allowance_radii`` foot radii further
-on along the commanded velocity (world frame) must be safe too (`contactnet.terrain.margin.EdgeMargin`). Where no
-action is safe with the allowance (narrow bars: 3 cm of bar hold no such point) the plain margin decides, as
-before. A command below ``min_speed_m_s`` (standing, turning on the spot) has no direction and no allowance.
-The direction is rounded to ``direction_step_deg`` so that a joystick's small changes reuse the terrain's cached
-region. ``ContactNetPlanner(roll=None)`` turns it off.
+on along the commanded velocity (world frame) must be safe too (`contactnet.terrain.margin.EdgeMargin` states the
+rule for ``Terrain.is_safe``; the planner's compiled walk makes the second lookup in the same raster,
+``ranking.OneLevelWalk(ahead_xy=...)``). Where no action is safe with the allowance (narrow bars: 3 cm of bar hold
+no such point) the plain margin decides, as before. A command below ``min_speed_m_s`` (standing, turning on the
+spot) has no direction and no allowance. ``ContactNetPlanner(roll=None)`` turns it off.
 """
 
 from __future__ import annotations
@@ -30,15 +30,12 @@ class RollConfig:
 
     allowance_radii: float = 0.75  # the point this many foot radii ahead must be safe (12 mm for Solo12)
     min_speed_m_s: float = 0.005  # below this command speed: no direction, no allowance
-    direction_step_deg: float = 5.0  # the command's direction rounded to this
 
     def __post_init__(self) -> None:
-        for name in ("allowance_radii", "min_speed_m_s", "direction_step_deg"):
+        for name in ("allowance_radii", "min_speed_m_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"RollConfig.{name} must be a finite number >= 0, got {value!r}")
-        if not 0.0 < self.direction_step_deg <= 90.0:
-            raise ValueError(f"RollConfig.direction_step_deg must be in (0, 90], got {self.direction_step_deg!r}")
 
 
 #: The planners' default: the allowance on (``ContactNetPlanner(roll=None)`` turns it off).
@@ -52,12 +49,11 @@ def rolled_margin(margin_m: float, foot_radius_m: float, cmd_world_xy: tuple[flo
     if config is None or config.allowance_radii == 0.0:
         return None
     vx, vy = float(cmd_world_xy[0]), float(cmd_world_xy[1])
-    if math.hypot(vx, vy) < config.min_speed_m_s:
+    speed = math.hypot(vx, vy)
+    if speed < config.min_speed_m_s:
         return None
-    step = math.radians(config.direction_step_deg)
-    heading = round(math.atan2(vy, vx) / step) * step
-    ahead = config.allowance_radii * foot_radius_m
-    return EdgeMargin(margin_m, (round(ahead * math.cos(heading), 6), round(ahead * math.sin(heading), 6)))
+    ahead = config.allowance_radii * foot_radius_m / speed
+    return EdgeMargin(margin_m, (ahead * vx, ahead * vy))
 
 
 __all__ = ["DEFAULT_ROLL", "RollConfig", "rolled_margin"]

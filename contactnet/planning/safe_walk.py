@@ -30,13 +30,8 @@ _INSIDE, _BOUNDARY = 1, 2
 
 
 @numba.njit(cache=True, nogil=True)
-def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.ndarray, base_x: float,
-                base_y: float, raster: np.ndarray, codes: np.ndarray) -> int:
-    """SAFE or UNSAFE from the raster, or -1 when the landing point lies in a cell near an outline. ``raster``:
-    (inv_cell, first_col, first_row, clamp_hi, side) as ``PointLocator.covers_xy`` uses them."""
-    leg, cell = leg_cell[flat, 0], leg_cell[flat, 1]
-    x = (base_x + hips[leg, 0]) + offsets[cell, 0]
-    y = (base_y + hips[leg, 1]) + offsets[cell, 1]
+def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray) -> int:
+    """SAFE or UNSAFE from the raster for the point (x, y), or -1 when it lies in a cell near an outline."""
     col = x * raster[0] - raster[1]
     row = y * raster[0] - raster[2]
     if not col > 0.0:  # also NaN
@@ -54,15 +49,34 @@ def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.n
 
 
 @numba.njit(cache=True, nogil=True)
+def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.ndarray, base_x: float,
+                base_y: float, raster: np.ndarray, codes: np.ndarray, ahead_x: float, ahead_y: float) -> int:
+    """SAFE or UNSAFE from the raster, or -1 when the landing point (or the point ``ahead``) lies in a cell near an
+    outline. ``raster``: (inv_cell, first_col, first_row, clamp_hi, side) as ``PointLocator.covers_xy`` uses them.
+    With ``ahead`` not zero the point that far on must be safe too (``contactnet.planning.roll``)."""
+    leg, cell = leg_cell[flat, 0], leg_cell[flat, 1]
+    x = (base_x + hips[leg, 0]) + offsets[cell, 0]
+    y = (base_y + hips[leg, 1]) + offsets[cell, 1]
+    state = _lookup(x, y, raster, codes)
+    if state == UNSAFE or (ahead_x == 0.0 and ahead_y == 0.0):
+        return state
+    further = _lookup(x + ahead_x, y + ahead_y, raster, codes)
+    if further == UNSAFE:
+        return UNSAFE
+    return -1 if further < 0 else state
+
+
+@numba.njit(cache=True, nogil=True)
 def _all_safe(action: int, action_flat: np.ndarray, known: np.ndarray, leg_cell: np.ndarray, hips: np.ndarray,
-              offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray, codes: np.ndarray) -> int:
+              offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray, codes: np.ndarray,
+              ahead_x: float, ahead_y: float) -> int:
     """SAFE if every landing point of ``action`` is safe, UNSAFE if one is not, ``-1 - flat`` to ask about cell
     ``flat`` first."""
     for k in range(action_flat.shape[1]):
         flat = action_flat[action, k]
         state = known[flat]
         if state == UNKNOWN:
-            state = _cell_state(flat, leg_cell, hips, offsets, base_x, base_y, raster, codes)
+            state = _cell_state(flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, ahead_x, ahead_y)
             if state < 0:
                 return -1 - flat
             known[flat] = state
@@ -98,12 +112,14 @@ def _rank(costs: np.ndarray, first: int, stop: int, action: int) -> int:
 @numba.njit(cache=True, nogil=True)
 def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray, leg_cell: np.ndarray,
                hips: np.ndarray, offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray,
-               codes: np.ndarray, known: np.ndarray) -> tuple[int, int, int]:
+               codes: np.ndarray, known: np.ndarray, ahead_x: float = 0.0,
+               ahead_y: float = 0.0) -> tuple[int, int, int]:
     """(status, rank, action or the cell to ask about) of the first safe action of ``first..stop - 1`` in the stable
     ascending order of their ``costs``. ``action_flat`` (N_a, legs per step): each action's grid cells;
     ``leg_cell`` (cells, 2): each grid cell's leg and cell of its leg's grid; ``hips`` (4, 2) and ``offsets``
     (cells_per_leg, 2): world XY of the hip references and the cell offsets; ``known`` (cells,) int8, kept between
-    calls of one evaluation.
+    calls of one evaluation. ``ahead_x, ahead_y``: a landing point is safe only if the point that far on (world,
+    metres) is safe too (``contactnet.planning.roll``); zero for the landing point alone.
 
     No sort: the first of the cheapest actions not ruled out is tried; an unsafe landing point rules out every
     action that uses its cell, and the next cheapest is tried, until one is safe."""
@@ -124,7 +140,8 @@ def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray
             best = first_inf if first_inf >= 0 else first_nan
         if best < 0:
             return NONE, -1, -1
-        state = _all_safe(best, action_flat, known, leg_cell, hips, offsets, base_x, base_y, raster, codes)
+        state = _all_safe(best, action_flat, known, leg_cell, hips, offsets, base_x, base_y, raster, codes, ahead_x,
+                          ahead_y)
         if state < 0:
             return ASK, 0, -1 - state
         if state == SAFE:
