@@ -177,6 +177,8 @@ def test_pause_run_reset_and_speed(app, browser):
 
 def test_push_buttons_use_the_force_and_duration_sliders(app, browser):
     panel = app.viewer.panel.push
+    # a push before the robot walks is refused ("about to start"): on a busy machine the start takes longer
+    wait_for(lambda: state(app).running and state(app).t_s > 0.5, timeout=60, what="the robot walking")
     browser.set(panel.push_force, 3.0)
     browser.set(panel.push_duration, 5.0)
     wait_for(lambda: (panel.push_force.value, panel.push_duration.value) == (3.0, 5.0), what="sliders")

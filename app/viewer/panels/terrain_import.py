@@ -56,15 +56,14 @@ class ImportPreview:
         return self._pending[0] if self._pending else None
 
     def _show(self, preview: tuple[Terrain, str, list[str], np.ndarray] | None) -> None:
-        if preview is None:
-            self._pending = None
-        else:
+        """Show a preview (or close it); ``pending`` changes last, once the panel shows what it says."""
+        if preview is not None:
             terrain, filename, lines, image = preview
-            self._pending = (terrain, filename)
             self.image.image = image
             self.report.content = f"**{filename}**: " + "  \n".join(lines)
         for handle in (self.report, self.image, self.use_button, self.discard_button):
             handle.visible = preview is not None
+        self._pending = None if preview is None else (terrain, filename)
 
     def _on_upload(self, event) -> None:  # noqa: ANN001 - a viser GuiEvent
         uploaded = self.upload.value
