@@ -71,23 +71,26 @@ def reference_plan(planner: ContactNetPlanner, ctx, restrict_group=None) -> list
         centres = state.base_xy_world + rotate_xy(planner.hip_ref_xy_base, state.yaw_rad)
         footholds = candidate_footholds_world(gait, centres, state.yaw_rad, state.foot_pos_world)
         chosen = None
-        # room for the foot's roll first (the point ahead along the command safe too), else the margin alone
+        for rank, index in enumerate(order):
+            legs = np.flatnonzero(swing[index])
+            if all(ctx.terrain.is_safe(footholds[index, leg][None], planner.margin_m)[0] for leg in legs):
+                chosen = PlannedStep(legs=tuple(int(leg) for leg in legs), footholds_xy_world=footholds[index, legs],
+                                     action_index=int(index), rank=rank, discarded=rank)
+                break
+        # the same legs' first landing with room for the foot's roll ahead (the command's direction), if any
         rolled = rolled_margin(planner.margin_m, planner.robot.foot_radius_m,
                                rotate_xy(np.asarray(ctx.vel_cmd_xy, dtype=float), state.yaw_rad), planner.roll)
-        for ahead in ([np.array(rolled.ahead_xy_m)] if rolled is not None else []) + [None]:
+        if chosen is not None and rolled is not None:
+            ahead = np.array(rolled.ahead_xy_m)
             for rank, index in enumerate(order):
                 legs = np.flatnonzero(swing[index])
-                safe = all(ctx.terrain.is_safe(footholds[index, leg][None], planner.margin_m)[0] for leg in legs)
-                if safe and ahead is not None:
-                    safe = all(ctx.terrain.is_safe(footholds[index, leg][None] + ahead, planner.margin_m)[0]
-                               for leg in legs)
-                if safe:
-                    chosen = PlannedStep(legs=tuple(int(leg) for leg in legs),
-                                         footholds_xy_world=footholds[index, legs], action_index=int(index),
-                                         rank=rank, discarded=rank)
+                if tuple(int(leg) for leg in legs) == chosen.legs and all(
+                        ctx.terrain.is_safe(footholds[index, leg][None], planner.margin_m)[0]
+                        and ctx.terrain.is_safe(footholds[index, leg][None] + ahead, planner.margin_m)[0]
+                        for leg in legs):
+                    chosen = PlannedStep(legs=chosen.legs, footholds_xy_world=footholds[index, legs],
+                                         action_index=int(index), rank=rank, discarded=chosen.discarded)
                     break
-            if chosen is not None:
-                break
         if chosen is None:  # no safe candidate: the planner steps in place; compare no further
             steps.append(None)
             break

@@ -86,17 +86,10 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                 order = [a for a, u in zip(order, urgent, strict=True) if u] + [
                     a for a, u in zip(order, urgent, strict=True) if not u]
         chosen = None
-        # on one level: room for the roll ahead first (the point ahead safe too), else the margin alone
-        rolled = None if heights else rolled_margin(planner.margin_m, planner.robot.foot_radius_m, cmd_world,
-                                                     planner.roll)
-        for rank, action in enumerate([*order, *order] if rolled is not None else order):
-            roomy = rolled is not None and rank < len(order)
-            rank = rank % len(order)
+        for rank, action in enumerate(order):
             legs = action_legs[action]
             points = cells[legs, action_cells[action]]
             if not terrain.is_safe(points, planner.margin_m).all():
-                continue
-            if roomy and not terrain.is_safe(points + np.array(rolled.ahead_xy_m), planner.margin_m).all():
                 continue
             if heights:
                 checks = checker.evaluate(terrain, legs, points, feet[legs], (base + hips_touchdown)[legs], tops,
@@ -105,6 +98,17 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                     continue
             chosen = (tuple(int(leg) for leg in legs), int(action), rank, points)
             break
+        # on one level: the same legs' first landing with room for the roll ahead, if there is one
+        rolled = None if heights else rolled_margin(planner.margin_m, planner.robot.foot_radius_m, cmd_world,
+                                                     planner.roll)
+        if chosen is not None and rolled is not None:
+            swing_group = chosen[1] // gait.actions_per_group  # (``group`` is the fixed gait's first group)
+            for rank, action in enumerate(order):
+                points = cells[action_legs[action], action_cells[action]]
+                if (action // gait.actions_per_group == swing_group and terrain.is_safe(points, planner.margin_m).all()
+                        and terrain.is_safe(points + np.array(rolled.ahead_xy_m), planner.margin_m).all()):
+                    chosen = (chosen[0], int(action), rank, points)
+                    break
         if chosen is None:
             steps.append((None, None, None, None))
             break

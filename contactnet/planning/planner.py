@@ -47,6 +47,7 @@ from contactnet.planning.ranking import (
     urgent_first,
 )
 from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, rolled_margin
+from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
     IdleConfig,
@@ -330,10 +331,9 @@ class ContactNetPlanner:
                 stand_cost = None  # a pushed robot steps
             order = self._ranking(costs, j)
             span = self._group_range(j)
-            # room for the foot's roll ahead first (contactnet.planning.roll), else the landing margin alone
-            found = None if roomy is None else roomy.first_safe(j, costs, span)
-            if found is None:
-                found = walk.first_safe(j, costs, span)
+            found = walk.first_safe(j, costs, span)
+            if roomy is not None and found is not None:  # room for the roll (contactnet.planning.roll)
+                found = self._with_room(roomy, j, costs, span, found)
             if self._stands(costs, stand_cost, found):
                 step, points = stand_step(gait, costs, stand_cost), []
             elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,
@@ -355,6 +355,19 @@ class ContactNetPlanner:
             com = [com[0] + shift_x, com[1] + shift_y, com_z]
             vel = [cmd_world[0], cmd_world[1], 0.0]
         return steps
+
+    def _with_room(self, roomy: OneLevelWalk, step: int, costs: np.ndarray, span: tuple[int, int],
+                   found: tuple[int, int, list[list[float]]]) -> tuple[int, int, list[list[float]]]:
+        """The legs of ``found`` (the first safe action) with room ahead for their feet's roll: the first action of
+        the same swing group in the ranking whose landings have it (``roomy``, its rank in the whole ``span``), else
+        ``found`` itself. The network's choice of legs stands; only their landing cells may move back."""
+        group = found[1] // self._actions_per_group
+        first = max(span[0], group * self._actions_per_group)
+        stop = min(span[1], (group + 1) * self._actions_per_group)
+        better = roomy.first_safe(step, costs, (first, stop))
+        if better is None or better[1] == found[1]:
+            return found
+        return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2]
 
     def _plan_with_heights(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
                            idle: bool = False) -> list[PlannedStep]:

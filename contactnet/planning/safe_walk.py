@@ -95,7 +95,7 @@ def _ruled_out(action: int, action_flat: np.ndarray, known: np.ndarray) -> bool:
 
 
 @numba.njit(cache=True, nogil=True)
-def _rank(costs: np.ndarray, first: int, stop: int, action: int) -> int:
+def rank_of(costs: np.ndarray, first: int, stop: int, action: int) -> int:
     """The position of ``action`` in the stable ascending order of ``costs[first:stop]`` (NaN last)."""
     cost, rank = costs[action], 0
     if cost != cost:  # NaN: after every number, and after the NaNs before it
@@ -145,4 +145,4 @@ def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray
         if state < 0:
             return ASK, 0, -1 - state
         if state == SAFE:
-            return FOUND, _rank(costs, first, stop, best), best
+            return FOUND, rank_of(costs, first, stop, best), best
