@@ -9,13 +9,14 @@ foot radius times the shin's turn, (stance travel) / (leg length): for Solo12's 
 1.0 cm; tangential forces stayed at 5 % of the normal ones (rolling, not slip).
 
 So the planner asks for more than the landing point's margin where it can: once the network's ranking has given
-the first safe action, the same legs' first cells in the ranking whose point ``allowance_radii`` foot radii further
-on along the commanded velocity (world frame) is safe too replace its cells (`contactnet.terrain.margin.EdgeMargin` states the
-rule for ``Terrain.is_safe``; the planner's compiled walk makes the second lookup in the same raster,
-``ranking.OneLevelWalk(ahead_xy=...)``). The network's choice of legs stands: asking every action for the room
-first (a first version) made the walk move other legs rather than step onto narrow bars, and `narrow_map` fell
-from 84 to 57 / 100. Where those legs have no cell with room (3 cm bars) the plain choice stands. A command below ``min_speed_m_s`` (standing, turning on the
-spot) has no direction and no allowance. ``ContactNetPlanner(roll=None)`` turns it off.
+the first safe action, the same legs' first cells in the ranking whose point ``allowance_radii`` foot radii
+further on along the commanded velocity (world frame) is safe too replace its cells
+(`contactnet.terrain.margin.EdgeMargin` states the rule for ``Terrain.is_safe``; the planner's compiled walk makes
+the second lookup in the same raster, ``ranking.OneLevelWalk(ahead_xy=...)``). The network's choice of legs
+stands: asking every action for the room first (a first version) made the walk move other legs rather than step
+onto narrow bars, and `narrow_map` fell from 84 to 57 / 100. Where those legs have no cell with room (3 cm bars)
+the plain choice stands. A command below ``min_speed_m_s`` (standing, turning on the spot) has no direction and
+no allowance. ``ContactNetPlanner(roll=None)`` turns it off.
 """
 
 from __future__ import annotations
