@@ -46,7 +46,7 @@ from contactnet.planning.ranking import (
     step_in_place,
     urgent_first,
 )
-from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, rolled_margin
+from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy
 from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
@@ -319,9 +319,8 @@ class ContactNetPlanner:
         if capture_xy is not None:
             bases[0] = [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]]
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
-        rolled = rolled_margin(self.margin_m, self.robot.foot_radius_m, cmd_world, self.roll)
-        roomy = None if rolled is None else OneLevelWalk(self._actions, terrain, self.margin_m, hips_world,
-                                                         offsets_world, bases, rolled.ahead_xy_m)
+        ahead = roll_ahead_xy(self.robot.foot_radius_m, cmd_world, self.roll)
+        roomy = None if ahead is None else (walk, ahead, [])  # the walk with room for the roll: made when needed
         costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):
@@ -356,15 +355,24 @@ class ContactNetPlanner:
             vel = [cmd_world[0], cmd_world[1], 0.0]
         return steps
 
-    def _with_room(self, roomy: OneLevelWalk, step: int, costs: np.ndarray, span: tuple[int, int],
+    def _with_room(self, roomy: tuple[OneLevelWalk, tuple[float, float], list[OneLevelWalk]], step: int,
+                   costs: np.ndarray, span: tuple[int, int],
                    found: tuple[int, int, list[list[float]]]) -> tuple[int, int, list[list[float]]]:
         """The legs of ``found`` (the first safe action) with room ahead for their feet's roll: the first action of
-        the same swing group in the ranking whose landings have it (``roomy``, its rank in the whole ``span``), else
-        ``found`` itself. The network's choice of legs stands; only their landing cells may move back."""
+        the same swing group in the ranking whose landings have it (its rank in the whole ``span``), else ``found``
+        itself. The network's choice of legs stands; only their landing cells may move back. ``roomy``: the plan's
+        plain walk, the room ahead (world XY, m) and a list holding the walk with that room once made."""
+        plain, (ahead_x, ahead_y), made = roomy
+        covers = plain.locator.covers_xy
+        if all(covers(x + ahead_x, y + ahead_y) for x, y in found[2]):  # it has the room (most plans): no walk
+            return found
+        if not made:
+            made.append(OneLevelWalk(self._actions, plain.terrain, self.margin_m, plain.hips_world,
+                                     plain.offsets_world, plain.bases, (ahead_x, ahead_y)))
         group = found[1] // self._actions_per_group
         first = max(span[0], group * self._actions_per_group)
         stop = min(span[1], (group + 1) * self._actions_per_group)
-        better = roomy.first_safe(step, costs, (first, stop))
+        better = made[0].first_safe(step, costs, (first, stop))
         if better is None or better[1] == found[1]:
             return found
         return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2]

@@ -250,7 +250,7 @@ class OneLevelWalk:
                  ahead_xy: tuple[float, float] = (0.0, 0.0)) -> None:
         self.action_flat, self.flat_lists = actions.flat_array, actions.flat
         self.leg_cell, self.leg_cell_array = actions.leg_cell, actions.leg_cell_array
-        self.locator = terrain.safe_locator(margin_m)
+        self.terrain, self.locator = terrain, terrain.safe_locator(margin_m)
         self.ahead_x, self.ahead_y = float(ahead_xy[0]), float(ahead_xy[1])
         self.hips_world, self.offsets_world, self.bases = hips_world, offsets_world, bases
         self.hips, self.offsets = hips_world.tolist(), offsets_world.tolist()

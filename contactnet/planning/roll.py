@@ -45,10 +45,11 @@ class RollConfig:
 DEFAULT_ROLL = RollConfig()
 
 
-def rolled_margin(margin_m: float, foot_radius_m: float, cmd_world_xy: tuple[float, float] | list[float],
-                  config: RollConfig | None) -> EdgeMargin | None:
-    """The landing margin with room for the roll along the commanded velocity ``cmd_world_xy`` (m/s, world), None
-    when there is none to ask for (``config`` None, no allowance, or a command too slow to have a direction)."""
+def roll_ahead_xy(foot_radius_m: float, cmd_world_xy: tuple[float, float] | list[float],
+                  config: RollConfig | None) -> tuple[float, float] | None:
+    """The room ahead (world x, y, metres) along the commanded velocity ``cmd_world_xy`` (m/s, world), None when
+    there is none to ask for (``config`` None, no allowance, or a command too slow to have a direction). Runs in
+    every plan: Python floats."""
     if config is None or config.allowance_radii == 0.0:
         return None
     vx, vy = float(cmd_world_xy[0]), float(cmd_world_xy[1])
@@ -56,7 +57,14 @@ def rolled_margin(margin_m: float, foot_radius_m: float, cmd_world_xy: tuple[flo
     if speed < config.min_speed_m_s:
         return None
     ahead = config.allowance_radii * foot_radius_m / speed
-    return EdgeMargin(margin_m, (ahead * vx, ahead * vy))
+    return ahead * vx, ahead * vy
 
 
-__all__ = ["DEFAULT_ROLL", "RollConfig", "rolled_margin"]
+def rolled_margin(margin_m: float, foot_radius_m: float, cmd_world_xy: tuple[float, float] | list[float],
+                  config: RollConfig | None) -> EdgeMargin | None:
+    """The landing margin with the room ahead of `roll_ahead_xy` (for ``Terrain.is_safe``), None when there is none."""
+    ahead = roll_ahead_xy(foot_radius_m, cmd_world_xy, config)
+    return None if ahead is None else EdgeMargin(margin_m, ahead)
+
+
+__all__ = ["DEFAULT_ROLL", "RollConfig", "roll_ahead_xy", "rolled_margin"]
