@@ -194,8 +194,9 @@ class ContactNetPlanner:
     candidate grid is shifted towards the capture point (``contactnet.planning.capture``) and the robot does not stand;
     ``capture=None`` turns this off. With a zero command and a balanced state it stands instead of a swing that
     barely moves its feet (``contactnet.planning.stand.IdleConfig``, any model); ``idle=None`` turns this off.
-    On a single-height terrain a landing also keeps room ahead for the foot's roll while it stands, where some
-    action can (``contactnet.planning.roll``); ``roll=None`` turns this off. (Not yet on terrain with heights.)
+    On a single-height terrain the chosen legs land, where one of their cells allows it, with room ahead for the
+    foot's roll while it stands (``contactnet.planning.roll``); ``roll=None`` turns this off. (Not yet on terrain
+    with heights.)
 
     ``model``: a ``contactnet.planning.network.LoadedModel`` of this gait.
     """
