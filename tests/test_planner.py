@@ -28,7 +28,7 @@ from contactnet.planning.planner import (
     cell_grid,
     first_safe_step,
 )
-from contactnet.planning.roll import rolled_margin
+from contactnet.planning.roll import roll_ahead_xy
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, flat, random_field
 
@@ -78,10 +78,10 @@ def reference_plan(planner: ContactNetPlanner, ctx, restrict_group=None) -> list
                                      action_index=int(index), rank=rank, discarded=rank)
                 break
         # the same legs' first landing with room for the foot's roll ahead (the command's direction), if any
-        rolled = rolled_margin(planner.margin_m, planner.robot.foot_radius_m,
-                               rotate_xy(np.asarray(ctx.vel_cmd_xy, dtype=float), state.yaw_rad), planner.roll)
-        if chosen is not None and rolled is not None:
-            ahead = np.array(rolled.ahead_xy_m)
+        ahead = roll_ahead_xy(planner.robot.foot_radius_m,
+                              rotate_xy(np.asarray(ctx.vel_cmd_xy, dtype=float), state.yaw_rad), planner.roll)
+        if chosen is not None and ahead is not None:
+            ahead = np.array(ahead)
             for rank, index in enumerate(order):
                 legs = np.flatnonzero(swing[index])
                 if tuple(int(leg) for leg in legs) == chosen.legs and all(

@@ -28,7 +28,7 @@ from contactnet.planning.planner import (
     touchdown_times_s,
 )
 from contactnet.planning.ranking import ActionCells, OneLevelWalk
-from contactnet.planning.roll import rolled_margin
+from contactnet.planning.roll import roll_ahead_xy
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, random_field, random_heights, resolve
 
@@ -99,14 +99,13 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
             chosen = (tuple(int(leg) for leg in legs), int(action), rank, points)
             break
         # on one level: the same legs' first landing with room for the roll ahead, if there is one
-        rolled = None if heights else rolled_margin(planner.margin_m, planner.robot.foot_radius_m, cmd_world,
-                                                     planner.roll)
-        if chosen is not None and rolled is not None:
+        ahead = None if heights else roll_ahead_xy(planner.robot.foot_radius_m, cmd_world, planner.roll)
+        if chosen is not None and ahead is not None:
             swing_group = chosen[1] // gait.actions_per_group  # (``group`` is the fixed gait's first group)
             for rank, action in enumerate(order):
                 points = cells[action_legs[action], action_cells[action]]
                 if (action // gait.actions_per_group == swing_group and terrain.is_safe(points, planner.margin_m).all()
-                        and terrain.is_safe(points + np.array(rolled.ahead_xy_m), planner.margin_m).all()):
+                        and terrain.is_safe(points + np.array(ahead), planner.margin_m).all()):
                     chosen = (chosen[0], int(action), rank, points)
                     break
         if chosen is None:

@@ -242,8 +242,7 @@ class OneLevelWalk:
     here about the rare cells near an outline. The same choice as ``first_safe_step`` and the same floats: a landing point is (base + hip
     reference) + cell offset, added in that order as there. ``bases`` are the base XY of the plan's steps.
     ``ahead_xy`` (world, metres): a landing point is safe only if the point that far on is safe too (the room for the
-    foot's roll, ``contactnet.planning.roll``; ``first_safe_step`` with ``EdgeMargin(margin_m, ahead_xy)``); two
-    lookups in the margin's raster, no other region built."""
+    foot's roll, ``contactnet.planning.roll``); two lookups in the margin's raster, no other region built."""
 
     def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, hips_world: np.ndarray,
                  offsets_world: np.ndarray, bases: list[list[float]],

@@ -10,9 +10,9 @@ foot radius times the shin's turn, (stance travel) / (leg length): for Solo12's 
 
 So the planner asks for more than the landing point's margin where it can: once the network's ranking has given
 the first safe action, the same legs' first cells in the ranking whose point ``allowance_radii`` foot radii
-further on along the commanded velocity (world frame) is safe too replace its cells
-(`contactnet.terrain.margin.EdgeMargin` states the rule for ``Terrain.is_safe``; the planner's compiled walk makes
-the second lookup in the same raster, ``ranking.OneLevelWalk(ahead_xy=...)``). The network's choice of legs
+further on along the commanded velocity (world frame) is safe too replace its cells (``Terrain.is_safe`` of both
+points with the plain margin; the planner's compiled walk makes the second lookup in the same raster,
+``ranking.OneLevelWalk(ahead_xy=...)``). The network's choice of legs
 stands: asking every action for the room first (a first version) made the walk move other legs rather than step
 onto narrow bars, and `narrow_map` fell from 84 to 57 / 100. Where those legs have no cell with room (3 cm bars)
 the plain choice stands. A command below ``min_speed_m_s`` (standing, turning on the spot) has no direction and
@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-from contactnet.terrain.margin import EdgeMargin
 
 
 @dataclass(frozen=True)
@@ -60,11 +58,4 @@ def roll_ahead_xy(foot_radius_m: float, cmd_world_xy: tuple[float, float] | list
     return ahead * vx, ahead * vy
 
 
-def rolled_margin(margin_m: float, foot_radius_m: float, cmd_world_xy: tuple[float, float] | list[float],
-                  config: RollConfig | None) -> EdgeMargin | None:
-    """The landing margin with the room ahead of `roll_ahead_xy` (for ``Terrain.is_safe``), None when there is none."""
-    ahead = roll_ahead_xy(foot_radius_m, cmd_world_xy, config)
-    return None if ahead is None else EdgeMargin(margin_m, ahead)
-
-
-__all__ = ["DEFAULT_ROLL", "RollConfig", "roll_ahead_xy", "rolled_margin"]
+__all__ = ["DEFAULT_ROLL", "RollConfig", "roll_ahead_xy"]

@@ -35,7 +35,6 @@ from contactnet.terrain import render as _render
 from contactnet.terrain.frozen import freeze_region, thaw
 from contactnet.terrain.levels import Level, eroded_levels, terrain_levels_keyed
 from contactnet.terrain.locate import HeightLocator, PointLocator
-from contactnet.terrain.margin import EdgeMargin
 from contactnet.terrain.mesh import extruded_mesh
 from contactnet.terrain.planes import region_center, slope_gradient
 from contactnet.terrain.regions import region_geometry
@@ -206,7 +205,7 @@ class Terrain:
         """The steppable set shrunk by ``margin`` metres (cached; margin 0 is ``steppable`` itself)."""
         return self._locator(margin).geometry
 
-    def is_safe(self, points_xy: Any, margin: float | EdgeMargin = 0.0) -> np.ndarray:
+    def is_safe(self, points_xy: Any, margin: float = 0.0) -> np.ndarray:
         """Which points are safe footholds: on a top no steeper than ``MAX_SAFE_SLOPE_RAD``, at least ``margin``
         (metres) from that top's edges.
 
@@ -216,13 +215,12 @@ class Terrain:
         world-frame x, y in metres; a single (2,) point is accepted and gives a result of shape (1,).
         Returns a bool array (N,). Points on the boundary count as safe (shapely ``covers``); non-finite
         points are unsafe. The shrunk geometry and its lookup raster are built on the first call with a
-        new margin and cached on the terrain. An `EdgeMargin` (``contactnet.terrain.margin``) also asks the point
-        ``ahead_xy_m`` further on to be safe with its ``around_m``.
+        new margin and cached on the terrain.
         """
         points, _ = _as_points(points_xy)
         return self._locator(margin).covers(points)
 
-    def safe_locator(self, margin: float | EdgeMargin = 0.0) -> PointLocator:
+    def safe_locator(self, margin: float = 0.0) -> PointLocator:
         """The point locator behind `is_safe` with ``margin`` (cached): its ``covers_xy`` answers for one
         point given as two floats, without numpy arrays (the planner's walk down a ranking)."""
         return self._locator(margin)
@@ -334,12 +332,10 @@ class Terrain:
             self._heights.append(HeightLocator.build(pieces, tops_z))
         return self._heights[2]
 
-    def _locator(self, margin: float | EdgeMargin) -> PointLocator:
+    def _locator(self, margin: float) -> PointLocator:
         locator = self._locators.get(margin) if type(margin) is float else None
         if locator is not None:
             return locator
-        if isinstance(margin, EdgeMargin):
-            return self._ahead_locator(margin)
         key = finite_float(margin)
         if key is None or key < 0.0:
             raise ValueError(f"margin must be a finite number >= 0 (metres), got {margin!r}")
@@ -356,23 +352,6 @@ class Terrain:
             else:
                 geometry = eroded_levels(levels, key) if levels else shapely.Polygon()
             locator = PointLocator.build(geometry)
-            if len(self._locators) >= _SAFE_CACHE_MAX:
-                self._locators.pop(next(iter(self._locators)))
-            self._locators[key] = locator
-        return locator
-
-    def _ahead_locator(self, margin: EdgeMargin) -> PointLocator:
-        """`_locator` of an `EdgeMargin`: the region shrunk by ``around_m``, less the points whose point ahead is
-        not in it (the region intersected with itself moved back by ``ahead_xy_m``)."""
-        key = margin.key
-        locator = self._locators.get(key)
-        if locator is None:
-            region = self._locator(margin.around_m).geometry
-            dx, dy = margin.ahead_xy_m
-            if dx or dy:
-                back = np.array([dx, dy])
-                region = shapely.intersection(region, shapely.transform(region, lambda xy: xy - back))
-            locator = PointLocator.build(region)
             if len(self._locators) >= _SAFE_CACHE_MAX:
                 self._locators.pop(next(iter(self._locators)))
             self._locators[key] = locator
