@@ -105,9 +105,21 @@ def chromium():
     return launched()
 
 
+#: How long a page's actions and waits may take (playwright's default is 30 s): a guard against a hang beside the
+#: software renderer of a loaded machine (CI runs the browser tests beside another worker), not a speed test.
+BROWSER_TIMEOUT_MS = 90_000
+
+
+def new_page(browser, width: int = 1400, height: int = 900):  # noqa: ANN001, ANN201 - playwright objects
+    """A page of ``browser`` at ``width`` x ``height`` whose actions wait up to `BROWSER_TIMEOUT_MS`."""
+    page = browser.new_page(viewport={"width": width, "height": height})
+    page.set_default_timeout(BROWSER_TIMEOUT_MS)
+    return page
+
+
 def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
     """A 1400 x 900 page of the viser client served at ``port`` (loopback), once it says "Connected"."""
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page = new_page(browser)
     page.goto(f"http://127.0.0.1:{port}/")
     page.get_by_text("Connected").wait_for(timeout=90_000)
     return page

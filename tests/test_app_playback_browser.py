@@ -13,7 +13,7 @@ import time
 
 import httpx
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, served, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, new_page, served, wait_for
 
 pytestmark = browser_marks()
 
@@ -62,7 +62,7 @@ def browser():
 @pytest.fixture(scope="module")
 def page(live, browser):
     _, url, _, _ = live
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page = new_page(browser)
     page.goto(url + "/")
     page.locator("body[data-ready]").wait_for(timeout=90_000)
     yield page
@@ -211,7 +211,7 @@ def test_the_exported_html_plays_the_same_offline(live, browser, tmp_path):
     _, url, entry, track = live
     path = tmp_path / "pushed.html"
     path.write_text(httpx.get(url + entry["html_url"], timeout=60).text)
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page = new_page(browser)
     requests = []
     page.on("request", lambda request: requests.append(request.url))
     try:

@@ -211,3 +211,24 @@ def test_both_sessions_are_session_backends(tmp_path):
     for kind in (LiveSession, RaySession):
         backend = kind(settings, flat(), "flat")  # not started
         assert isinstance(backend, SessionBackend) and not backend.alive and backend.lost is None
+
+
+def test_a_poll_during_a_command_leaves_a_new_terrain_to_the_commands_answer(monkeypatch):
+    """`SessionActor.latest` with ``carry_static`` False (a command is awaited): a view whose terrain or gait the
+    receiver lacks is not sent (each such poll would carry the terrain again); one it can complete is."""
+    from types import SimpleNamespace
+
+    from app.live import ray_session
+    from app.live.ray_session import SessionActor
+
+    actor = SessionActor.__new__(SessionActor)  # no LiveSession: only `latest` is asked
+    view = SimpleNamespace(seq=7, terrain_version=3, gait=SimpleNamespace(name="walk"))
+    actor._session = SimpleNamespace(view=view, stats=None)
+    packed = []
+    monkeypatch.setattr(ray_session, "pack", lambda v, stats, known: packed.append(known) or b"view")
+    assert actor.latest(7, (3, "walk"), False) is None  # not newer
+    assert actor.latest(6, (2, "walk"), False) is None  # a new terrain: the command's answer brings it
+    assert actor.latest(6, (3, "trot"), False) is None  # a new gait too
+    assert actor.latest(6, (3, "walk"), False) == b"view"
+    assert actor.latest(6, (2, "walk")) == b"view"  # no command awaited: the terrain crosses with the poll
+    assert packed == [(3, "walk"), (2, "walk")]

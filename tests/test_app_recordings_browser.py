@@ -8,7 +8,7 @@ import shutil
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, new_page, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -39,7 +39,7 @@ def browser():
 @pytest.fixture(scope="module")
 def page(live, browser):
     _, url = live
-    page = browser.new_page(viewport={"width": 1400, "height": 900})
+    page = new_page(browser)
     page.goto(url + "/")
     page.locator("body[data-ready]").wait_for(timeout=90_000)  # main() wired and showing the live session
     yield page
@@ -54,7 +54,7 @@ def item(page, text: str):
 def test_the_recordings_open_while_the_page_still_loads(live, browser):
     """The header's controls work before the session has answered: here /api/info is held back."""
     _, url = live
-    slow = browser.new_page(viewport={"width": 1400, "height": 900})
+    slow = new_page(browser)
     held = []
     slow.route("**/api/info", lambda route: held.append(route))  # not answered until the end of the test
     try:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, serving, wait_for
+from helpers import ARTIFACTS, BROWSER_TIMEOUT_MS, browser_marks, chromium, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -41,7 +41,7 @@ def page(tool):
     with chromium() as browser:
         context = browser.new_context(viewport={"width": 1400, "height": 900})
         page = context.new_page()
-        page.set_default_timeout(90_000)  # a guard against a hang on the busy software renderer, not a speed test
+        page.set_default_timeout(BROWSER_TIMEOUT_MS)
         errors: list[str] = []
         page.on("pageerror", lambda error: errors.append(str(error)))
         page.goto(url + "/")

@@ -7,7 +7,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, new_page, save_random_models, serving, wait_for
 
 from app.live.commands import SetPaused, SetPlanner, SetVelocity
 
@@ -41,7 +41,7 @@ def live(tmp_path_factory):
 def page(live):
     app, url = live
     with chromium() as browser:
-        page = browser.new_page(viewport={"width": 1600, "height": 1000})
+        page = new_page(browser, 1600, 1000)
         page.goto(url + "/")
         page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=90_000)
         yield page
@@ -132,7 +132,7 @@ def test_api_docs_render_without_internet(live, page):
     """/docs is Swagger UI from the installed package: it renders the API in a browser on a machine
     without internet (this one has none)."""
     _, url = live
-    docs = page.context.browser.new_page(viewport={"width": 1200, "height": 800})
+    docs = new_page(page.context.browser, 1200, 800)
     try:
         docs.goto(url + "/docs")
         docs.get_by_text("/api/state").first.wait_for(timeout=30_000)

@@ -11,7 +11,7 @@ import time
 from urllib.parse import parse_qs, urlsplit
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, save_random_models, wait_for
+from helpers import ARTIFACTS, BROWSER_TIMEOUT_MS, browser_marks, chromium, save_random_models, wait_for
 
 from app.live.commands import EditTerrain, Reset, SetCompare, SetGait, SetLoop, SetPaused
 
@@ -104,7 +104,7 @@ def page(browser):
     page = context.new_page()
     # The page shares its renderer's main thread with the embedded 3D view; with software WebGL and one core
     # busy it can take tens of seconds to poll or to run a check: the waits are guards against a hang, not speed tests.
-    page.set_default_timeout(90_000)
+    page.set_default_timeout(BROWSER_TIMEOUT_MS)
     errors: list[str] = []
     page.on("pageerror", lambda error: errors.append(str(error)))
     yield page

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, live_app, serving, wait_for
+from helpers import ARTIFACTS, BROWSER_TIMEOUT_MS, browser_marks, chromium, live_app, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -32,7 +32,7 @@ def visitor(browser, url: str):  # noqa: ANN001, ANN201 - playwright objects
     """A new browser profile (its own cookies) with the page open and wired."""
     context = browser.new_context(viewport={"width": 1200, "height": 800})
     page = context.new_page()
-    page.set_default_timeout(90_000)
+    page.set_default_timeout(BROWSER_TIMEOUT_MS)
     page.goto(url + "/")
     page.locator("body[data-ready]").wait_for()
     return page
@@ -92,6 +92,7 @@ def test_a_watcher_sees_a_session_read_only(live, browser):
     app, url = live
     owner = visitor(browser, url)
     watcher = browser.new_context(viewport={"width": 1200, "height": 800}).new_page()
+    watcher.set_default_timeout(BROWSER_TIMEOUT_MS)
     try:
         watch_id = owner.evaluate("() => fetch('/api/info').then(r => r.json())")["watch_id"]
         sessions_before = len(app.visits)

@@ -10,6 +10,7 @@ snapshots (docs/sessions-on-ray.md).
   were submitted (as the session's own queue would). The static parts cross only when they change (the terrain
   and its dict form: its version; the gait: its name): every other view comes without them and is completed here
   (`ViewPacket`). What crossed is counted in `transfer` (bytes per view: the figures of docs/sessions-on-ray.md).
+  While a command is awaited, polls take no view with a new terrain or gait: the command's answer brings it.
 - A lost actor (its worker or node died): the poll or the command sees Ray's error, the session says so in one
   line (`lost`, the view's status error, every later command's RuntimeError: a 503), and the visit pool reclaims
   the visit (`app.api.visits`).
@@ -124,11 +125,14 @@ class SessionActor:
         self._session.start(timeout)
         return {"pid": os.getpid(), "host": socket.gethostname(), "session_id": self._session.session_id}
 
-    def latest(self, seq: int, known: Known) -> bytes | None:
+    def latest(self, seq: int, known: Known, carry_static: bool = True) -> bytes | None:
         """The newest view (`pack`ed for a receiver that has ``known``) when its seq differs from ``seq``, else
-        None."""
+        None. With ``carry_static`` False (the receiver awaits a command's answer, which brings them) a view
+        whose terrain or gait the receiver lacks is not sent either."""
         view = self._session.view
         if view is None or view.seq == seq:
+            return None
+        if not carry_static and (view.terrain_version != known[0] or view.gait.name != known[1]):
             return None
         return pack(view, self._session.stats, known)
 
@@ -171,6 +175,7 @@ class RaySession:
         self._terrain: tuple[int, Terrain, dict[str, Any] | None] | None = None  # (version, terrain, its dict)
         self._gait: GaitSpec | None = None
         self._install_lock = threading.Lock()
+        self._commanding = threading.Event()  # a command's answer (with the view that shows it) is awaited
         self._commands: queue.Queue[tuple[Command, float, Future] | None] = queue.Queue()
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
@@ -267,8 +272,11 @@ class RaySession:
         import ray
 
         seq = -1 if self._view is None else self._view.seq
+        # during a command, a view with a new terrain or gait waits for the command's answer: polls asked with
+        # the old `known` would each carry the terrain again (only one already in flight still may)
+        carry_static = not self._commanding.is_set()
         try:
-            data = ray.get(self._actor.latest.remote(seq, self._known()), timeout=POLL_TIMEOUT_S)
+            data = ray.get(self._actor.latest.remote(seq, self._known(), carry_static), timeout=POLL_TIMEOUT_S)
         except ray.exceptions.GetTimeoutError:
             self._lose(f"no answer for {POLL_TIMEOUT_S:g} s")
             return
@@ -293,6 +301,7 @@ class RaySession:
             if not self.alive:
                 future.set_exception(RuntimeError(self._lost or "the live session is not running"))
                 continue
+            self._commanding.set()
             try:
                 ref = self._actor.call.remote(command, timeout, self._known())
                 result, data = ray.get(ref, timeout=timeout + 5.0)
@@ -307,6 +316,8 @@ class RaySession:
                 if data is not None:
                     self._install(data)
                 future.set_result(result)
+            finally:
+                self._commanding.clear()
         while not self._commands.empty():  # stopped: refuse what is left
             item = self._commands.get_nowait()
             if item is not None:
