@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, BROWSER_TIMEOUT_MS, browser_marks, chromium, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, new_context, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -39,9 +39,8 @@ def page(tool):
 
     app, url = tool
     with chromium() as browser:
-        context = browser.new_context(viewport={"width": 1400, "height": 900})
+        context = new_context(browser)
         page = context.new_page()
-        page.set_default_timeout(BROWSER_TIMEOUT_MS)
         errors: list[str] = []
         page.on("pageerror", lambda error: errors.append(str(error)))
         page.goto(url + "/")

@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, BROWSER_TIMEOUT_MS, browser_marks, chromium, live_app, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, live_app, new_context, serving, wait_for
 
 from app.live.commands import Reset, SetLoop, SetPaused, SetPlanner, SetTerrain, SetVelocity
 from contactnet.terrain import Terrain, flat
@@ -73,10 +73,9 @@ def browser():
 
 
 def open_page(browser, url: str, width: int = 1280, height: int = 800):  # noqa: ANN001, ANN201 - playwright
-    context = browser.new_context(viewport={"width": width, "height": height})
+    context = new_context(browser, width, height)
     context.add_init_script(WATCH_PAGE)
     page = context.new_page()
-    page.set_default_timeout(BROWSER_TIMEOUT_MS)
     errors: list[str] = []
     page.on("pageerror", lambda error: errors.append(str(error)))
     page.goto(url + "/")

@@ -11,7 +11,7 @@ import time
 from urllib.parse import parse_qs, urlsplit
 
 import pytest
-from helpers import ARTIFACTS, BROWSER_TIMEOUT_MS, browser_marks, chromium, save_random_models, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, new_context, save_random_models, wait_for
 
 from app.live.commands import EditTerrain, Reset, SetCompare, SetGait, SetLoop, SetPaused
 
@@ -98,13 +98,12 @@ def browser():
 
 @pytest.fixture(scope="module")
 def page(browser):
-    context = browser.new_context(viewport={"width": 1400, "height": 900})
+    context = new_context(browser)
     context.grant_permissions(["clipboard-read", "clipboard-write"])
     context.add_init_script(RECORD_TOASTS)
     page = context.new_page()
     # The page shares its renderer's main thread with the embedded 3D view; with software WebGL and one core
     # busy it can take tens of seconds to poll or to run a check: the waits are guards against a hang, not speed tests.
-    page.set_default_timeout(BROWSER_TIMEOUT_MS)
     errors: list[str] = []
     page.on("pageerror", lambda error: errors.append(str(error)))
     yield page

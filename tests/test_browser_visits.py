@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, BROWSER_TIMEOUT_MS, browser_marks, chromium, live_app, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, live_app, new_context, new_page, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -30,9 +30,8 @@ def browser():
 
 def visitor(browser, url: str):  # noqa: ANN001, ANN201 - playwright objects
     """A new browser profile (its own cookies) with the page open and wired."""
-    context = browser.new_context(viewport={"width": 1200, "height": 800})
+    context = new_context(browser, 1200, 800)
     page = context.new_page()
-    page.set_default_timeout(BROWSER_TIMEOUT_MS)
     page.goto(url + "/")
     page.locator("body[data-ready]").wait_for()
     return page
@@ -91,8 +90,7 @@ def test_two_browsers_two_robots(live, browser):
 def test_a_watcher_sees_a_session_read_only(live, browser):
     app, url = live
     owner = visitor(browser, url)
-    watcher = browser.new_context(viewport={"width": 1200, "height": 800}).new_page()
-    watcher.set_default_timeout(BROWSER_TIMEOUT_MS)
+    watcher = new_page(browser, 1200, 800)
     try:
         watch_id = owner.evaluate("() => fetch('/api/info').then(r => r.json())")["watch_id"]
         sessions_before = len(app.visits)
