@@ -458,6 +458,14 @@ def test_frontier_options_errors_are_one_line(tmp_path, capsys):
     assert "--scale or --trials, not both" in capsys.readouterr().err
     assert main(["experiment", "paper", "--out", out, "--removed", "140"]) == 2  # the paper's plan stays fixed
     assert "drop --removed" in capsys.readouterr().err
+    assert main(["experiment", "frontier", "--out", out, "--sections", "fig5"]) == 2  # not a section of its plan
+    err = capsys.readouterr().err.strip()
+    assert "no section 'fig5'" in err and "frontier, frontier_narrow" in err and len(err.splitlines()) == 1
+    assert main(["experiment", "random", "--out", out, "--sections", "fig5"]) == 2
+    assert "--sections" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["experiment", "paper", "--out", out, "--sections", "fig6"])
+    assert "--sections: expected a comma-separated list of fig5, table2" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
 
 
@@ -485,5 +493,15 @@ def test_a_tiny_frontier_run_writes_its_section_and_resumes(tmp_path, capsys):
     assert (out / "report_plots" / "frontier.png").stat().st_size > 5000
     assert main(args) == 0 and "0 trials run of 2" in capsys.readouterr().out  # resumed: nothing runs again
     assert len((out / "frontier" / "trials.jsonl").read_text().splitlines()) == 1
+    # one section alone (a new gap on the bars): only its trial runs; the report keeps the field's stored trial
+    field_log = (out / "frontier" / "trials.jsonl").read_text()
+    alone = [*args[:args.index("--gaps-cm")], "--gaps-cm", "27", "--workers", "1", "--quiet",
+             "--sections", "frontier_narrow"]
+    assert main(alone) == 0 and "1 trials run of 1" in capsys.readouterr().out
+    assert (out / "frontier" / "trials.jsonl").read_text() == field_log
+    header = json.loads((out / "paper.json").read_text())
+    assert [s["folder"] for s in header["sections"]] == ["frontier", "frontier_narrow"]
+    assert header["runs"][-1]["sections"] == ["frontier_narrow"] and "--sections frontier_narrow" in header["runs"][-1]["command"]
+    assert "| walk | 200 | 0 / 1 (0.0 %, 0.0-79.3) |" in (out / "report.md").read_text()
     # the paper's run may follow in the same folder (its plan holds the frontier); not the other way round
     assert json.loads((out / "paper.json").read_text())["runs"][1]["trials_reused"] == 2

@@ -229,6 +229,13 @@ def cmd_train(args: argparse.Namespace) -> int:
     )
 
 
+def _section_names(text: str) -> tuple[str, ...]:
+    """``--sections``: comma-separated folders of the paper's plan (imported only when the option is given)."""
+    from contactnet.jobs.paper.plan import PAPER_SECTIONS
+
+    return choices("--sections", tuple(s.folder for s in PAPER_SECTIONS))(text)
+
+
 def cmd_experiment(args: argparse.Namespace) -> int:
     from contactnet.jobs.experiment import DEFAULT_HEIGHT_M, run_experiment, trials_of
     from contactnet.jobs.summary import format_summary
@@ -242,8 +249,8 @@ def cmd_experiment(args: argparse.Namespace) -> int:
             raise UserError(f"experiment {args.name} runs in one engine: give each --sim its own --out")
         args.sim = sims[0]
         return paper_command(args, args.name)
-    if args.scale is not None or args.report_only:
-        raise UserError("--scale and --report-only are options of experiment paper and frontier")
+    if args.scale is not None or args.report_only or args.sections is not None:
+        raise UserError("--scale, --sections and --report-only are options of experiment paper and frontier")
     model_dir = args.model_dir
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
@@ -475,6 +482,10 @@ def build_parser() -> argparse.ArgumentParser:
                                  "default 1)")
     experiment.add_argument("--report-only", action="store_true",
                             help="paper, frontier: write DIR's report from its stored trials, run nothing")
+    experiment.add_argument("--sections", type=_section_names, default=None, metavar="NAME,...",
+                            help="paper, frontier: run only these sections of the plan (their folders: fig5, "
+                                 "table2, push, ..., frontier, frontier_narrow); the report still covers the "
+                                 "whole plan, from the trials stored so far")
     experiment.add_argument("--trials", type=positive_int("--trials", 10**5),
                             help="seeds per setting (default: 20 on random and random_heights, 5 on raised_stones, "
                                  "1 on the others; frontier: seeds per point of the field, default 100, the "

@@ -72,13 +72,15 @@ def _order(trial: Trial) -> tuple[int, float]:
 def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = None, engine: str = "local",
               progress: bool = True, model_dir: str | None = None, address: str | None = None,
               sections: tuple[Section, ...] = PAPER_SECTIONS, command: str = "", report: bool = True,
-              sim: str = "pybullet", plan: str = "paper", robot: str = DEFAULT_ROBOT) -> dict:
+              sim: str = "pybullet", plan: str = "paper", robot: str = DEFAULT_ROBOT,
+              only: tuple[str, ...] | None = None) -> dict:
     """Run (or resume) the ``sections`` at ``scale`` into ``out_dir`` with ``workers`` processes on ``engine``
     (Ray: on the cluster at ``address``, else a local one) and write the report; returns ``{"trials", "ran", "wall_s", "summaries": {folder: summary}}``. On Ctrl-C
     the finished trials stay logged, the run is recorded in paper.json and KeyboardInterrupt is re-raised.
     ``plan`` ("paper" or "frontier") names the plan in paper.json: the report's title and parts follow it.
     ``robot``: every trial's (its scenes at its size, its pushes and payloads the same fraction of its weight:
-    `contactnet.jobs.paper.plan.RobotSizing`)."""
+    `contactnet.jobs.paper.plan.RobotSizing`). ``only``: the folders of the sections to run now (default all);
+    paper.json and the report still list every section, with the trials stored so far."""
     if engine not in ENGINES:
         raise ExperimentError(f"unknown engine {engine!r}: choose one of {', '.join(ENGINES)}")
     if plan not in PLANS:
@@ -93,11 +95,16 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
     if plan == "frontier" and header.get("plan", "paper") == "paper" and header["runs"]:
         raise ExperimentError(f"{out} holds the paper's run (the frontier is one of its sections: experiment paper "
                               "runs it there); give experiment frontier another --out")
+    unknown = sorted(set(only or ()) - {s.folder for s in sections})
+    if unknown:
+        raise ExperimentError(f"experiment {plan} has no section {unknown[0]!r}: choose of "
+                              f"{', '.join(s.folder for s in sections)}")
     try:
         planned = plan_trials(sections, scale, model_dir, sim, robot)
     except ValueError as exc:
         raise ExperimentError(str(exc)) from None
-    batches = {s.folder: open_batch(s.experiment, out / s.folder, planned[s.folder]) for s in sections}
+    batches = {s.folder: open_batch(s.experiment, out / s.folder, planned[s.folder]) for s in sections
+               if only is None or s.folder in only}
     header.update(plan=plan, scale=scale, model_dir=model_dir, sim=sim, sim_version=engine_version(sim), robot=robot,
                   sections=[{"folder": s.folder, "experiment": s.experiment, "title": s.title,
                              "trials": len(planned[s.folder]), "trials_full": len(s.trials(1.0, model_dir, sim, robot))}
@@ -135,6 +142,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
             "command": command, "started_utc": started, "wall_s": wall_s, "cpu_s": cpu_s, "trials_run": tally["ran"],
             "trials_reused": len(done), "trials_planned": len(jobs), "scale": scale,
             "workers": workers or os.cpu_count(), "engine": engine, "interrupted": interrupted,
+            **({"sections": list(only)} if only is not None else {}),
             "load_average": {"start": load_before, "end": _load_average()},
             "code": code, "machine": computer})
         atomic_write_text(out / HEADER_NAME, json.dumps(header, indent=1))
@@ -165,8 +173,8 @@ def _command(args: argparse.Namespace, scale: float, plan: str = "paper") -> str
     else:
         words += ["--scale", f"{scale:g}"]
     defaults = {"engine": "local", "sim": "pybullet", "robot": DEFAULT_ROBOT}  # not written when they are these
-    for option in (*(_FRONTIER_OPTIONS[1:] if plan == "frontier" else ()), "workers", "engine", "address",
-                   "model_dir", "sim", "robot"):
+    for option in (*(_FRONTIER_OPTIONS[1:] if plan == "frontier" else ()), "sections", "workers", "engine",
+                   "address", "model_dir", "sim", "robot"):
         value = getattr(args, option, None)
         if isinstance(value, tuple | list):
             value = ",".join(f"{v:g}" if isinstance(v, float) else str(v) for v in value)
@@ -176,7 +184,8 @@ def _command(args: argparse.Namespace, scale: float, plan: str = "paper") -> str
 
 
 def paper_command(args: argparse.Namespace, plan: str = "paper") -> int:
-    """``contactnet experiment paper --out DIR [--scale S] [--workers N] [--model-dir D] [--report-only]``; with
+    """``contactnet experiment paper --out DIR [--scale S] [--sections F,...] [--workers N] [--model-dir D]
+    [--report-only]``; with
     ``plan="frontier"``, ``contactnet experiment frontier --out DIR [--scale S | --trials N] [--gaits G]
     [--planners P] [--removed N,...] [--widths-cm W,...] [--gaps-cm G,...]`` (``--trials N``: N seeds per point of
     the field, the other cells in proportion: scale N / 100)."""
@@ -206,7 +215,8 @@ def paper_command(args: argparse.Namespace, plan: str = "paper") -> int:
         result = run_paper(out, scale, workers=args.workers, engine=engine, progress=not args.quiet,
                            model_dir=args.model_dir, command=_command(args, scale, plan), sections=sections,
                            address=getattr(args, "address", None), sim=getattr(args, "sim", None) or "pybullet",
-                           plan=plan, robot=getattr(args, "robot", None) or DEFAULT_ROBOT)
+                           plan=plan, robot=getattr(args, "robot", None) or DEFAULT_ROBOT,
+                           only=getattr(args, "sections", None))
     except KeyboardInterrupt:
         print(f"contactnet: interrupted; finished trials are kept in {out}: run the same command to resume "
               f"(contactnet report {out} writes the report of the trials so far)", file=sys.stderr)
