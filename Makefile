@@ -37,10 +37,10 @@ browser:
 # (tests/conftest.py): 22 min on this project's 2-core machines against 29 min in one process.
 PYTEST_WORKERS ?= auto
 test: setup browser
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist loadgroup
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist loadfile
 
 test-fast: setup
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist loadgroup -m "not slow"
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist loadfile -m "not slow"
 
 bench: setup
 	$(BIN)/contactnet bench terrain

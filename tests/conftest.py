@@ -28,14 +28,13 @@ def pytest_collection_modifyitems(items) -> None:  # noqa: ANN001 - pytest's hoo
     """Mark ``browser`` every test that drives Debian's chromium (its module's marks, or a ``browser`` fixture),
     so ``pytest -m "not browser"`` runs everything else.
 
-    With pytest-xdist (``make test`` runs ``-n auto --dist loadgroup``) a module's tests stay on one worker (its
-    module fixtures, such as a live server, start once) and the browser tests all run on one worker, one chromium at
-    a time: two software-WebGL browsers at once starve each other (screenshots slower than 30 s were seen)."""
+    With pytest-xdist (``make test`` runs ``-n auto --dist loadfile``) a test file stays on one worker: its module
+    fixtures (a live server, a page) start once and its tests run in order, as some rely on (a panel opened by the
+    test before). (``--dist loadgroup`` with ``xdist_group`` marks does not group on pytest 9: xdist 3.8 renames
+    ``item._nodeid``, which pytest 9 no longer reads, and the tests of a file ran on both workers.)"""
     for item in items:
         if "browser" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.browser)
-        group = "browser" if item.get_closest_marker("browser") else item.module.__name__
-        item.add_marker(pytest.mark.xdist_group(group))
 
 
 def pytest_terminal_summary(terminalreporter) -> None:  # noqa: ANN001 - pytest's hook

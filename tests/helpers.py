@@ -109,38 +109,10 @@ def chromium():
 #: software renderer of a loaded machine (CI runs the browser tests beside another worker), not a speed test.
 BROWSER_TIMEOUT_MS = 90_000
 
-#: The test pages draw at most this many animation frames per second (every frame of the page and of its 3D view's
-#: iframe: `FRAME_CAP`). Software WebGL drawing the 3D view at the display's 60 Hz took 1.5 of the 2 cores for the
-#: whole browser part of the suite, starving the server under test and the other pytest worker; what the tests
-#: check (the page, the scene, its updates) does not depend on the frame rate.
-TEST_FPS = 4
-
-#: An init script (every frame, before its own scripts): requestAnimationFrame waits 1 / `TEST_FPS` s first; the
-#: ids it returns stay valid for cancelAnimationFrame.
-FRAME_CAP = """(() => {
-  const delay = 1000 / TEST_FPS, raf = window.requestAnimationFrame.bind(window);
-  const cancel = window.cancelAnimationFrame.bind(window), pending = new Map();
-  let next = 0;
-  window.requestAnimationFrame = (callback) => {
-    const id = ++next;
-    const draw = () => pending.set(id, ["frame", raf((t) => { pending.delete(id); callback(t); })]);
-    pending.set(id, ["timer", setTimeout(draw, delay)]);
-    return id;
-  };
-  window.cancelAnimationFrame = (id) => {
-    const what = pending.get(id);
-    if (!what) return;
-    pending.delete(id);
-    if (what[0] === "timer") clearTimeout(what[1]); else cancel(what[1]);
-  };
-})();""".replace("TEST_FPS", str(TEST_FPS))
-
-
 def new_context(browser, width: int = 1400, height: int = 900):  # noqa: ANN001, ANN201 - playwright objects
-    """A new browser profile (its own cookies) at ``width`` x ``height``: its pages draw at most `TEST_FPS` frames
-    a second and their actions wait up to `BROWSER_TIMEOUT_MS`."""
+    """A new browser profile (its own cookies) at ``width`` x ``height`` whose pages' actions wait up to
+    `BROWSER_TIMEOUT_MS`."""
     context = browser.new_context(viewport={"width": width, "height": height})
-    context.add_init_script(FRAME_CAP)
     context.set_default_timeout(BROWSER_TIMEOUT_MS)
     return context
 
