@@ -33,8 +33,8 @@ browser:
 	  else echo "the browser tests need Debian's chromium: apt-get install chromium"; exit 1; fi; \
 	  $$SUDO apt-get update -qq && $$SUDO apt-get install -y -qq chromium; }
 
-# One worker per core (pytest-xdist); a test file stays on one worker and the browser tests share one
-# (tests/conftest.py): 22 min on this project's 2-core machines against 29 min in one process.
+# One worker per core (pytest-xdist); a test file stays on one worker, its tests in order (docs/contributing.md):
+# 19 min on this project's 2-core machines against 29 min in one process.
 PYTEST_WORKERS ?= auto
 test: setup browser
 	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) --dist loadfile

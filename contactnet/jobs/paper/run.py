@@ -97,7 +97,7 @@ def run_paper(out_dir: str | Path, scale: float = 1.0, workers: int | None = Non
                               "runs it there); give experiment frontier another --out")
     unknown = sorted(set(only or ()) - {s.folder for s in sections})
     if unknown:
-        raise ExperimentError(f"experiment {plan} has no section {unknown[0]!r}: choose of "
+        raise ExperimentError(f"experiment {plan} has no section {unknown[0]!r}: choose from "
                               f"{', '.join(s.folder for s in sections)}")
     try:
         planned = plan_trials(sections, scale, model_dir, sim, robot)
