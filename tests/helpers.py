@@ -109,6 +109,7 @@ def chromium():
 #: software renderer of a loaded machine (CI runs the browser tests beside another worker), not a speed test.
 BROWSER_TIMEOUT_MS = 90_000
 
+
 def new_context(browser, width: int = 1400, height: int = 900):  # noqa: ANN001, ANN201 - playwright objects
     """A new browser profile (its own cookies) at ``width`` x ``height`` whose pages' actions wait up to
     `BROWSER_TIMEOUT_MS`."""

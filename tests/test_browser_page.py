@@ -98,12 +98,13 @@ def browser():
 
 @pytest.fixture(scope="module")
 def page(browser):
+    # The page shares its renderer's main thread with the embedded 3D view; with software WebGL and one core
+    # busy it can take tens of seconds to poll or to run a check: its waits (new_context: up to 90 s) are guards
+    # against a hang, not speed tests.
     context = new_context(browser)
     context.grant_permissions(["clipboard-read", "clipboard-write"])
     context.add_init_script(RECORD_TOASTS)
     page = context.new_page()
-    # The page shares its renderer's main thread with the embedded 3D view; with software WebGL and one core
-    # busy it can take tens of seconds to poll or to run a check: the waits are guards against a hang, not speed tests.
     errors: list[str] = []
     page.on("pageerror", lambda error: errors.append(str(error)))
     yield page
