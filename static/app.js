@@ -69,9 +69,10 @@ function playing() {
 }
 
 /** The embedded viser client's address for this server (`info` from /api/info), with the page's other query
- *  parameters (e.g. ?fixedDpr=0.5 renders at half resolution on slow machines, ?showStats shows the frame rate). */
+ *  parameters (e.g. ?fixedDpr=0.5 renders at half resolution on slow machines, ?showStats shows the frame rate);
+ *  without a GPU, half resolution unless the address says otherwise (Embed.lighten). */
 function viewerUrl(info) {
-  const extra = Scenario.others(location.search);
+  const extra = Embed.lighten(Scenario.others(location.search));
   extra.delete("websocket");
   extra.delete("playbackPath");
   const suffix = extra.toString() ? "&" + extra.toString() : "";

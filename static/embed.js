@@ -8,6 +8,10 @@
 // - One notification channel: the page's toasts. viser's own toasts are hidden in the embedded view (the session's
 //   notices reach the page as toasts already; viser's "software WebGL" warning becomes one page toast).
 // - `?` and Esc pressed in the 3D view open and close the page's help (Keys.wireViewer).
+// - Without a GPU (WebGL drawn by a software renderer: SwiftShader, llvmpipe) the 3D view draws at half resolution
+//   (viser's `fixedDpr=0.5`) unless the page's address sets `fixedDpr`: headless chromium on 2 cores draws the scene
+//   at 2-3 frames a second at full resolution, using about 1.5 cores, and about 8 at half, which leaves the page
+//   (header, polling) the CPU it needs to keep up with the 3D view.
 // A 3D view from another origin (a proxy that serves it elsewhere) cannot be looked into: the loading view then goes
 // once it has loaded and a few seconds passed.
 "use strict";
@@ -16,6 +20,8 @@ const Embed = (() => {
   const CHECK_MS = 250;
   const FRAMES = 2;  // animation frames after the control panel arrived: the scene is drawn, not only received
   const BLIND_MS = 4000;  // another origin: how long after its load the loading view stays
+  const SOFTWARE_DPR = "0.5";  // the 3D view's pixel ratio when WebGL is drawn in software
+  const SOFTWARE_RENDERER = /swiftshader|llvmpipe|softpipe|lavapipe|software/i;
   // viser's own toasts go (one channel); its canvas is drawn opaque from the first frame: viser keeps it at 5 %
   // opacity until its environment lighting is decoded, then fades it in frame by frame, which a software renderer
   // on a busy machine stretches to 20 s and more of a ghost scene (the lighting then just brightens a drawn one).
@@ -27,6 +33,8 @@ const Embed = (() => {
   let loadingSince = performance.now();
   let toldSoftware = false;
   let needsPanel = true;  // a watcher's 3D view (/?watch=ID) has no control panel: its canvas is enough
+  let software = null;  // WebGL drawn by a software renderer (asked once)
+  let lightened = false;  // this page chose the half resolution (the address did not set fixedDpr)
 
   function stage(text) {
     el("loading-step").textContent = text;
@@ -47,11 +55,44 @@ const Embed = (() => {
     return panel && canvas !== null ? "panel" : "connecting";
   }
 
+  /** Whether this browser draws WebGL in software (its renderer's name, as the debug extension gives it). */
+  function softwareRendering() {
+    if (software !== null) return software;
+    software = false;
+    try {
+      const gl = document.createElement("canvas").getContext("webgl2")
+        || document.createElement("canvas").getContext("webgl");
+      if (gl) {
+        const info = gl.getExtension("WEBGL_debug_renderer_info");
+        const name = String(gl.getParameter(info ? info.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+        software = SOFTWARE_RENDERER.test(name);
+        const lose = gl.getExtension("WEBGL_lose_context");
+        if (lose) lose.loseContext();  // the probe's context goes at once (browsers cap live contexts)
+      }
+    } catch (e) {
+      software = false;
+    }
+    return software;
+  }
+
+  /** The 3D view's query parameters `query` (URLSearchParams, changed in place) with the half resolution added
+   *  when WebGL is drawn in software and the page's address did not choose a pixel ratio. */
+  function lighten(query) {
+    if (!query.has("fixedDpr") && softwareRendering()) {
+      query.set("fixedDpr", SOFTWARE_DPR);
+      lightened = true;
+    }
+    return query;
+  }
+
   function relaySoftwareWarning(doc) {
     if (toldSoftware || !doc.body || !doc.body.textContent.includes("Software WebGL")) return;
     toldSoftware = true;
-    Toasts.show("No GPU in use: the 3D view draws in software and may be slow (the panel's Shadows off helps, "
-      + "or add ?fixedDpr=0.5 to the page's address)", "warning", 9000);
+    Toasts.show(lightened
+      ? "No GPU in use: the 3D view draws in software, at half resolution to keep up (?fixedDpr=1 in the page's "
+        + "address for full resolution; the panel's Shadows off helps too)"
+      : "No GPU in use: the 3D view draws in software and may be slow (the panel's Shadows off helps, "
+        + "or add ?fixedDpr=0.5 to the page's address)", "warning", 9000);
   }
 
   function framesThen(win, n, done) {
@@ -121,5 +162,5 @@ const Embed = (() => {
     return readyAt === null ? null : (readyAt - loadingSince) / 1000;
   }
 
-  return { wire, load, loadSeconds };
+  return { wire, load, loadSeconds, lighten, softwareRendering };
 })();

@@ -172,6 +172,12 @@ def test_the_session_waits_for_the_page_then_runs(tool, page):
     assert page.locator("#start-title").inner_text() in ("Starting…",) or "starts in" in start.inner_text()
     shot(page, "first_minute_start")
     connected(page)
+    # Without a GPU (here: headless chromium's SwiftShader) the page asks the 3D view for half resolution itself,
+    # and says so; with one, the address alone decides.
+    software = page.evaluate("Embed.softwareRendering()")
+    assert ("fixedDpr=0.5" in page.locator("#viewer").get_attribute("src")) == software
+    if software:
+        toast(page, "at half resolution to keep up")
     wait_for(lambda: tool.state().starts_in_s is not None or tool.state().t_s > 0, what="the count-down")
     wait_for(lambda: tool.state().t_s > 0.2, timeout=30, what="the robot to move after the count-down")
     start.wait_for(state="hidden")
