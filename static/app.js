@@ -172,7 +172,7 @@ function termParts(parts, leading = false) {
 function statusDetail(s) {
   const planner = s.planner === s.planner_active ? s.planner : `${s.planner_active} (instead of ${s.planner})`;
   return `${s.terrain} · ${s.gait} · ${planner} · cmd (${s.vel_cmd[0].toFixed(2)}, ${s.vel_cmd[1].toFixed(2)}) m/s`
-    + ` · speed ${s.speed}× · RTF ${s.real_time_factor.toFixed(2)} · pushes ${s.pushes}`
+    + ` · speed ${s.speed}× · RTF ${s.running ? s.real_time_factor.toFixed(2) : "–"} · pushes ${s.pushes}`
     + (s.retarget ? ` · retargeting on (${s.swing_retargets ?? 0})` : "")
     + (s.capture_steps ? ` · capture steps ${s.capture_steps}` : "")
     + (s.loop === false ? " · loop off" : "") + (s.recording ? " · ● recording" : "");

@@ -25,7 +25,7 @@ from app.live.commands import (
     ViewerConnected,
 )
 from app.live.view import status_line
-from app.viewer.panels.status import run_markdown
+from app.viewer.panels.status import details_markdown, run_markdown
 from contactnet.terrain import flat
 
 pytestmark = pytest.mark.app
@@ -78,6 +78,7 @@ def test_a_run_ends_is_summed_up_and_the_loop_starts_the_next(tmp_path):
         assert f"stood 0 · useless {counts.useless_steps} · swing retargets 0" in run_markdown(view)  # the card
         assert view.run.progress == 1.0 and 0.0 < view.run.restart_in_s <= 0.5
         assert "GOAL REACHED; next run in" in status_line(view)
+        assert "RTF – ·" in details_markdown(view)  # no real-time factor while it stands still (not 0.00)
         view = live.wait_view(lambda v: v.status.done is None and v.snapshot.t_s > 0.0, timeout=5)
         assert view.run.runs == 1 and view.run.restart_in_s is None and view.run.progress < 1.0
         assert view.run.last_run == last  # the card's run stays until the next one ends

@@ -90,7 +90,7 @@ def details_markdown(view: LiveView) -> str:
         f"CoM vel ({snap.com_vel[0]:+.2f}, {snap.com_vel[1]:+.2f}) · x = {snap.q[0]:.2f} m",
         f"steps {snap.steps} · rank chosen {'n/a' if rank is None else rank} · "
         f"plan {snap.last_planner_ms:.2f} ms{mean_plan} · optimizer {snap.last_trajopt_ms:.1f} ms · "
-        f"RTF {s.real_time_factor:.2f} · speed {s.speed:.2g}x",
+        f"RTF {f'{s.real_time_factor:.2f}' if s.running else '–'} · speed {s.speed:.2g}x",  # – while it stands still
         f"{kinds} "
         f"(retargeting {'on' if s.retarget else 'off'})",
     ]
