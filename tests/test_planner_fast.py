@@ -45,14 +45,15 @@ def _rotation(yaw: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
-def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int | None = None) -> list[tuple]:
+def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int | None = None,
+                   seen: dict[str, int] | None = None) -> list[tuple]:
     """The plan as the planner's docs define it, the slow and obvious way: numpy state, the network's stable
     ranking of minus its scores, every step's whole candidate grid (small tops' cells centred on terrain with
     heights), and one action at a time down the ranking until its landing points are all safe
     (``Terrain.is_safe``) and, with heights, pass every check of ``FootholdChecker.evaluate``; on terrain with
     heights the first step's ranking puts the actions that move a cornered leg first. ``group``: the fixed
     gait's first group. Returns (legs, action, rank, footholds) per step, (None, ...) for a step in place (and
-    stops there)."""
+    stops there). ``seen["roomed"]`` counts the steps the room for the roll moved to another landing."""
     gait, terrain, checker = planner.gait, ctx.terrain, planner.footholds
     heights = checker.applies(terrain)
     to_world = _rotation(ctx.yaw_rad)
@@ -98,16 +99,26 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                     continue
             chosen = (tuple(int(leg) for leg in legs), int(action), rank, points)
             break
-        # on one level: the same legs' first landing with room for the roll ahead, if there is one
-        ahead = None if heights else roll_ahead_xy(planner.robot.foot_radius_m, cmd_world, planner.roll)
+        # the same legs' first landing with room for the roll ahead, if there is one (with heights: usable too;
+        # not on a first step that moves a cornered leg first)
+        ahead = roll_ahead_xy(planner.robot.foot_radius_m, cmd_world, planner.roll)
+        if heights and (planner.roll is None or not planner.roll.heights or (j == 0 and not clear.all())):
+            ahead = None
         if chosen is not None and ahead is not None:
             swing_group = chosen[1] // gait.actions_per_group  # (``group`` is the fixed gait's first group)
             for rank, action in enumerate(order):
-                points = cells[action_legs[action], action_cells[action]]
-                if (action // gait.actions_per_group == swing_group and terrain.is_safe(points, planner.margin_m).all()
+                legs = action_legs[action]
+                points = cells[legs, action_cells[action]]
+                if not (action // gait.actions_per_group == swing_group and terrain.is_safe(points, planner.margin_m).all()
                         and terrain.is_safe(points + np.array(ahead), planner.margin_m).all()):
-                    chosen = (chosen[0], int(action), rank, points)
-                    break
+                    continue
+                if heights and not all(value.all() for value in checker.evaluate(
+                        terrain, legs, points, feet[legs], (base + hips_touchdown)[legs], tops, ctx.yaw_rad).values()):
+                    continue
+                if seen is not None and int(action) != chosen[1]:
+                    seen["roomed"] = seen.get("roomed", 0) + 1
+                chosen = (chosen[0], int(action), rank, points)
+                break
         if chosen is None:
             steps.append((None, None, None, None))
             break
@@ -123,11 +134,11 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
 
 def _compare(planner, contexts, fixed: bool = False) -> dict[str, int]:
     """Plan every context with the planner and the reference; the same steps. Counts what was seen."""
-    seen = {"plans": 0, "deep": 0, "in_place": 0}
+    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0}
     for k, ctx in enumerate(contexts):
         group = planner._next_group if fixed else None
         fast = planner.plan(ctx)
-        slow = reference_plan(planner, ctx, group)
+        slow = reference_plan(planner, ctx, group, seen)
         seen["plans"] += 1
         for step, (legs, action, rank, points) in zip(fast, slow, strict=False):
             if action is None:
@@ -149,13 +160,14 @@ FLAT = [("random 0", lambda: random_field(0, 0)), ("random 100", lambda: random_
 @pytest.mark.parametrize("name", ["contactnet", "fixed"])
 def test_one_level_plans_match_the_reference(robot, models, gait, name):
     planner = make_planner(name, gait, robot, model=models[gait.name])
-    seen = {"plans": 0, "deep": 0, "in_place": 0}
+    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0}
     for _label, terrain in FLAT:
         for seed in (0, 1):
             contexts = planning_contexts(gait, terrain(), robot.description, 15, seed=seed)
             for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
                 seen[key] += value
     assert seen["plans"] == 150 and seen["deep"] > 0, seen  # some choices lie deep in the ranking
+    assert (seen["roomed"] > 0) == (name == "contactnet"), seen  # the room for the roll moved some landings
 
 
 #: Nominal foot XY in the base frame of a Solo12-sized robot (the walk only needs four points).
@@ -254,21 +266,26 @@ HEIGHTS = [("random_heights 0", lambda: random_heights(0, 0)), ("random_heights 
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
-@pytest.mark.parametrize("name", ["contactnet", "fixed"])
-def test_plans_with_heights_match_the_reference(robot, models, gait, name):
+@pytest.mark.parametrize(("name", "room"), [("contactnet", False), ("contactnet", True), ("fixed", False)],
+                         ids=["contactnet", "contactnet-room", "fixed"])
+def test_plans_with_heights_match_the_reference(robot, models, gait, name, room):
     """The compiled walk with the height checks (``HeightsWalk``) plans what the plain walk down the ranking plans:
     the same actions, ranks and landing points at all three steps, on 120 random states over five terrains with
     heights (the random field with 0 and 100 squares removed and with tops within +-12 cm, the stairs, the raised
-    stones), first steps with a cornered leg among them."""
+    stones), first steps with a cornered leg among them. ``room``: with the room for the roll on heights too
+    (``RollConfig(heights=True)``, off by default)."""
     planner = make_planner(name, gait, robot, model=models[gait.name])
     assert isinstance(planner, FixedGaitPlanner) == (name == "fixed")
-    seen = {"plans": 0, "deep": 0, "in_place": 0}
+    if room:
+        planner.roll = dataclasses.replace(planner.roll, heights=True)
+    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0}
     for _, terrain in HEIGHTS:
         for seed in (1, 2):
             contexts = planning_contexts(gait, terrain(), robot.description, 12, seed=seed)
             for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
                 seen[key] += value
     assert seen["plans"] == 120 and seen["deep"] > 0, seen
+    assert (seen["roomed"] > 0) == room, seen  # the room for the roll moved some landings
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)

@@ -194,9 +194,11 @@ class ContactNetPlanner:
     candidate grid is shifted towards the capture point (``contactnet.planning.capture``) and the robot does not stand;
     ``capture=None`` turns this off. With a zero command and a balanced state it stands instead of a swing that
     barely moves its feet (``contactnet.planning.stand.IdleConfig``, any model); ``idle=None`` turns this off.
-    On a single-height terrain the chosen legs land, where one of their cells allows it, with room ahead for the
-    foot's roll while it stands (``contactnet.planning.roll``); ``roll=None`` turns this off. (Not yet on terrain
-    with heights.)
+    The chosen legs land, where one of their cells allows it, with room ahead for the foot's roll while it stands
+    (``contactnet.planning.roll``); ``roll=None`` turns this off. On terrain with heights, with
+    ``RollConfig(heights=True)`` (off by default), the room is asked the same way (the point ahead safe too: with
+    the margin on both sides of a riser it lies on the same top), except on a first step that moves a cornered leg
+    first, whose order the room would undo.
 
     ``model``: a ``contactnet.planning.network.LoadedModel`` of this gait.
     """
@@ -378,6 +380,36 @@ class ContactNetPlanner:
             return found
         return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2]
 
+    def _with_room_on_heights(self, walk: HeightsWalk | PlainHeightsWalk, ahead: tuple[float, float], step: int,
+                              costs: np.ndarray, span: tuple[int, int],
+                              found: tuple[int, int, list[list[float]], list[float]]
+                              ) -> tuple[int, int, list[list[float]], list[float]]:
+        """``_with_room`` on terrain with heights: the first usable action of ``found``'s swing group whose landing
+        points have the room ``ahead`` (world XY, m), else ``found``. The walk looks for it in the ranking with the
+        actions lacking the room ranked last (NaN costs); the answer's rank is its place in the plain ranking."""
+        ahead_x, ahead_y = ahead
+        terrain, margin = walk.terrain, self.margin_m
+        covers = terrain.safe_locator(margin).covers_xy
+        if all(covers(x + ahead_x, y + ahead_y) for x, y in found[2]):  # it has the room (most plans)
+            return found
+        group = found[1] // self._actions_per_group
+        first = max(span[0], group * self._actions_per_group)
+        stop = min(span[1], (group + 1) * self._actions_per_group)
+        cells = walk.grid(step)().reshape(-1, 2)
+        roomy_cells = terrain.is_safe(cells + (ahead_x, ahead_y), margin)
+        roomy = roomy_cells[self._actions.flat_array[first:stop]].all(axis=1)
+        if not roomy.any():
+            return found
+        masked = np.array(costs, dtype=float)
+        masked[first:stop][~roomy] = np.nan
+        better = walk.first_usable(step, masked, (first, stop))
+        if better is None or better[1] == found[1]:
+            return found
+        if not roomy[better[1] - first]:  # none with the room is usable: the walk's choice back on ``found``
+            walk.first_usable(step, costs, span)
+            return found
+        return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2], better[3]
+
     def _plan_with_heights(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
                            idle: bool = False) -> list[PlannedStep]:
         """``plan`` on a terrain with tops at several heights (see the class doc): ``first_safe_step`` with the
@@ -420,6 +452,8 @@ class ContactNetPlanner:
         tops = walk.start(hips_world, offsets_world, grid_bases, ctx.yaw_rad, bases, cmd_world, feet,
                           (float(c), float(s)))
         ground_z = sum(tops) / len(tops)
+        ahead = roll_ahead_xy(self.robot.foot_radius_m, cmd_world, self.roll) if (
+            self.roll is not None and self.roll.heights) else None
         costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):
@@ -427,6 +461,8 @@ class ContactNetPlanner:
                                                                                 ground_z)))
             span = self._group_range(j)
             found = walk.first_usable(j, costs, span)
+            if ahead is not None and found is not None and not (j == 0 and walk.cornered is not None):
+                found = self._with_room_on_heights(walk, ahead, j, costs, span, found)
             order = self._ranking(costs, j)
             if j == 0:
                 grid = walk.grid(0)

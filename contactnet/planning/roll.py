@@ -12,7 +12,9 @@ So the planner asks for more than the landing point's margin where it can: once 
 the first safe action, the same legs' first cells in the ranking whose point ``allowance_radii`` foot radii
 further on along the commanded velocity (world frame) is safe too replace its cells (``Terrain.is_safe`` of both
 points with the plain margin; the planner's compiled walk makes the second lookup in the same raster,
-``ranking.OneLevelWalk(ahead_xy=...)``). The network's choice of legs
+``ranking.OneLevelWalk(ahead_xy=...)``; on terrain with heights the walk with the height checks is asked again
+with the actions lacking the room ranked last, ``ContactNetPlanner._with_room_on_heights``; only with
+``RollConfig(heights=True)``, off by default). The network's choice of legs
 stands: asking every action for the room first (a first version) made the walk move other legs rather than step
 onto narrow bars, and `narrow_map` fell from 84 to 57 / 100. Where those legs have no cell with room (3 cm bars)
 the plain choice stands. A command below ``min_speed_m_s`` (standing, turning on the spot) has no direction and
@@ -31,6 +33,9 @@ class RollConfig:
 
     allowance_radii: float = 0.75  # the point this many foot radii ahead must be safe (12 mm for Solo12)
     min_speed_m_s: float = 0.005  # below this command speed: no direction, no allowance
+    #: on terrain with tops at several heights too (off: measured, it helped MuJoCo's walk on the raised stones
+    #: and hurt PyBullet's, docs/results.md "The room for the roll on terrain with heights")
+    heights: bool = False
 
     def __post_init__(self) -> None:
         for name in ("allowance_radii", "min_speed_m_s"):
