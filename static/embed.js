@@ -9,9 +9,9 @@
 //   notices reach the page as toasts already; viser's "software WebGL" warning becomes one page toast).
 // - `?` and Esc pressed in the 3D view open and close the page's help (Keys.wireViewer).
 // - Without a GPU (WebGL drawn by a software renderer: SwiftShader, llvmpipe) the 3D view draws at half resolution
-//   (viser's `fixedDpr=0.5`) unless the page's address sets `fixedDpr`: headless chromium on 2 cores draws the scene
-//   at 2-3 frames a second at full resolution, using about 1.5 cores, and about 8 at half, which leaves the page
-//   (header, polling) the CPU it needs to keep up with the 3D view.
+//   (viser's `fixedDpr=0.5`) unless the page's address sets `fixedDpr`: headless chromium on a busy 2-core machine
+//   drew the default scene at 2.2 frames a second at full resolution and 7.0 at half (medians, docs/web-tool.md),
+//   with the same CPU, so the page (header, stream) keeps up with the 3D view.
 // A 3D view from another origin (a proxy that serves it elsewhere) cannot be looked into: the loading view then goes
 // once it has loaded and a few seconds passed.
 "use strict";
