@@ -176,19 +176,13 @@ _HIPS_XY_BASE = np.array([[0.19, 0.15], [0.19, -0.15], [-0.19, 0.15], [-0.19, -0
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
 def test_the_compiled_walk_is_a_walk_down_a_stable_sort(gait, monkeypatch):
-    """``OneLevelWalk.first_safe`` (the compiled walk of ``contactnet.planning.safe_walk``, shapely asked about cells near an
-    outline) against the obvious reference: ``np.argsort(kind="stable")`` of the costs, then every action's landing
-    points asked of ``Terrain.is_safe`` in that order. Costs with many ties, NaN and infinities, whole rankings and
-    one group's, on random grids over holed fields; some walks must ask shapely."""
-    statuses = []
-    compiled = safe_walk.first_safe
-
-    def counted(*args):
-        statuses.append(compiled(*args)[0])
-        return compiled(*args)
-
-    monkeypatch.setattr(safe_walk, "first_safe", counted)
+    """``OneLevelWalk.first_safe`` (the compiled walk of ``contactnet.planning.safe_walk``, cells near an outline
+    decided by the outline's segments) against the obvious reference: ``np.argsort(kind="stable")`` of the costs, then
+    every action's landing points asked of ``Terrain.is_safe`` in that order. Costs with many ties, NaN and
+    infinities, whole rankings and one group's, on random grids over holed fields; some landing points must lie in
+    raster cells near an outline (decided there by ``near_outline``, not by the raster)."""
     actions, rng, margin = ActionCells.of(gait), np.random.default_rng(5), 0.01
+    near = 0
     flat = actions.flat_array
     found_deep = 0
     for terrain in (random_field(100, 1), random_field(220, 2)):
@@ -215,7 +209,60 @@ def test_the_compiled_walk_is_a_walk_down_a_stable_sort(gait, monkeypatch):
                              if safe[flat[a]].all()), None)
             assert found == expected, (k, found, expected)
             found_deep += found is not None and found[0] >= 8
-    assert found_deep > 10 and statuses.count(safe_walk.ASK) > 0, (found_deep, statuses.count(safe_walk.ASK))
+            near += int(np.count_nonzero(_raster_codes(terrain.safe_locator(margin), cells) == 2))
+    assert found_deep > 10 and near > 100, (found_deep, near)
+
+
+def _raster_codes(locator, points_xy):  # noqa: ANN001, ANN202
+    """The `PointLocator` raster's code (0 outside, 1 inside, 2 near an outline) of each point."""
+    inv_cell, col0, row0, clamp_hi, side = locator.raster
+    col = np.clip(points_xy[:, 0] * inv_cell - col0, 0.0, clamp_hi).astype(int)
+    row = np.clip(points_xy[:, 1] * inv_cell - row0, 0.0, clamp_hi).astype(int)
+    return locator.codes[col + row * int(side)]
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.008])
+def test_the_compiled_outline_test_is_shapely_s_and_asks_on_the_outline(margin, monkeypatch):
+    """``safe_walk._lookup`` (the raster, and the outline's segments in a raster cell near it) against
+    ``Terrain.is_safe`` (shapely) on random points, on the outline's vertices and on points along its segments
+    (where float rounding puts them on either side): the same answer, or -1 (ask shapely) within 1 nm of the
+    outline. Then the walk itself with every landing point on a vertex: it asks shapely, and still takes the
+    reference's action."""
+    terrain, rng = random_field(120, 4), np.random.default_rng(11)
+    locator = terrain.safe_locator(margin)
+    outline = locator.outline
+    vertices = outline.segments[:, :2]
+    along = outline.segments[:, :2] + rng.uniform(0, 1, (len(vertices), 1)) * (outline.segments[:, 2:]
+                                                                                 - outline.segments[:, :2])
+    points = np.concatenate([rng.uniform((-0.1, -0.35), (1.9, 0.35), (20000, 2)), vertices, along,
+                             along + rng.normal(0.0, 2e-9, along.shape)])
+    got = np.array([safe_walk._lookup(x, y, locator.raster, locator.codes, outline.segments, outline.row_first,
+                                      outline.row_segments) for x, y in points])
+    distance = shapely.distance(locator.geometry.boundary, shapely.points(points))
+    asked = got < 0
+    assert not asked[distance > 1e-9].any()
+    assert asked[len(points) - 3 * len(vertices):len(points) - 2 * len(vertices)].all()  # every vertex
+    safe = terrain.is_safe(points, margin)
+    assert np.array_equal(got[~asked] == safe_walk.SAFE, safe[~asked])
+    assert (~asked & (distance < 1e-6)).sum() > 100  # many decided by the segments within a micrometre
+
+    statuses = []
+    compiled = safe_walk.first_safe
+
+    def counted(*args):
+        statuses.append(compiled(*args)[0])
+        return compiled(*args)
+
+    monkeypatch.setattr(safe_walk, "first_safe", counted)
+    actions, gait = ActionCells.of(WALK), WALK
+    for vertex in vertices[::7]:
+        walk = OneLevelWalk(actions, terrain, margin, np.zeros((4, 2)), np.zeros_like(gait.cell_offsets_xy),
+                            [vertex.tolist()])
+        costs = rng.normal(size=gait.n_actions).astype(np.float32)
+        found = walk.first_safe(0, costs, (0, gait.n_actions))
+        on_vertex = bool(terrain.is_safe(vertex[None], margin)[0])  # every landing point is the vertex
+        assert (found is not None) == on_vertex and (found is None or found[0] == 0), (vertex, found)
+    assert statuses.count(safe_walk.ASK) == len(vertices[::7])
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)

@@ -267,6 +267,7 @@ class OneLevelWalk:
         base_x, base_y = self.bases[step]
         first, stop = span or (0, len(costs))
         locator = self.locator
+        outline = locator.outline
         if locator.codes.size == 0:  # no safe region at all
             return None
         known = np.zeros(len(self.leg_cell), dtype=np.int8)
@@ -274,7 +275,8 @@ class OneLevelWalk:
         while True:
             status, rank, index = safe_walk.first_safe(
                 costs, first, stop, self.action_flat, self.leg_cell_array, self.hips_world, self.offsets_world,
-                base_x, base_y, locator.raster, locator.codes, known, self.ahead_x, self.ahead_y)
+                base_x, base_y, locator.raster, locator.codes, outline.segments, outline.row_first,
+                outline.row_segments, known, self.ahead_x, self.ahead_y)
             if status != safe_walk.ASK:
                 break
             leg, cell = self.leg_cell[index]  # a cell near an outline: shapely answers (PointLocator.covers_xy)

@@ -8,8 +8,10 @@ is safe); an unsafe landing point rules out every action using its cell, and the
 Each grid cell is looked up at most once (``known``).
 A landing point is ``(base + hip reference) + cell offset``, the same float64 operations in the same order as in
 Python, so the same numbers; its cell of the raster of ``contactnet.terrain.locate.PointLocator`` says inside,
-outside, or near an outline, where only shapely can answer: the walk then stops and asks (``ASK``), the caller sets
-that cell's answer in ``known`` and calls again. Because of that the compiled code needs nothing but arrays.
+outside, or near an outline. Near an outline the outline's segments in that raster row decide (a ray's crossings,
+``near_outline``), unless the point lies within ``NEAR_OUTLINE_M`` (1 nm) of one of them, where only shapely's exact
+predicates can answer: the walk then stops and asks (``ASK``), the caller sets that cell's answer in ``known`` and
+calls again. Because of that the compiled code needs nothing but arrays.
 
 Why compiled: in Python each unsafe cell cost about 1.5 us of interpreter work (and the rank 2 us more), so the
 planner's time grew with the number of holes (``contactnet bench planner``: the trot's plan took 1.36 times as long
@@ -21,17 +23,44 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from contactnet.terrain.locate import NEAR_OUTLINE_M
+
 #: ``known`` per grid cell (leg * cells_per_leg + cell): not looked up yet, safe, unsafe.
 UNKNOWN, SAFE, UNSAFE = 0, 1, 2
 #: ``first_safe``'s status: an action found, none is safe, a cell near an outline must be asked of shapely.
 FOUND, NONE, ASK = 0, 1, 2
 #: The raster's codes (``contactnet.terrain.locate``).
 _INSIDE, _BOUNDARY = 1, 2
+#: Squared ``NEAR_OUTLINE_M``: a point this close to the outline is asked of shapely.
+_NEAR2 = NEAR_OUTLINE_M * NEAR_OUTLINE_M
 
 
 @numba.njit(cache=True, nogil=True)
-def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray) -> int:
-    """SAFE or UNSAFE from the raster for the point (x, y), or -1 when it lies in a cell near an outline."""
+def near_outline(x: float, y: float, row: int, segments: np.ndarray, row_first: np.ndarray,
+                 row_segments: np.ndarray) -> int:
+    """SAFE or UNSAFE for a point (x, y) of raster row ``row`` from the region's outline
+    (``contactnet.terrain.locate.OutlineRows``): the parity of the row's segments crossed by a ray towards +x; -1 when
+    the point lies within ``NEAR_OUTLINE_M`` of a segment, where shapely must answer."""
+    inside = False
+    for k in range(row_first[row], row_first[row + 1]):
+        i = row_segments[k]
+        x0, y0, x1, y1 = segments[i, 0], segments[i, 1], segments[i, 2], segments[i, 3]
+        dx, dy = x1 - x0, y1 - y0
+        length2 = dx * dx + dy * dy
+        t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / length2))
+        ex, ey = x0 + t * dx - x, y0 + t * dy - y
+        if ex * ex + ey * ey <= _NEAR2:
+            return -1
+        if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * dx / dy:
+            inside = not inside
+    return SAFE if inside else UNSAFE
+
+
+@numba.njit(cache=True, nogil=True)
+def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray,
+            row_segments: np.ndarray) -> int:
+    """SAFE or UNSAFE from the raster for the point (x, y), in a cell near an outline from the outline itself
+    (``near_outline``), or -1 when it lies on the outline within ``NEAR_OUTLINE_M``."""
     col = x * raster[0] - raster[1]
     row = y * raster[0] - raster[2]
     if not col > 0.0:  # also NaN
@@ -44,23 +73,24 @@ def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray) -> int:
         row = raster[3]
     code = codes[int(col) + int(row) * int(raster[4])]
     if code == _BOUNDARY:
-        return -1
+        return near_outline(x, y, int(row), segments, row_first, row_segments)
     return SAFE if code == _INSIDE else UNSAFE
 
 
 @numba.njit(cache=True, nogil=True)
 def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.ndarray, base_x: float,
-                base_y: float, raster: np.ndarray, codes: np.ndarray, ahead_x: float, ahead_y: float) -> int:
+                base_y: float, raster: np.ndarray, codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray,
+                row_segments: np.ndarray, ahead_x: float, ahead_y: float) -> int:
     """SAFE or UNSAFE from the raster, or -1 when the landing point (or the point ``ahead``) lies in a cell near an
     outline. ``raster``: (inv_cell, first_col, first_row, clamp_hi, side) as ``PointLocator.covers_xy`` uses them.
     With ``ahead`` not zero the point that far on must be safe too (``contactnet.planning.roll``)."""
     leg, cell = leg_cell[flat, 0], leg_cell[flat, 1]
     x = (base_x + hips[leg, 0]) + offsets[cell, 0]
     y = (base_y + hips[leg, 1]) + offsets[cell, 1]
-    state = _lookup(x, y, raster, codes)
+    state = _lookup(x, y, raster, codes, segments, row_first, row_segments)
     if state == UNSAFE or (ahead_x == 0.0 and ahead_y == 0.0):
         return state
-    further = _lookup(x + ahead_x, y + ahead_y, raster, codes)
+    further = _lookup(x + ahead_x, y + ahead_y, raster, codes, segments, row_first, row_segments)
     if further == UNSAFE:
         return UNSAFE
     return -1 if further < 0 else state
@@ -69,14 +99,16 @@ def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.n
 @numba.njit(cache=True, nogil=True)
 def _all_safe(action: int, action_flat: np.ndarray, known: np.ndarray, leg_cell: np.ndarray, hips: np.ndarray,
               offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray, codes: np.ndarray,
-              ahead_x: float, ahead_y: float) -> int:
+              segments: np.ndarray, row_first: np.ndarray, row_segments: np.ndarray, ahead_x: float,
+              ahead_y: float) -> int:
     """SAFE if every landing point of ``action`` is safe, UNSAFE if one is not, ``-1 - flat`` to ask about cell
     ``flat`` first."""
     for k in range(action_flat.shape[1]):
         flat = action_flat[action, k]
         state = known[flat]
         if state == UNKNOWN:
-            state = _cell_state(flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, ahead_x, ahead_y)
+            state = _cell_state(flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, segments, row_first,
+                                row_segments, ahead_x, ahead_y)
             if state < 0:
                 return -1 - flat
             known[flat] = state
@@ -112,8 +144,8 @@ def rank_of(costs: np.ndarray, first: int, stop: int, action: int) -> int:
 @numba.njit(cache=True, nogil=True)
 def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray, leg_cell: np.ndarray,
                hips: np.ndarray, offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray,
-               codes: np.ndarray, known: np.ndarray, ahead_x: float = 0.0,
-               ahead_y: float = 0.0) -> tuple[int, int, int]:
+               codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray, row_segments: np.ndarray,
+               known: np.ndarray, ahead_x: float = 0.0, ahead_y: float = 0.0) -> tuple[int, int, int]:
     """(status, rank, action or the cell to ask about) of the first safe action of ``first..stop - 1`` in the stable
     ascending order of their ``costs``. ``action_flat`` (N_a, legs per step): each action's grid cells;
     ``leg_cell`` (cells, 2): each grid cell's leg and cell of its leg's grid; ``hips`` (4, 2) and ``offsets``
@@ -140,8 +172,8 @@ def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray
             best = first_inf if first_inf >= 0 else first_nan
         if best < 0:
             return NONE, -1, -1
-        state = _all_safe(best, action_flat, known, leg_cell, hips, offsets, base_x, base_y, raster, codes, ahead_x,
-                          ahead_y)
+        state = _all_safe(best, action_flat, known, leg_cell, hips, offsets, base_x, base_y, raster, codes, segments,
+                          row_first, row_segments, ahead_x, ahead_y)
         if state < 0:
             return ASK, 0, -1 - state
         if state == SAFE:

@@ -80,6 +80,46 @@ class _Frame:
 
 
 @dataclass(frozen=True)
+class OutlineRows:
+    """A region's outline for an exact point test in compiled code (``contactnet.planning.safe_walk``): every segment
+    of its rings (``segments`` (S, 4): x0, y0, x1, y1) listed by the `PointLocator` raster's rows it may reach
+    (``row_segments[row_first[r]:row_first[r + 1]]`` for row r, one row of padding each side, so a point whose
+    computed row is off by one still finds them). A point in row r is inside when a ray from it towards +x crosses
+    an odd number of the row's segments (each ring's segments together: exteriors and holes alike), unless it lies
+    within ``NEAR_OUTLINE_M`` of one of them, where only shapely's exact predicates can answer."""
+
+    segments: np.ndarray  # (S, 4) float64
+    row_first: np.ndarray  # (side + 1,) int64
+    row_segments: np.ndarray  # (K,) int64
+
+    @classmethod
+    def of(cls, geometry: BaseGeometry, raster: np.ndarray) -> OutlineRows:
+        """``raster``: `PointLocator.raster` (inv_cell, col0, row0, clamp_hi, side)."""
+        side = int(raster[4]) if geometry is not None and not geometry.is_empty else 0
+        if side == 0:
+            return cls(np.zeros((0, 4)), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
+        xy, ring = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(geometry)), return_index=True)
+        same = ring[1:] == ring[:-1]
+        segments = np.ascontiguousarray(np.column_stack([xy[:-1][same], xy[1:][same]]), dtype=np.float64)
+        low = np.minimum(segments[:, 1], segments[:, 3]) * raster[0] - raster[2]
+        high = np.maximum(segments[:, 1], segments[:, 3]) * raster[0] - raster[2]
+        first = np.clip(np.floor(low).astype(np.int64) - 1, 0, side - 1)
+        last = np.clip(np.floor(high).astype(np.int64) + 1, 0, side - 1)
+        counts = last - first + 1
+        index = np.repeat(np.arange(len(segments), dtype=np.int64), counts)
+        rows = np.repeat(first, counts) + (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts))
+        order = np.argsort(rows, kind="stable")
+        row_first = np.zeros(side + 1, dtype=np.int64)
+        np.cumsum(np.bincount(rows, minlength=side), out=row_first[1:])
+        return cls(segments, row_first, np.ascontiguousarray(index[order]))
+
+
+#: Within this distance (m) of an outline a compiled point test defers to shapely (`OutlineRows`): far beyond the
+#: rounding of a crossing's x at terrain coordinates (about 1e-15 m), so elsewhere it gives shapely's answer.
+NEAR_OUTLINE_M = 1e-9
+
+
+@dataclass(frozen=True)
 class PointLocator:
     """Exact point-in-region test: a raster of cells classified once, shapely for boundary cells.
 
@@ -105,12 +145,15 @@ class PointLocator:
     covers_xy: Callable[[float, float], bool] = field(init=False, repr=False, compare=False)
     #: (inv_cell, col0, row0, clamp_hi, n) as float64, for compiled lookups (``contactnet.planning.safe_walk``)
     raster: np.ndarray = field(init=False, repr=False, compare=False)
+    #: The outline for compiled lookups in BOUNDARY cells (`OutlineRows`): its segments listed by raster row.
+    outline: OutlineRows = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "code_bytes", self.codes.tobytes())
         object.__setattr__(self, "raster", np.array([self.inv_cell, self.first_cell[0], self.first_cell[1],
                                                      self.clamp_hi, self.strides[1]], dtype=np.float64))
         object.__setattr__(self, "covers_xy", _scalar_covers(self))
+        object.__setattr__(self, "outline", OutlineRows.of(self.geometry, self.raster))
 
     @classmethod
     def build(cls, geometry: BaseGeometry, target_cells: int = RASTER_TARGET_CELLS, max_side: int = 1000,
