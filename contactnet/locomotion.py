@@ -537,7 +537,7 @@ class Locomotion:
             com_pos=self.controller.last_com.copy(),
             com_vel=state.base_lin_vel_world.copy(),
             stance=target.stance.copy() if target is not None else np.ones(4, dtype=bool),
-            foot_contact=self.sim.state().foot_contact,
+            foot_contact=self.sim.foot_contact(),  # not state(): that draws the sensor noise, and a viewer would change the run
             forces=self.controller.last_forces.copy(),
             planned_steps=list(plan.steps) if plan else [],
             com_plan=com_plan,

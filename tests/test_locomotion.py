@@ -114,6 +114,23 @@ def test_commands_and_snapshot(robot):
         assert snapshot.forces[:, 2].sum() == pytest.approx(robot.mass_kg * 9.81, rel=0.3)
 
 
+def test_watching_a_run_does_not_change_it(robot):
+    """With sensor noise on, a run whose snapshots are taken (the web tool's view, ``simulate --record``) is the run
+    without them: a snapshot reads the feet's contacts without drawing the noise."""
+    from contactnet.sim.world import SimConfig
+
+    finals = []
+    for watched in (False, True):
+        with Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK), SimConfig(joint_vel_noise_var=0.01, seed=3),
+                        vel_cmd_xy=(0.05, 0.0)) as loco:
+            for _ in range(15):
+                loco.run_for(0.04)
+                if watched:
+                    assert loco.snapshot().foot_contact.shape == (4,)
+            finals.append(loco.snapshot().q)
+    np.testing.assert_array_equal(finals[0], finals[1])
+
+
 def test_simulate_json_contract():
     result = subprocess.run(
         [sys.executable, "-m", "contactnet", "simulate", "--terrain", "flat", "--gait", "trot",
