@@ -46,6 +46,7 @@ from contactnet.planning.ranking import (
     step_in_place,
     urgent_first,
 )
+from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, left_behind
 from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy
 from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
@@ -207,7 +208,8 @@ class ContactNetPlanner:
 
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE,
-                 idle: IdleConfig | None = DEFAULT_IDLE, roll: RollConfig | None = DEFAULT_ROLL) -> None:
+                 idle: IdleConfig | None = DEFAULT_IDLE, roll: RollConfig | None = DEFAULT_ROLL,
+                 reach: ReachConfig | None = DEFAULT_REACH) -> None:
         if model.gait != gait.name or model.n_actions not in (gait.n_actions, gait.n_choices):
             raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} outputs), "
                              f"not {gait.name} ({gait.n_choices} choices: {gait.n_actions} actions and standing)")
@@ -216,7 +218,7 @@ class ContactNetPlanner:
         self.model = model
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
-        self.capture, self.idle, self.roll = capture, idle, roll
+        self.capture, self.idle, self.roll, self.reach = capture, idle, roll, reach
         self.footholds = FootholdChecker(robot)
         self._compiled: CompiledHeights | None = None  # the compiled height checks (``_compiled_heights``)
         self._heights_walk: HeightsWalk | PlainHeightsWalk | None = None  # and the walk with them on the last terrain
@@ -233,6 +235,9 @@ class ContactNetPlanner:
         # The centre of pressure's offset from the CoM per newton of horizontal force at the CoM height (h / (m g)).
         self._lean_m_per_n = robot.com_height_nominal_m / robot.weight_n
         self._touchdown_s = float(touchdown_times_s(gait)[0])  # the first step's touchdown, from the plan's start
+        #: the action ranges (first, stop) of the swing groups that move each leg (``contactnet.planning.reach``)
+        self._spans_of_leg = [[(g * gait.actions_per_group, (g + 1) * gait.actions_per_group)
+                               for g, legs in enumerate(gait.swing_groups) if leg in legs] for leg in range(4)]
 
     def reset(self) -> None:
         self.last_candidates = None
@@ -324,6 +329,7 @@ class ContactNetPlanner:
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
         ahead = roll_ahead_xy(self.robot.foot_radius_m, cmd_world, self.roll)
         roomy = None if ahead is None else (walk, ahead, [])  # the walk with room for the roll: made when needed
+        behind = self._left_behind(feet, bases[0], hips_world, cmd_world) if capture_xy is None else []
         costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):
@@ -334,9 +340,17 @@ class ContactNetPlanner:
             order = self._ranking(costs, j)
             span = self._group_range(j)
             found = walk.first_safe(j, costs, span)
+            forced = False
+            if j == 0 and behind:  # a leg left behind goes first (contactnet.planning.reach)
+                moving = self._first_moving(walk, costs, behind)
+                if moving is not None:
+                    found, forced = moving, True
             if roomy is not None and found is not None:  # room for the roll (contactnet.planning.roll)
                 found = self._with_room(roomy, j, costs, span, found)
-            if self._stands(costs, stand_cost, found):
+            if forced:
+                rank, action, points = found
+                step = PlannedStep.ranked(action_group[action], np.array(points), action, rank)
+            elif self._stands(costs, stand_cost, found):
                 step, points = stand_step(gait, costs, stand_cost), []
             elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,
                                                               self.idle.min_swing_m):
@@ -357,6 +371,31 @@ class ContactNetPlanner:
             com = [com[0] + shift_x, com[1] + shift_y, com_z]
             vel = [cmd_world[0], cmd_world[1], 0.0]
         return steps
+
+    def _left_behind(self, feet: list[list[float]], base_xy: list[float], hips_world: np.ndarray,
+                     cmd_world: list[float]) -> list[int]:
+        """The legs left behind at the plan's start (``contactnet.planning.reach``), farthest first; none without a
+        ``reach`` config."""
+        reach = self.reach
+        if reach is None:
+            return []
+        look_s = reach.lookahead_steps * self._step_duration_s
+        hips = [[base_xy[0] + x, base_xy[1] + y] for x, y in hips_world.tolist()]
+        threshold = self.robot.kin_threshold_m if reach.threshold_m is None else reach.threshold_m
+        return left_behind(feet, hips, (cmd_world[0] * look_s, cmd_world[1] * look_s), threshold)
+
+    def _first_moving(self, walk: OneLevelWalk, costs: np.ndarray,
+                      legs: list[int]) -> tuple[int, int, list[list[float]]] | None:
+        """The first safe action of the first step's ranking among those that move one of ``legs``: (its rank in the
+        whole ranking, action, landing points), None if none is safe."""
+        best = None
+        for span in dict.fromkeys(span for leg in legs for span in self._spans_of_leg[leg]):
+            found = walk.first_safe(0, costs, span)
+            if found is not None and (best is None or (costs[found[1]], found[1]) < (costs[best[1]], best[1])):
+                best = found
+        if best is None:
+            return None
+        return int(rank_of(costs, 0, self._n_actions, best[1])), best[1], best[2]
 
     def _with_room(self, roomy: tuple[OneLevelWalk, tuple[float, float], list[OneLevelWalk]], step: int,
                    costs: np.ndarray, span: tuple[int, int],
@@ -557,7 +596,7 @@ class FixedGaitPlanner(ContactNetPlanner):
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE,
                  roll: RollConfig | None = None) -> None:
-        super().__init__(gait, robot, model, margin_m, capture, idle=None, roll=roll)
+        super().__init__(gait, robot, model, margin_m, capture, idle=None, roll=roll, reach=None)
         self._next_group = 0
         self._may_stand = False  # the cyclic baseline always steps
 

@@ -1,0 +1,56 @@
+"""A leg left behind goes first (issue 32): a stance foot about to leave its leg's reach is stepped before the others.
+
+Traced on the frontier's falls (random field with 155-185 squares removed, walk and trot, and `narrow_map`'s bars;
+ContactNet, current defaults): in each, one stance foot stayed where it was while the body went on at the
+commanded velocity (the planner stood, or stepped other legs, or found nothing safe), until the foot was 18-20 cm
+from its hip reference, against the 15 cm the ranking cost's kinematic term allows (``kin_threshold_m``); then it
+slid off its top, or the leg's shin met an edge. On `narrow_map`'s 3 cm bars with an 18 cm last gap (seed 0) the
+hind left foot stood on the second bar for 6.5 s; one plan had a safe cell for it on the third bar, 21st in the
+network's ranking, and took the front right leg's first choice instead. The network was trained on flat ground,
+where a foot is never left that far behind, and does not rank such a leg first.
+
+So on the first step of a plan, the legs whose stance foot will be further than ``threshold_m`` (default: the
+robot's ``kin_threshold_m``) from its hip reference after ``lookahead_steps`` steps of the commanded motion are
+*left behind*; the first safe action in the network's ranking among those moving one of them is taken (with the
+room for the roll as any choice), and the robot does not stand. With none safe, the plan is the plain one.
+``ContactNetPlanner(reach=None)`` turns it off; the fixed gait (the paper's baseline) keeps its order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class ReachConfig:
+    """When a stance foot counts as left behind."""
+
+    lookahead_steps: float = 2.0  # steps of commanded motion ahead of the plan's start
+    threshold_m: float | None = None  # horizontal foot-to-hip-reference distance; None: the robot's kin_threshold_m
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.lookahead_steps) and self.lookahead_steps >= 0.0):
+            raise ValueError(f"ReachConfig.lookahead_steps must be a finite number >= 0, got {self.lookahead_steps!r}")
+        if self.threshold_m is not None and not (math.isfinite(self.threshold_m) and self.threshold_m > 0.0):
+            raise ValueError(f"ReachConfig.threshold_m must be a finite number > 0 or None, got {self.threshold_m!r}")
+
+
+#: The planner's default (``ContactNetPlanner(reach=None)`` turns it off).
+DEFAULT_REACH = ReachConfig()
+
+
+def left_behind(feet_xy_world: list[list[float]], hips_xy_world: list[list[float]], shift_xy: tuple[float, float],
+                threshold_m: float) -> list[int]:
+    """The legs (indices, farthest first) whose foot ``feet_xy_world`` is further than ``threshold_m`` from its hip
+    reference ``hips_xy_world`` moved by ``shift_xy`` (the commanded motion over the look-ahead, world metres).
+    Python floats: it runs in every plan."""
+    far = []
+    for leg, ((fx, fy), (hx, hy)) in enumerate(zip(feet_xy_world, hips_xy_world, strict=True)):
+        distance = math.hypot(fx - hx - shift_xy[0], fy - hy - shift_xy[1])
+        if distance > threshold_m:
+            far.append((distance, leg))
+    return [leg for _, leg in sorted(far, reverse=True)]
+
+
+__all__ = ["DEFAULT_REACH", "ReachConfig", "left_behind"]
