@@ -87,7 +87,20 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                 order = [a for a, u in zip(order, urgent, strict=True) if u] + [
                     a for a, u in zip(order, urgent, strict=True) if not u]
         chosen = None
+        if j == 0 and not heights and planner.reach is not None:  # legs left behind go first, if one can step
+            look = cmd_world * planner.reach.lookahead_steps * gait.step_duration_s
+            behind = np.hypot(*(feet - (base + hips_world + look)).T) > planner.robot.kin_threshold_m
+            for rank, action in enumerate(order):
+                legs = action_legs[action]
+                points = cells[legs, action_cells[action]]
+                if behind[legs].any() and terrain.is_safe(points, planner.margin_m).all():
+                    chosen = (tuple(int(leg) for leg in legs), int(action), rank, points)
+                    if seen is not None:
+                        seen["behind"] = seen.get("behind", 0) + 1
+                    break
         for rank, action in enumerate(order):
+            if chosen is not None:
+                break
             legs = action_legs[action]
             points = cells[legs, action_cells[action]]
             if not terrain.is_safe(points, planner.margin_m).all():
@@ -134,7 +147,7 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
 
 def _compare(planner, contexts, fixed: bool = False) -> dict[str, int]:
     """Plan every context with the planner and the reference; the same steps. Counts what was seen."""
-    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0}
+    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0, "behind": 0}
     for k, ctx in enumerate(contexts):
         group = planner._next_group if fixed else None
         fast = planner.plan(ctx)
@@ -158,9 +171,45 @@ FLAT = [("random 0", lambda: random_field(0, 0)), ("random 100", lambda: random_
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
 @pytest.mark.parametrize("name", ["contactnet", "fixed"])
+def test_a_leg_left_behind_goes_first(robot, models, gait, name):
+    """Contexts with one foot 8-22 cm behind its place along the heading: ContactNet's first step is the first safe
+    action in the ranking moving a leg whose foot will be further than ``kin_threshold_m`` from its hip reference
+    two steps of motion on, when there is one (``contactnet.planning.reach``; the reference above); the fixed gait
+    keeps its order."""
+    planner = make_planner(name, gait, robot, model=models[gait.name])
+    rng = np.random.default_rng(7)
+    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0, "behind": 0}
+    moved = 0
+    for _label, terrain in FLAT[:3]:
+        contexts = planning_contexts(gait, terrain(), robot.description, 20, seed=3)
+        for ctx in contexts:
+            leg = int(rng.integers(4))
+            ctx.foot_pos_world[leg, :2] -= rng.uniform(0.08, 0.22) * _rotation(ctx.yaw_rad)[:, 0]
+        for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
+            seen[key] = seen.get(key, 0) + value
+        if name == "contactnet":  # against the plain plan
+            moved += sum(_plan_first(None, planner, ctx) != planner.plan(ctx)[0].action_index for ctx in contexts)
+    assert seen["plans"] == 60
+    if name == "contactnet":
+        assert seen["behind"] > 10 and moved > 5, (seen, moved)  # it changed plans
+    else:
+        assert seen["behind"] == 0
+
+
+def _plan_first(reach, planner, ctx):  # noqa: ANN001, ANN202
+    """The first step's action of ``planner`` with ``reach`` (restored after)."""
+    planner.reach, kept = reach, planner.reach
+    try:
+        return planner.plan(ctx)[0].action_index
+    finally:
+        planner.reach = kept
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+@pytest.mark.parametrize("name", ["contactnet", "fixed"])
 def test_one_level_plans_match_the_reference(robot, models, gait, name):
     planner = make_planner(name, gait, robot, model=models[gait.name])
-    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0}
+    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0, "behind": 0}
     for _label, terrain in FLAT:
         for seed in (0, 1):
             contexts = planning_contexts(gait, terrain(), robot.description, 15, seed=seed)

@@ -46,7 +46,7 @@ from contactnet.planning.ranking import (
     step_in_place,
     urgent_first,
 )
-from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, left_behind
+from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, first_moving, left_behind
 from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy
 from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
@@ -342,7 +342,7 @@ class ContactNetPlanner:
             found = walk.first_safe(j, costs, span)
             forced = False
             if j == 0 and behind:  # a leg left behind goes first (contactnet.planning.reach)
-                moving = self._first_moving(walk, costs, behind)
+                moving = first_moving(walk, costs, [span for leg in behind for span in self._spans_of_leg[leg]])
                 if moving is not None:
                     found, forced = moving, True
             if roomy is not None and found is not None:  # room for the roll (contactnet.planning.roll)
@@ -383,19 +383,6 @@ class ContactNetPlanner:
         hips = [[base_xy[0] + x, base_xy[1] + y] for x, y in hips_world.tolist()]
         threshold = self.robot.kin_threshold_m if reach.threshold_m is None else reach.threshold_m
         return left_behind(feet, hips, (cmd_world[0] * look_s, cmd_world[1] * look_s), threshold)
-
-    def _first_moving(self, walk: OneLevelWalk, costs: np.ndarray,
-                      legs: list[int]) -> tuple[int, int, list[list[float]]] | None:
-        """The first safe action of the first step's ranking among those that move one of ``legs``: (its rank in the
-        whole ranking, action, landing points), None if none is safe."""
-        best = None
-        for span in dict.fromkeys(span for leg in legs for span in self._spans_of_leg[leg]):
-            found = walk.first_safe(0, costs, span)
-            if found is not None and (best is None or (costs[found[1]], found[1]) < (costs[best[1]], best[1])):
-                best = found
-        if best is None:
-            return None
-        return int(rank_of(costs, 0, self._n_actions, best[1])), best[1], best[2]
 
     def _with_room(self, roomy: tuple[OneLevelWalk, tuple[float, float], list[OneLevelWalk]], step: int,
                    costs: np.ndarray, span: tuple[int, int],

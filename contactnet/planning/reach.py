@@ -20,6 +20,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from contactnet.planning.safe_walk import rank_of
+
+if TYPE_CHECKING:
+    from contactnet.planning.ranking import OneLevelWalk
 
 
 @dataclass(frozen=True)
@@ -53,4 +61,19 @@ def left_behind(feet_xy_world: list[list[float]], hips_xy_world: list[list[float
     return [leg for _, leg in sorted(far, reverse=True)]
 
 
-__all__ = ["DEFAULT_REACH", "ReachConfig", "left_behind"]
+def first_moving(walk: OneLevelWalk, costs: np.ndarray,
+                 spans: list[tuple[int, int]]) -> tuple[int, int, list[list[float]]] | None:
+    """The first safe action of a plan's first step in the network's ranking (the stable ascending order of
+    ``costs``) among the action ranges ``spans`` (the swing groups moving a leg left behind): (its rank in the whole
+    ranking, action, landing points), None if none is safe."""
+    best = None
+    for span in dict.fromkeys(spans):
+        found = walk.first_safe(0, costs, span)
+        if found is not None and (best is None or (costs[found[1]], found[1]) < (costs[best[1]], best[1])):
+            best = found
+    if best is None:
+        return None
+    return int(rank_of(costs, 0, len(costs), best[1])), best[1], best[2]
+
+
+__all__ = ["DEFAULT_REACH", "ReachConfig", "first_moving", "left_behind"]
