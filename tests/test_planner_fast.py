@@ -214,7 +214,7 @@ def test_one_level_plans_match_the_reference(robot, models, gait, name):
         for seed in (0, 1):
             contexts = planning_contexts(gait, terrain(), robot.description, 15, seed=seed)
             for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
-                seen[key] += value
+                seen[key] = seen.get(key, 0) + value
     assert seen["plans"] == 150 and seen["deep"] > 0, seen  # some choices lie deep in the ranking
     assert (seen["roomed"] > 0) == (name == "contactnet"), seen  # the room for the roll moved some landings
 
@@ -379,7 +379,7 @@ def test_plans_with_heights_match_the_reference(robot, models, gait, name, room)
         for seed in (1, 2):
             contexts = planning_contexts(gait, terrain(), robot.description, 12, seed=seed)
             for key, value in _compare(planner, contexts, fixed=name == "fixed").items():
-                seen[key] += value
+                seen[key] = seen.get(key, 0) + value
     assert seen["plans"] == 120 and seen["deep"] > 0, seen
     assert (seen["roomed"] > 0) == room, seen  # the room for the roll moved some landings
 
