@@ -13,7 +13,9 @@ So on the first step of a plan, the legs whose stance foot will be further than 
 robot's ``kin_threshold_m``) from its hip reference after ``lookahead_steps`` steps of the commanded motion are
 *left behind*; the first safe action in the network's ranking among those moving one of them is taken (with the
 room for the roll as any choice), and the robot does not stand. With none safe, the plan is the plain one.
-``ContactNetPlanner(reach=None)`` turns it off; the fixed gait (the paper's baseline) keeps its order.
+``ContactNetPlanner(reach=None)`` turns it off; the fixed gait (the paper's baseline) keeps its order. It applies on
+terrain of one level; on terrain with heights the cornered legs (``contactnet.planning.planner``) order the first
+step instead.
 """
 
 from __future__ import annotations
