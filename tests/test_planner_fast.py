@@ -224,7 +224,7 @@ _HIPS_XY_BASE = np.array([[0.19, 0.15], [0.19, -0.15], [-0.19, 0.15], [-0.19, -0
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
-def test_the_compiled_walk_is_a_walk_down_a_stable_sort(gait, monkeypatch):
+def test_the_compiled_walk_is_a_walk_down_a_stable_sort(gait):
     """``OneLevelWalk.first_safe`` (the compiled walk of ``contactnet.planning.safe_walk``, cells near an outline
     decided by the outline's segments) against the obvious reference: ``np.argsort(kind="stable")`` of the costs, then
     every action's landing points asked of ``Terrain.is_safe`` in that order. Costs with many ties, NaN and

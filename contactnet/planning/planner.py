@@ -339,12 +339,12 @@ class ContactNetPlanner:
                 stand_cost = None  # a pushed robot steps
             order = self._ranking(costs, j)
             span = self._group_range(j)
-            found = walk.first_safe(j, costs, span)
-            forced = False
-            if j == 0 and behind:  # a leg left behind goes first (contactnet.planning.reach)
-                moving = first_moving(walk, costs, [span for leg in behind for span in self._spans_of_leg[leg]])
-                if moving is not None:
-                    found, forced = moving, True
+            # a leg left behind goes first (contactnet.planning.reach); else the first safe action
+            found = first_moving(walk, costs, [s for leg in behind for s in self._spans_of_leg[leg]]) if (
+                j == 0 and behind) else None
+            forced = found is not None
+            if not forced:
+                found = walk.first_safe(j, costs, span)
             if roomy is not None and found is not None:  # room for the roll (contactnet.planning.roll)
                 found = self._with_room(roomy, j, costs, span, found)
             if forced:
@@ -374,8 +374,7 @@ class ContactNetPlanner:
 
     def _left_behind(self, feet: list[list[float]], base_xy: list[float], hips_world: np.ndarray,
                      cmd_world: list[float]) -> list[int]:
-        """The legs left behind at the plan's start (``contactnet.planning.reach``), farthest first; none without a
-        ``reach`` config."""
+        """The legs left behind at the plan's start (``contactnet.planning.reach``); none without a ``reach`` config."""
         reach = self.reach
         if reach is None:
             return []

@@ -279,7 +279,7 @@ class OneLevelWalk:
                 outline.row_segments, known, self.ahead_x, self.ahead_y)
             if status != safe_walk.ASK:
                 break
-            leg, cell = self.leg_cell[index]  # a cell near an outline: shapely answers (PointLocator.covers_xy)
+            leg, cell = self.leg_cell[index]  # a point on an outline: shapely answers (PointLocator.covers_xy)
             x, y = (base_x + hips[leg][0]) + offsets[cell][0], (base_y + hips[leg][1]) + offsets[cell][1]
             safe = locator.covers_xy(x, y) and (
                 (self.ahead_x == 0.0 and self.ahead_y == 0.0) or locator.covers_xy(x + self.ahead_x, y + self.ahead_y))

@@ -52,15 +52,11 @@ DEFAULT_REACH = ReachConfig()
 
 def left_behind(feet_xy_world: list[list[float]], hips_xy_world: list[list[float]], shift_xy: tuple[float, float],
                 threshold_m: float) -> list[int]:
-    """The legs (indices, farthest first) whose foot ``feet_xy_world`` is further than ``threshold_m`` from its hip
-    reference ``hips_xy_world`` moved by ``shift_xy`` (the commanded motion over the look-ahead, world metres).
-    Python floats: it runs in every plan."""
-    far = []
-    for leg, ((fx, fy), (hx, hy)) in enumerate(zip(feet_xy_world, hips_xy_world, strict=True)):
-        distance = math.hypot(fx - hx - shift_xy[0], fy - hy - shift_xy[1])
-        if distance > threshold_m:
-            far.append((distance, leg))
-    return [leg for _, leg in sorted(far, reverse=True)]
+    """The legs whose foot ``feet_xy_world`` is further than ``threshold_m`` from its hip reference ``hips_xy_world``
+    moved by ``shift_xy`` (the commanded motion over the look-ahead, world metres). Python floats: it runs in every
+    plan."""
+    return [leg for leg, ((fx, fy), (hx, hy)) in enumerate(zip(feet_xy_world, hips_xy_world, strict=True))
+            if math.hypot(fx - hx - shift_xy[0], fy - hy - shift_xy[1]) > threshold_m]
 
 
 def first_moving(walk: OneLevelWalk, costs: np.ndarray,

@@ -81,8 +81,8 @@ def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray, segments:
 def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.ndarray, base_x: float,
                 base_y: float, raster: np.ndarray, codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray,
                 row_segments: np.ndarray, ahead_x: float, ahead_y: float) -> int:
-    """SAFE or UNSAFE from the raster, or -1 when the landing point (or the point ``ahead``) lies in a cell near an
-    outline. ``raster``: (inv_cell, first_col, first_row, clamp_hi, side) as ``PointLocator.covers_xy`` uses them.
+    """SAFE or UNSAFE from the raster (and the outline, ``_lookup``), or -1 when the landing point (or the point
+    ``ahead``) lies on the outline. ``raster``: (inv_cell, first_col, first_row, clamp_hi, side) as ``PointLocator.covers_xy`` uses them.
     With ``ahead`` not zero the point that far on must be safe too (``contactnet.planning.roll``)."""
     leg, cell = leg_cell[flat, 0], leg_cell[flat, 1]
     x = (base_x + hips[leg, 0]) + offsets[cell, 0]

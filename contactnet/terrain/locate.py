@@ -95,7 +95,7 @@ class OutlineRows:
     @classmethod
     def of(cls, geometry: BaseGeometry, raster: np.ndarray) -> OutlineRows:
         """``raster``: `PointLocator.raster` (inv_cell, col0, row0, clamp_hi, side)."""
-        side = int(raster[4]) if geometry is not None and not geometry.is_empty else 0
+        side = 0 if geometry.is_empty else int(raster[4])
         if side == 0:
             return cls(np.zeros((0, 4)), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
         xy, ring = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(geometry)), return_index=True)
