@@ -223,6 +223,28 @@ def test_numpy_matches_torch(n_actions, dtype):
         net.scores(U[:2])
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("hidden", [(32,), (64, 48, 40, 24)])
+def test_the_compiled_pass_is_the_numpy_pass(hidden, dtype):
+    """The planner's one-input pass (compiled, contactnet.planning.network_kernel) against the numpy layers
+    (``_forward``), at any depth, and of the negated network the planner ranks with."""
+    rng = np.random.default_rng(len(hidden))
+    sizes = (N_INPUTS, *hidden, 30)
+    weights = [rng.normal(0.0, 0.5, (n_out, n_in)) for n_in, n_out in zip(sizes[:-1], sizes[1:], strict=True)]
+    biases = [rng.normal(0.0, 0.1, n_out) for n_out in sizes[1:]]
+    net = NumpyContactNet(weights, biases, dtype=dtype)
+    tolerance = 1e-12 if dtype == np.float64 else 1e-5
+    for u in rng.uniform(-1.0, 1.0, (20, N_INPUTS)):
+        u = u.astype(dtype)
+        numpy_scores = net._forward(u)
+        assert np.abs(numpy_scores).max() > 0.1
+        compiled = net.scores_unchecked(u)
+        assert compiled.dtype == dtype and compiled.shape == (30,)
+        np.testing.assert_allclose(compiled, numpy_scores, atol=tolerance * np.abs(numpy_scores).max(), rtol=0)
+        np.testing.assert_allclose(net.negated().scores_unchecked(u), -numpy_scores,
+                                   atol=tolerance * np.abs(numpy_scores).max(), rtol=0)
+
+
 # ---- top-k -------------------------------------------------------------------------------------
 def test_topk_accuracy_hand_made():
     V = np.array([[0.0, 1, 2, 3, 4, 5, 6, 7]] * 4)

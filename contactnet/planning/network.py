@@ -59,6 +59,7 @@ from contactnet.planning.network_input import (
     network_input_of_state,
     network_input_one,
 )
+from contactnet.planning.network_kernel import forward_one
 from contactnet.planning.normalizer import Normalizer
 from contactnet.robots import DEFAULT_ROBOT
 
@@ -163,6 +164,7 @@ class NumpyContactNet:
         self._wt = [np.ascontiguousarray(np.asarray(w, dtype=np.float64).T, dtype=self.dtype) for w in weights]
         self._b = [np.ascontiguousarray(b, dtype=self.dtype) for b in biases]
         self._zeros = [np.zeros(b.shape, dtype=self.dtype) for b in self._b]  # ReLU: max with an array is cheaper
+        self._layers = (tuple(self._wt), tuple(self._b))  # for the compiled one-input pass (network_kernel)
         self.n_inputs = self._wt[0].shape[0]
         self.n_actions = self._wt[-1].shape[1]
 
@@ -187,10 +189,10 @@ class NumpyContactNet:
 
     def scores(self, u: np.ndarray) -> np.ndarray:
         """(N_a,) scores for one raw input vector u (14,); higher = cheaper candidate. A new array."""
-        h = np.asarray(u, dtype=self.dtype)
+        h = np.ascontiguousarray(u, dtype=self.dtype)
         if h.shape != (self.n_inputs,):
             raise ValueError(f"scores: u must have shape ({self.n_inputs},), got {h.shape}")
-        return self._forward(h)
+        return self.scores_unchecked(h)
 
     def scores_batch(self, U: np.ndarray) -> np.ndarray:
         """(B, N_a) scores for raw inputs U (B, 14)."""
@@ -200,8 +202,11 @@ class NumpyContactNet:
         return self._forward(h)
 
     def scores_unchecked(self, u: np.ndarray) -> np.ndarray:
-        """``scores`` of u (14,) already of the network's dtype, unchecked: the planner's hot path."""
-        return self._forward(u)
+        """``scores`` of u (14,), a contiguous array of the network's dtype, unchecked: the planner's hot path,
+        compiled (``contactnet.planning.network_kernel``; the same as ``_forward`` to rounding)."""
+        out = np.empty(self.n_actions, dtype=self.dtype)
+        forward_one(u, *self._layers, out)
+        return out
 
     def negated(self) -> NumpyContactNet:
         """The network whose scores are exactly minus these (the last layer negated: negation commutes with
@@ -212,6 +217,7 @@ class NumpyContactNet:
         return NumpyContactNet(weights, biases, dtype=self.dtype)
 
     def _forward(self, h: np.ndarray) -> np.ndarray:
+        """The forward pass in numpy, of one input (n_in,) or a batch (B, n_in)."""
         last = len(self._wt) - 1
         for i, (wt, b, zeros) in enumerate(zip(self._wt, self._b, self._zeros, strict=True)):
             h = h @ wt
