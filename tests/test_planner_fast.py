@@ -442,8 +442,9 @@ def test_the_batched_height_checks_are_the_checks_one_by_one(robot, knees):
 
 
 def test_scalar_and_raster_lookups_are_the_exact_answers():
-    """``PointLocator.covers_xy``, ``TopParts.part_at`` (a raster, ``CoverLocator``), ``HeightLocator.heights`` with
-    few points next to an outline and ``height_xy``: the same answers as shapely, also on the outlines."""
+    """``PointLocator.covers_xy`` (in a cell near an outline the outline's segments decide, shapely on it),
+    ``TopParts.part_at`` (a raster, ``CoverLocator``), ``HeightLocator.heights`` with few points next to an outline
+    and ``height_xy``: the same answers as shapely, also on the outlines."""
     rng = np.random.default_rng(5)
     for terrain in (random_field(100, 0), random_heights(80, 0), resolve("stairs"), resolve("stepping_stones")):
         b = terrain.bounds
@@ -453,8 +454,11 @@ def test_scalar_and_raster_lookups_are_the_exact_answers():
         points = np.concatenate([points, on_edges, [[np.nan, 0.0], [np.inf, 0.0]]])
         for margin in (0.0, 0.008):
             locator = terrain.safe_locator(margin)
-            exact = shapely.intersects_xy(locator.geometry, points[:, 0], points[:, 1])
-            np.testing.assert_array_equal([locator.covers_xy(x, y) for x, y in points.tolist()], exact)
+            segments = locator.outline.segments  # and on the outline: its vertices, points along and next to it
+            along = segments[:, :2] + rng.uniform(0, 1, (len(segments), 1)) * (segments[:, 2:] - segments[:, :2])
+            near = np.concatenate([points, segments[:, :2], along, along + rng.normal(0.0, 2e-9, along.shape)])
+            exact = shapely.intersects_xy(locator.geometry, near[:, 0], near[:, 1])
+            np.testing.assert_array_equal([locator.covers_xy(x, y) for x, y in near.tolist()], exact)
         if len(terrain.levels) > 1:
             parts = terrain.top_parts()
             exact = parts.part_at_exact(points)

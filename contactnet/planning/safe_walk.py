@@ -9,7 +9,7 @@ Each grid cell is looked up at most once (``known``).
 A landing point is ``(base + hip reference) + cell offset``, the same float64 operations in the same order as in
 Python, so the same numbers; its cell of the raster of ``contactnet.terrain.locate.PointLocator`` says inside,
 outside, or near an outline. Near an outline the outline's segments in that raster row decide (a ray's crossings,
-``near_outline``), unless the point lies within ``NEAR_OUTLINE_M`` (1 nm) of one of them, where only shapely's exact
+``contactnet.terrain.crossings.near_outline``), unless the point lies within ``NEAR_OUTLINE_M`` (1 nm) of one of them, where only shapely's exact
 predicates can answer: the walk then stops and asks (``ASK``), the caller sets that cell's answer in ``known`` and
 calls again. Because of that the compiled code needs nothing but arrays.
 
@@ -23,37 +23,14 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from contactnet.terrain.locate import NEAR_OUTLINE_M
+from contactnet.terrain.crossings import INSIDE, OUTSIDE, near_outline
 
-#: ``known`` per grid cell (leg * cells_per_leg + cell): not looked up yet, safe, unsafe.
-UNKNOWN, SAFE, UNSAFE = 0, 1, 2
+#: ``known`` per grid cell (leg * cells_per_leg + cell): not looked up yet, safe, unsafe (``near_outline``'s answers).
+UNKNOWN, SAFE, UNSAFE = 0, INSIDE, OUTSIDE
 #: ``first_safe``'s status: an action found, none is safe, a cell near an outline must be asked of shapely.
 FOUND, NONE, ASK = 0, 1, 2
 #: The raster's codes (``contactnet.terrain.locate``).
 _INSIDE, _BOUNDARY = 1, 2
-#: Squared ``NEAR_OUTLINE_M``: a point this close to the outline is asked of shapely.
-_NEAR2 = NEAR_OUTLINE_M * NEAR_OUTLINE_M
-
-
-@numba.njit(cache=True, nogil=True)
-def near_outline(x: float, y: float, row: int, segments: np.ndarray, row_first: np.ndarray,
-                 row_segments: np.ndarray) -> int:
-    """SAFE or UNSAFE for a point (x, y) of raster row ``row`` from the region's outline
-    (``contactnet.terrain.locate.OutlineRows``): the parity of the row's segments crossed by a ray towards +x; -1 when
-    the point lies within ``NEAR_OUTLINE_M`` of a segment, where shapely must answer."""
-    inside = False
-    for k in range(row_first[row], row_first[row + 1]):
-        i = row_segments[k]
-        x0, y0, x1, y1 = segments[i, 0], segments[i, 1], segments[i, 2], segments[i, 3]
-        dx, dy = x1 - x0, y1 - y0
-        length2 = dx * dx + dy * dy
-        t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / length2))
-        ex, ey = x0 + t * dx - x, y0 + t * dy - y
-        if ex * ex + ey * ey <= _NEAR2:
-            return -1
-        if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * dx / dy:
-            inside = not inside
-    return SAFE if inside else UNSAFE
 
 
 @numba.njit(cache=True, nogil=True)

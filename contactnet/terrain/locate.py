@@ -19,6 +19,7 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
+from contactnet.terrain.crossings import INSIDE, ON_OUTLINE, near_outline
 from contactnet.terrain.regions import label_components
 
 RASTER_TARGET_CELLS = 1 << 20  # capped by max_side=1000 per axis: 1.5 mm cells on the paper's field
@@ -114,11 +115,6 @@ class OutlineRows:
         return cls(segments, row_first, np.ascontiguousarray(index[order]))
 
 
-#: Within this distance (m) of an outline a compiled point test defers to shapely (`OutlineRows`): far beyond the
-#: rounding of a crossing's x at terrain coordinates (about 1e-15 m), so elsewhere it gives shapely's answer.
-NEAR_OUTLINE_M = 1e-9
-
-
 @dataclass(frozen=True)
 class PointLocator:
     """Exact point-in-region test: a raster of cells classified once, shapely for boundary cells.
@@ -152,8 +148,8 @@ class PointLocator:
         object.__setattr__(self, "code_bytes", self.codes.tobytes())
         object.__setattr__(self, "raster", np.array([self.inv_cell, self.first_cell[0], self.first_cell[1],
                                                      self.clamp_hi, self.strides[1]], dtype=np.float64))
-        object.__setattr__(self, "covers_xy", _scalar_covers(self))
         object.__setattr__(self, "outline", OutlineRows.of(self.geometry, self.raster))
+        object.__setattr__(self, "covers_xy", _scalar_covers(self))
 
     @classmethod
     def build(cls, geometry: BaseGeometry, target_cells: int = RASTER_TARGET_CELLS, max_side: int = 1000,
@@ -197,9 +193,12 @@ class PointLocator:
 
 def _scalar_covers(locator: PointLocator) -> Callable[[float, float], bool]:
     """``PointLocator.covers_xy``: ``covers`` of one point given as two Python floats, without numpy arrays (a
-    fraction of a microsecond unless the point is in a BOUNDARY cell): the planner's walk down a ranking, one
-    candidate at a time. The same arithmetic as ``covers``, so the same answer."""
+    fraction of a microsecond; about a microsecond in a BOUNDARY cell, where the outline's segments in the point's
+    raster row decide, ``contactnet.terrain.crossings.near_outline``, and shapely only within ``NEAR_OUTLINE_M`` of
+    the outline): the planner's walk down a ranking, one candidate at a time. The same cell as ``covers``, so the
+    same answer."""
     code_bytes, geometry = locator.code_bytes, locator.geometry
+    segments, row_first, row_segments = locator.outline.segments, locator.outline.row_first, locator.outline.row_segments
     if not code_bytes:
         return lambda x, y: False
     inv_cell, clamp_hi = float(locator.inv_cell), float(locator.clamp_hi)
@@ -219,7 +218,8 @@ def _scalar_covers(locator: PointLocator) -> Callable[[float, float], bool]:
             row = clamp_hi
         code = code_bytes[int(col) + int(row) * side]
         if code == _BOUNDARY:
-            return bool(_intersects_xy(geometry, x, y))
+            state = near_outline(x, y, int(row), segments, row_first, row_segments)
+            return bool(_intersects_xy(geometry, x, y)) if state == ON_OUTLINE else state == INSIDE
         return code == _INSIDE
 
     return covers_xy
