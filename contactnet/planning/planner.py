@@ -395,8 +395,7 @@ class ContactNetPlanner:
         if all(covers(x + ahead_x, y + ahead_y) for x, y in found[2]):  # it has the room (most plans): no walk
             return found
         if not made:
-            made.append(OneLevelWalk(self._actions, plain.terrain, self.margin_m, plain.hips_world,
-                                     plain.offsets_world, plain.bases, (ahead_x, ahead_y)))
+            made.append(plain.with_ahead((ahead_x, ahead_y)))
         group = found[1] // self._actions_per_group
         first = max(span[0], group * self._actions_per_group)
         stop = min(span[1], (group + 1) * self._actions_per_group)

@@ -6,6 +6,7 @@ ranking (``CandidateRanking``)."""
 
 from __future__ import annotations
 
+import copy
 import math
 import struct
 from collections.abc import Callable
@@ -253,6 +254,13 @@ class OneLevelWalk:
         self.ahead_x, self.ahead_y = float(ahead_xy[0]), float(ahead_xy[1])
         self.hips_world, self.offsets_world, self.bases = hips_world, offsets_world, bases
         self.hips, self.offsets = hips_world.tolist(), offsets_world.tolist()
+
+    def with_ahead(self, ahead_xy: tuple[float, float]) -> OneLevelWalk:
+        """This walk with the room ``ahead_xy`` (world, metres) asked of every landing point: the same as a new
+        ``OneLevelWalk`` with that ``ahead_xy``, without making its lists again."""
+        walk = copy.copy(self)
+        walk.ahead_x, walk.ahead_y = float(ahead_xy[0]), float(ahead_xy[1])
+        return walk
 
     def grid(self, step: int) -> Callable[[], np.ndarray]:
         """A function making step ``step``'s (4, cells_per_leg, 2) candidate grid (``first_safe_step``'s)."""
