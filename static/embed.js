@@ -103,19 +103,17 @@ const Embed = (() => {
   /** The iframe has (re)loaded: watch it until it shows the scene. */
   function watch(frame) {
     const mine = ++generation;
+    let doc = null;
+    try { doc = frame.contentDocument; } catch (e) { doc = null; }
+    if (doc) embedStyle(doc);  // a recording played too: viser's toasts would cover its scene
     if (!/[?&]websocket=/.test(frame.getAttribute("src") || "")) {  // a recording played (playback.js): no panel
       if (!el("loading").hidden) shown();
       return;
     }
-    let doc = null;
-    try { doc = frame.contentDocument; } catch (e) { doc = null; }
     if (!doc) {  // another origin: wait a little, then show it
       setTimeout(() => { if (mine === generation) shown(); }, BLIND_MS);
       return;
     }
-    const style = doc.createElement("style");
-    style.textContent = EMBED_CSS;
-    (doc.head || doc.documentElement).append(style);
     Keys.wireViewer(doc);
     const check = () => {
       if (mine !== generation) return;
@@ -130,6 +128,13 @@ const Embed = (() => {
       setTimeout(check, CHECK_MS);
     };
     check();
+  }
+
+  /** The embedded view's style (EMBED_CSS) added to the 3D view's document `doc`. */
+  function embedStyle(doc) {
+    const style = doc.createElement("style");
+    style.textContent = EMBED_CSS;
+    (doc.head || doc.documentElement).append(style);
   }
 
   function shown() {

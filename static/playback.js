@@ -537,7 +537,9 @@ const Playback = (() => {
     const bytes = Uint8Array.from(atob(config.client), (c) => c.charCodeAt(0));
     let client = new TextDecoder().decode(bytes);
     const embed = `<script>window.__VISER_EMBED_DATA__="${config.data}";`
-      + "window.__VISER_EMBED_CONFIG__={darkMode:false};<" + "/script>";
+      + "window.__VISER_EMBED_CONFIG__={darkMode:false};<" + "/script>"
+      + "<style>.mantine-Notifications-root { display: none !important; }</style>";  // viser's toasts hidden, as
+    // in the page's 3D view (embed.js: the one-file player has no other script)
     const at = client.indexOf("</head>");
     client = client.slice(0, at) + embed + client.slice(at);
     const iframe = el("viewer");
