@@ -48,9 +48,6 @@ from contactnet.sim.engines import make_simulator
 from contactnet.sim.world import Push, SimConfig, SimState
 from contactnet.terrain import Terrain
 
-#: The largest ``LocomotionConfig.crouch_m`` as a share of the robot's nominal CoM height.
-MAX_CROUCH_SHARE = 1.0 / 3.0
-
 
 @dataclass(frozen=True)
 class LocomotionConfig:
@@ -88,13 +85,9 @@ class LocomotionConfig:
     observer: ObserverConfig | None = DEFAULT_OBSERVER
     # While the observer's push is at least its threshold, new step horizons stand (contactnet.planning.brace).
     brace: BraceConfig | None = BraceConfig()
-    # The CoM height reference this much below the robot's nominal (m), all the time: a lower CoM moves the centre of
-    # pressure that balances a horizontal push less (F h / (m g)). 0: the nominal height (the paper's).
+    # The CoM height reference this much below the robot's nominal (m, RobotDescription.check_crouch), all the time: a
+    # lower CoM moves the centre of pressure that balances a push less (F h / (m g)). 0: the paper's height.
     crouch_m: float = 0.0
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.crouch_m) and self.crouch_m >= 0.0):
-            raise ValueError(f"LocomotionConfig.crouch_m must be a finite number >= 0 (m), got {self.crouch_m!r}")
 
 
 class Locomotion:
@@ -112,10 +105,7 @@ class Locomotion:
         vel_cmd_xy: tuple[float, float] = (0.0, 0.0),
     ):
         sim_config = SimConfig() if sim_config is None else sim_config
-        nominal_m = robot.description.com_height_nominal_m
-        if config.crouch_m > MAX_CROUCH_SHARE * nominal_m:  # before anything is built
-            raise ValueError(f"crouch {config.crouch_m:g} m is more than a third of {robot.description.name}'s nominal "
-                             f"CoM height ({nominal_m:.3f} m)")
+        robot.description.check_crouch(config.crouch_m)  # before anything is built
         self.robot = robot
         self.terrain = terrain
         self.gait = gait

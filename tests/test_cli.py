@@ -185,6 +185,7 @@ def test_simulate_with_a_missing_or_broken_model_names_the_file(planner, tmp_pat
         (["experiment", "push", "--out", "x", "--impulse", "0"], "--impulse"),
         (["experiment", "push", "--out", "x", "--force", "150"], "--force"),
         (["experiment", "push", "--out", "x", "--push-seed", "-3"], "--push-seed"),
+        (["experiment", "push", "--out", "x", "--crouch=-0.01"], "--crouch"),
     ],
 )
 def test_experiment_argument_errors(args, message, capsys):
@@ -204,6 +205,16 @@ def test_every_experiment_is_a_choice_of_the_command_line():
                and "experiment" in a.choices)
     choices = next(a.choices for a in sub.choices["experiment"]._actions if a.dest == "name")
     assert set(choices) == {*EXPERIMENTS, "paper", "frontier"}
+
+
+@pytest.mark.parametrize("command", [["experiment", "push"], ["simulate", "--terrain", "flat", "--gait", "walk",
+                                                                  "--planner", "heuristic", "--duration", "1"]])
+def test_a_crouch_too_deep_for_the_robot_is_one_line_before_running(command, tmp_path, capsys):
+    code = main([*command, "--crouch", "0.1", *(["--out", str(tmp_path / "out")] if command[0] == "experiment" else [])])
+    assert code == EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "--crouch: crouch 0.1 m is more than a third of solo12's nominal CoM height" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out").exists()
 
 
 def test_experiment_with_a_missing_model_dir_fails_before_running(tmp_path, capsys):

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from contactnet.locomotion import Locomotion
+from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.motion.gait import TROT, WALK
 from contactnet.motion.trajopt import TrajoptSolution
 from contactnet.planning.planner import HeuristicPlanner, PlanningContext
@@ -112,6 +112,22 @@ def test_commands_and_snapshot(robot):
         assert snapshot.t_s == pytest.approx(0.05)
         # Standing at the start: the commanded forces carry the robot's weight.
         assert snapshot.forces[:, 2].sum() == pytest.approx(robot.mass_kg * 9.81, rel=0.3)
+
+
+def test_a_crouch_lowers_the_body_by_as_much(robot):
+    """``LocomotionConfig.crouch_m``: standing, the CoM settles that much lower than without it (within 5 mm); more
+    than a third of the nominal height is refused before anything is built."""
+    heights = []
+    for crouch_m in (0.0, 0.03):
+        with Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK),
+                        config=LocomotionConfig(crouch_m=crouch_m)) as loco:
+            loco.run_for(1.5)
+            heights.append(float(loco.controller.last_com[2]))
+    assert heights[0] - heights[1] == pytest.approx(0.03, abs=0.005)
+    with pytest.raises(ValueError, match="more than a third"):
+        Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK), config=LocomotionConfig(crouch_m=0.1))
+    with pytest.raises(ValueError, match="finite number"):
+        Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK), config=LocomotionConfig(crouch_m=float("nan")))
 
 
 def test_watching_a_run_does_not_change_it(robot):

@@ -120,6 +120,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     robot = registry.load_robot(args.robot)
+    _check_crouch(args.crouch, robot)
     terrain = registry.terrain_for(args.terrain, robot, removed=args.removed, seed=args.seed, height_m=args.height,
                                    scale=args.terrain_scale)
     gait = registry.gait_for(args.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
@@ -136,7 +137,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             except RecordingPathError as exc:
                 raise UserError(str(exc)) from None
         loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if args.observer else None,
-                                       retarget=RetargetConfig() if args.retarget else None)
+                                       retarget=RetargetConfig() if args.retarget else None, crouch_m=args.crouch)
         loco = stack.enter_context(Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config,
                                               vel_cmd_xy=(args.vx, args.vy)))
         for push in pushes:
@@ -236,6 +237,14 @@ def _section_names(text: str) -> tuple[str, ...]:
     return choices("--sections", tuple(s.folder for s in PAPER_SECTIONS))(text)
 
 
+def _check_crouch(crouch_m: float, robot) -> None:  # noqa: ANN001 - a contactnet.robots Robot
+    """--crouch against the robot's deepest (``RobotDescription.check_crouch``), as a one-line error."""
+    try:
+        robot.description.check_crouch(crouch_m)
+    except ValueError as exc:
+        raise UserError(f"--crouch: {exc}") from None
+
+
 def cmd_experiment(args: argparse.Namespace) -> int:
     from contactnet.jobs.experiment import DEFAULT_HEIGHT_M, run_experiment, trials_of
     from contactnet.jobs.summary import format_summary
@@ -262,11 +271,13 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
                            retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch,
-                           sims=sims, scale=args.terrain_scale, vx=args.vx)
+                           sims=sims, scale=args.terrain_scale, vx=args.vx, crouch_m=args.crouch)
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
         raise
+    if args.crouch:  # a crouch too deep for the robot fails now, not in a worker
+        _check_crouch(args.crouch, registry.load_robot(args.robot))
     if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
         robot = registry.load_robot(args.robot)
         for gait in {t.gait for t in trials}:
@@ -346,6 +357,8 @@ OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean t
                  "(contactnet.planning.observer; on by default, --no-observer turns it off)")
 RETARGET_HELP = ("rank a swinging leg's landing again when the measured velocity leaves the command "
                  "(contactnet.planning.retarget; off by default)")
+CROUCH_HELP = ("walk with the CoM this much below the robot's nominal height, all the time (metres, at most a "
+               "third of it; default 0): a push moves the balancing centre of pressure less")
 
 
 def _engine_arguments(parser: argparse.ArgumentParser) -> None:
@@ -427,6 +440,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
+    sim.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=0.0, metavar="M", help=CROUCH_HELP)
     _mismatch_arguments(sim)
     sim.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     sim.add_argument("--record", metavar="FILE.viser")
@@ -526,6 +540,8 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
+    experiment.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=0.0, metavar="M",
+                            help=CROUCH_HELP)
     _mismatch_arguments(experiment)
     experiment.add_argument("--sim", type=choices("--sim", SIM_ENGINES), metavar="|".join(SIM_ENGINES),
                             help=SIM_HELP + "; comma-separated: every trial in each engine, on the same seeds "

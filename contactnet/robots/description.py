@@ -20,6 +20,7 @@ Conventions used across contactnet (any robot):
 from __future__ import annotations
 
 import hashlib
+import math
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -180,6 +181,19 @@ class RobotDescription:
     def com_height_nominal_m(self) -> float:
         """CoM height above the ground in the nominal stance."""
         return float(self.q_standing[2] + self.com_base_standing[2])
+
+    @property
+    def max_crouch_m(self) -> float:
+        """The deepest crouch a walk may take (``LocomotionConfig.crouch_m``): a third of the nominal CoM height."""
+        return self.com_height_nominal_m / 3.0
+
+    def check_crouch(self, crouch_m: float) -> None:
+        """ValueError (one line) unless ``crouch_m`` is a number from 0 to ``max_crouch_m``."""
+        if not (isinstance(crouch_m, int | float) and math.isfinite(crouch_m) and crouch_m >= 0.0):
+            raise ValueError(f"crouch must be a finite number >= 0 (m), got {crouch_m!r}")
+        if crouch_m > self.max_crouch_m:
+            raise ValueError(f"crouch {crouch_m:g} m is more than a third of {self.name}'s nominal CoM height "
+                             f"({self.com_height_nominal_m:.3f} m)")
 
     @property
     def joint_standing(self) -> np.ndarray:
