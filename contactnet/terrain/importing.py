@@ -367,37 +367,57 @@ class _Segmenter(_Rule):
         with np.errstate(invalid="ignore"):
             join_x = np.abs(np.diff(self.filled, axis=1)) <= step_m  # cells j and j+1 of a row: one top
             join_y = np.abs(np.diff(self.filled, axis=0)) <= step_m
+        from scipy.ndimage import find_objects
+
         labels = _components(group, join_x, join_y)
         kept = np.zeros(group.shape, dtype=bool)
         narrow = np.zeros(group.shape, dtype=bool)
         narrow_tops = 0
-        for label in range(1, int(labels.max()) + 1):
-            cells = labels == label
-            top = self._top(cells, step_m)
-            if top is None:
-                narrow |= cells
+        # a top of fewer cells than a foot's disc covers holds no such disc (too narrow whatever its heights): told
+        # without building its outline, each top looked at in its bounding box (a rough map breaks into 10^5 of them)
+        disc_cells = math.pi * (self.config.min_width_m / 2) ** 2 / self.res ** 2
+        for label, box in enumerate(find_objects(labels), start=1):
+            if box is None:
+                continue
+            local = labels[box] == label
+            values = self.heights[box][local]
+            if self.config.min_width_m > 0 and local.sum() < disc_cells:
+                flat = None
+            elif float(values.max() - values.min()) <= self.config.max_spread_m:
+                flat = self._flat_top(local, box, values)
+            else:  # a rough top: split finer, on the whole map's arrays
+                cells = np.zeros(group.shape, dtype=bool)
+                cells[box] = local
+                kept |= self._rough_top(cells, step_m)
+                continue
+            if flat is None:
+                narrow[box] |= local
                 narrow_tops += 1
             else:
-                kept |= top
+                kept[box] |= local
         if narrow_tops:  # one line for them all (a rough patch breaks into many one-cell tops)
             self.dropped.append(f"dropped {narrow_tops} top(s) narrower than {100 * self.config.min_width_m:g} cm, "
                                 f"{narrow.sum() * self.res ** 2 * 1e4:.0f} cm^2 {self._where(narrow)}")
         return kept
 
-    def _top(self, cells: np.ndarray, step_m: float) -> np.ndarray | None:
-        """The cells kept of one group (None: a flat top too narrow for a foot)."""
-        config, values = self.config, self.heights[cells]
-        spread = float(values.max() - values.min())
-        if spread <= config.max_spread_m:
-            outline = _cells_polygon(cells, self.res, self.origin)
-            if config.min_width_m > 0 and outline.buffer(-config.min_width_m / 2).is_empty:
-                return None
-            z = float(np.median(values))
-            self.kept += 1
-            for polygon in _without_holes(outline):
-                ring = np.asarray(polygon.exterior.coords)[:-1]
-                self.regions.append({"shape": "polygon", "vertices": ring.round(9).tolist(), "z": round(z, 6)})
-            return cells
+    def _flat_top(self, local: np.ndarray, box: tuple[slice, slice], values: np.ndarray) -> bool | None:
+        """A flat top, its cells ``local`` in the map's block ``box`` (``values`` their heights): kept as a region at
+        their median height (True), or None when it is too narrow for a foot."""
+        config = self.config
+        outline = _cells_polygon(local, self.res, self.origin, box)
+        if config.min_width_m > 0 and outline.buffer(-config.min_width_m / 2).is_empty:
+            return None
+        z = float(np.median(values))
+        self.kept += 1
+        for polygon in _without_holes(outline):
+            ring = np.asarray(polygon.exterior.coords)[:-1]
+            self.regions.append({"shape": "polygon", "vertices": ring.round(9).tolist(), "z": round(z, 6)})
+        return True
+
+    def _rough_top(self, cells: np.ndarray, step_m: float) -> np.ndarray:
+        """The cells kept of a group whose heights spread over more than a flat top's: none if one plane explains it
+        (sloped: dropped) or the split is already at its finest, else its tops at half the step."""
+        spread = float(np.ptp(self.heights[cells]))
         if self._sloped(cells) or step_m <= MIN_STEP_M:
             if step_m <= MIN_STEP_M:
                 self.dropped.append(f"dropped a rough part {self._where(cells)}: heights over {100 * spread:.1f} cm")
@@ -459,15 +479,18 @@ def _cell_xy(cells: np.ndarray, resolution_m: float, origin_xy: Sequence[float])
     return origin_xy[0] + resolution_m * float(j.mean()), origin_xy[1] + resolution_m * float(i.mean())
 
 
-def _cells_polygon(cells: np.ndarray, resolution_m: float, origin_xy: Sequence[float]):  # noqa: ANN202
+def _cells_polygon(cells: np.ndarray, resolution_m: float, origin_xy: Sequence[float],  # noqa: ANN202
+                   box: tuple[slice, slice] | None = None):
     """The union of a top's cells (each cell a square of ``resolution_m`` centred on its sample), as runs along x
-    merged by shapely, collinear vertices removed."""
+    merged by shapely, collinear vertices removed. ``box``: ``cells`` is that block of the map (rows, columns)."""
     import shapely
 
     rows, cols = cells.shape
-    # Cell edges computed once each, so that neighbouring cells share them exactly (no sliver between rows).
-    x_edges = origin_xy[0] + resolution_m * (np.arange(cols + 1) - 0.5)
-    y_edges = origin_xy[1] + resolution_m * (np.arange(rows + 1) - 0.5)
+    row0, col0 = (0, 0) if box is None else (box[0].start, box[1].start)
+    # Cell edges computed once each, so that neighbouring cells share them exactly (no sliver between rows); the same
+    # floats whether or not the cells come as a block of the map.
+    x_edges = origin_xy[0] + resolution_m * (np.arange(col0, col0 + cols + 1) - 0.5)
+    y_edges = origin_xy[1] + resolution_m * (np.arange(row0, row0 + rows + 1) - 0.5)
     boxes = []
     for i in range(rows):
         row = cells[i]
