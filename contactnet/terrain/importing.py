@@ -286,7 +286,7 @@ class _SlopedTops(_Rule):
             slope_deg = round(math.degrees(slope_rad), 6)
             direction_deg = round(math.degrees(math.atan2(plane[1], plane[0])), 6) + 0.0  # no -0.0
             for polygon in _without_holes(outline):
-                ring = np.asarray(polygon.exterior.coords)[:-1].round(9)
+                ring = _ring(polygon)
                 centroid = shapely.Polygon(ring).centroid
                 z = plane[0] * centroid.x + plane[1] * centroid.y + plane[2]
                 self.regions.append({"shape": "polygon", "vertices": ring.tolist(), "z": round(float(z), 6),
@@ -410,8 +410,7 @@ class _Segmenter(_Rule):
         z = float(np.median(values))
         self.kept += 1
         for polygon in _without_holes(outline):
-            ring = np.asarray(polygon.exterior.coords)[:-1]
-            self.regions.append({"shape": "polygon", "vertices": ring.round(9).tolist(), "z": round(z, 6)})
+            self.regions.append({"shape": "polygon", "vertices": _ring(polygon).tolist(), "z": round(z, 6)})
         return True
 
     def _rough_top(self, cells: np.ndarray, step_m: float) -> np.ndarray:
@@ -506,6 +505,11 @@ def _cells_polygon(cells: np.ndarray, resolution_m: float, origin_xy: Sequence[f
     return shapely.simplify(opened, 0.0)
 
 
+def _ring(polygon) -> np.ndarray:  # noqa: ANN001 - a shapely Polygon
+    """A region's vertices (k, 2): the polygon's exterior (on the nanometre grid: ``_without_holes``)."""
+    return np.asarray(polygon.exterior.coords)[:-1].round(9)
+
+
 def _without_holes(geometry) -> list:  # noqa: ANN001 - a shapely (Multi)Polygon
     """The polygons of ``geometry`` with every hole cut open: each holed polygon split in two along a line through
     a hole, until none has one (the terrain's polygons have no holes; their union is the same set)."""
@@ -518,7 +522,15 @@ def _without_holes(geometry) -> list:  # noqa: ANN001 - a shapely (Multi)Polygon
         if polygon.is_empty or polygon.area <= 0:
             continue
         if not polygon.interiors:
-            out.append(polygon)
+            # on the terrain's nanometre grid (its files and its check): a cut through a hole can leave two edges a
+            # fraction of a nanometre apart, which the grid makes touch; snapped, such a polygon comes apart (or
+            # gets a hole) and goes round again
+            snapped = shapely.set_precision(polygon, 1e-9)
+            parts = list(shapely.get_parts(snapped))
+            if len(parts) == 1 and parts[0].geom_type == "Polygon" and not parts[0].interiors:
+                out.append(parts[0])
+            else:
+                pending += [part for part in parts if part.geom_type == "Polygon"]
             continue
         hole_x = shapely.Polygon(polygon.interiors[0]).centroid.x
         _, y0, _, y1 = polygon.bounds
