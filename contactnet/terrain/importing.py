@@ -373,8 +373,8 @@ class _Segmenter(_Rule):
         kept = np.zeros(group.shape, dtype=bool)
         narrow = np.zeros(group.shape, dtype=bool)
         narrow_tops = 0
-        # a top of fewer cells than a foot's disc covers holds no such disc (too narrow whatever its heights): told
-        # without building its outline, each top looked at in its bounding box (a rough map breaks into 10^5 of them)
+        # a top with less area than a foot's disc holds no such disc (too narrow whatever its heights): told without
+        # building its outline; each top is looked at in its bounding box (a rough map breaks into 10^5 of them)
         disc_cells = math.pi * (self.config.min_width_m / 2) ** 2 / self.res ** 2
         for label, box in enumerate(find_objects(labels), start=1):
             if box is None:
@@ -382,15 +382,15 @@ class _Segmenter(_Rule):
             local = labels[box] == label
             values = self.heights[box][local]
             if self.config.min_width_m > 0 and local.sum() < disc_cells:
-                flat = None
+                wide = False
             elif float(values.max() - values.min()) <= self.config.max_spread_m:
-                flat = self._flat_top(local, box, values)
+                wide = self._flat_top(local, box, values)
             else:  # a rough top: split finer, on the whole map's arrays
                 cells = np.zeros(group.shape, dtype=bool)
                 cells[box] = local
                 kept |= self._rough_top(cells, step_m)
                 continue
-            if flat is None:
+            if not wide:
                 narrow[box] |= local
                 narrow_tops += 1
             else:
@@ -400,13 +400,13 @@ class _Segmenter(_Rule):
                                 f"{narrow.sum() * self.res ** 2 * 1e4:.0f} cm^2 {self._where(narrow)}")
         return kept
 
-    def _flat_top(self, local: np.ndarray, box: tuple[slice, slice], values: np.ndarray) -> bool | None:
+    def _flat_top(self, local: np.ndarray, box: tuple[slice, slice], values: np.ndarray) -> bool:
         """A flat top, its cells ``local`` in the map's block ``box`` (``values`` their heights): kept as a region at
-        their median height (True), or None when it is too narrow for a foot."""
+        their median height (True), or not when it is too narrow for a foot (False)."""
         config = self.config
         outline = _cells_polygon(local, self.res, self.origin, box)
         if config.min_width_m > 0 and outline.buffer(-config.min_width_m / 2).is_empty:
-            return None
+            return False
         z = float(np.median(values))
         self.kept += 1
         for polygon in _without_holes(outline):
