@@ -12,7 +12,7 @@ milliseconds, and pushes do far less harm.
 
 Terrain with heights (tops at several heights): the optimizer's CoM height and pitch references follow
 the tops under the feet node by node (``contactnet.motion.ground``), swings clear the tops on their way
-(``contactnet.motion.swing``) and touchdown adapts to the contact sensed (``_adapt_to_contact``). A terrain whose
+(``contactnet.motion.swing``) and touchdown adapts to the contact sensed (``contactnet.motion.touchdown``). A terrain whose
 tops are all at one height takes exactly the flat-ground path.
 """
 
@@ -30,6 +30,7 @@ from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTr
 from contactnet.motion.gait import GaitSpec
 from contactnet.motion.ground import body_pitch, front_to_hind_m, ground_normals
 from contactnet.motion.swing import swing_over_terrain
+from contactnet.motion.touchdown import adapt_to_contact
 from contactnet.motion.trajopt import (
     SrbdModel,
     TrajectoryOptimizer,
@@ -452,7 +453,9 @@ class Locomotion:
             if not in_stance[leg]:
                 swing_pos[leg], swing_vel[leg], _ = swing.sample(t_s)
         if self._adapt_touchdown and plan.swings:
-            self._adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel)
+            config = self.config  # touchdown as sensed (contactnet.motion.touchdown)
+            adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel, self._landed, config.late_touchdown_speed_m_s,
+                             config.late_touchdown_depth_m)
         solution = plan.solution
         external_world = None if self.observer is None else self.observer.feedforward_world(
             None if solution is None else plan.solution_force_world)
@@ -487,32 +490,6 @@ class Locomotion:
             swing_vel=swing_vel,
             external_force_world=external_world, contact_normals_world=normals,
         )
-
-    def _adapt_to_contact(self, plan: ActivePlan, t_s: float, stance: np.ndarray, swing_pos: np.ndarray,
-                          swing_vel: np.ndarray) -> None:
-        """Touchdown as sensed (in place on ``stance``, ``swing_pos``, ``swing_vel``): a swinging foot that
-        touches the terrain in the last quarter of its swing, within ``early_touchdown_radius_m`` of its
-        landing point, is a stance foot from then on (a top higher than planned); one that has not touched
-        at the planned touchdown keeps descending below its planned landing point
-        (``late_touchdown_speed_m_s``) until it touches or has gone ``late_touchdown_depth_m`` deeper, then
-        it is a stance foot whatever the sensors say."""
-        config = self.config
-        for leg, swing in plan.swings.items():
-            if plan.touched[leg]:
-                stance[leg] = True
-                continue
-            late_s = t_s - swing.t1_s
-            if late_s < -0.25 * (swing.t1_s - swing.t0_s):
-                continue
-            depth = config.late_touchdown_speed_m_s * max(late_s, 0.0)
-            if depth > config.late_touchdown_depth_m or self._landed(swing, leg):
-                plan.touched[leg] = True
-                stance[leg] = True
-                continue
-            if late_s >= 0.0:
-                stance[leg] = False
-                swing_pos[leg] = swing.end_world - np.array([0.0, 0.0, depth])
-                swing_vel[leg] = np.array([0.0, 0.0, -config.late_touchdown_speed_m_s])
 
     def _landed(self, swing: SwingTrajectory, leg: int) -> bool:
         """The foot touches the terrain within ``early_touchdown_radius_m`` of its landing point."""
