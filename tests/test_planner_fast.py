@@ -262,6 +262,46 @@ def test_the_compiled_walk_is_a_walk_down_a_stable_sort(gait):
     assert found_deep > 10 and near > 100, (found_deep, near)
 
 
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_the_compiled_walk_with_room_is_the_walk_then_its_group_s_walk(gait):
+    """``OneLevelWalk.first_safe_with_room`` (one compiled call) against the obvious reference: the first safe action
+    of the stable sort (``Terrain.is_safe``); if a landing point of it lacks the room ahead (that point moved by
+    ``ahead`` is not safe), the first action of its swing group, in the same span and order, whose landing points
+    and the points ahead of them are all safe, with its rank in the span; else the first safe action. Random
+    grids over holed fields, random rooms; both outcomes must occur often."""
+    actions, rng, margin = ActionCells.of(gait), np.random.default_rng(8), 0.008
+    flat, per_group = actions.flat_array, gait.actions_per_group
+    moved = kept = 0
+    for terrain in (random_field(100, 1), random_field(200, 3)):
+        for k in range(150):
+            costs = rng.normal(size=gait.n_actions).astype(np.float32)
+            if k % 3 == 0:
+                costs[rng.integers(gait.n_actions, size=20)] = np.nan
+            group = int(rng.integers(len(gait.swing_groups)))
+            span = (0, gait.n_actions) if k % 2 else (group * per_group, (group + 1) * per_group)
+            yaw, heading = rng.uniform(-0.3, 0.3), rng.uniform(-np.pi, np.pi)
+            ahead = (0.02 * np.cos(heading), 0.02 * np.sin(heading))
+            hips_world = np.ascontiguousarray(_HIPS_XY_BASE @ _rotation(yaw).T)
+            offsets_world = np.ascontiguousarray(gait.cell_offsets_xy @ _rotation(yaw).T)
+            base = [rng.uniform(0.2, 1.8), rng.uniform(-0.1, 0.1)]
+            walk = OneLevelWalk(actions, terrain, margin, hips_world, offsets_world, [base])
+            found = walk.first_safe_with_room(0, costs, span, ahead, per_group)
+            order = span[0] + np.argsort(costs[span[0]:span[1]], kind="stable")
+            cells = ((np.array(base) + hips_world)[:, None, :] + offsets_world[None]).reshape(-1, 2)
+            safe = terrain.is_safe(cells, margin)
+            roomy = safe & terrain.is_safe(cells + np.array(ahead), margin)
+            first = next(((rank, int(a)) for rank, a in enumerate(order) if safe[flat[a]].all()), None)
+            expected = first
+            if first is not None and not roomy[flat[first[1]]].all():
+                in_group = [(rank, int(a)) for rank, a in enumerate(order) if a // per_group == first[1] // per_group]
+                expected = next(((rank, a) for rank, a in in_group if roomy[flat[a]].all()), first)
+            expected = None if expected is None else (*expected, cells[flat[expected[1]]].tolist())
+            assert found == expected, (k, found, expected)
+            moved += found is not None and found[1] != first[1]
+            kept += found is not None and found[1] == first[1] and not roomy[flat[first[1]]].all()
+    assert moved > 10 and kept > 3, (moved, kept)
+
+
 def _raster_codes(locator, points_xy):  # noqa: ANN001, ANN202
     """The `PointLocator` raster's code (0 outside, 1 inside, 2 near an outline) of each point."""
     inv_cell, col0, row0, clamp_hi, side = locator.raster
@@ -312,6 +352,28 @@ def test_the_compiled_outline_test_is_shapely_s_and_asks_on_the_outline(margin, 
         on_vertex = bool(terrain.is_safe(vertex[None], margin)[0])  # every landing point is the vertex
         assert (found is not None) == on_vertex and (found is None or found[0] == 0), (vertex, found)
     assert statuses.count(safe_walk.ASK) == len(vertices[::7])
+
+    # with room for the roll: every landing point that far before a vertex, so the point ahead asks shapely
+    monkeypatch.undo()  # the compiled first_safe again (first_safe_with_room calls it)
+    asked_room, with_room = [], safe_walk.first_safe_with_room
+
+    def counted_room(*args):
+        status, _, index = with_room(*args)
+        asked_room.append(status == safe_walk.ASK and index >= len(actions.leg_cell))
+        return with_room(*args)
+
+    monkeypatch.setattr(safe_walk, "first_safe_with_room", counted_room)
+    ahead, landing_safe, walks_asked = (0.004, -0.003), 0, 0
+    for vertex in vertices[::7]:
+        base = [vertex[0] - ahead[0], vertex[1] - ahead[1]]
+        landing_safe += bool(terrain.is_safe(np.array([base]), margin)[0])  # else nothing to ask the room of
+        walk = OneLevelWalk(actions, terrain, margin, np.zeros((4, 2)), np.zeros_like(gait.cell_offsets_xy), [base])
+        costs = rng.normal(size=gait.n_actions).astype(np.float32)
+        asked_before = sum(asked_room)
+        found = walk.first_safe_with_room(0, costs, (0, gait.n_actions), ahead, gait.actions_per_group)
+        assert found == walk.first_safe(0, costs, (0, gait.n_actions))  # every action lands on the same point
+        walks_asked += sum(asked_room) > asked_before
+    assert walks_asked == landing_safe > 5, (walks_asked, landing_safe)
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)

@@ -343,9 +343,11 @@ class ContactNetPlanner:
             found = first_moving(walk, costs, [s for leg in behind for s in self._spans_of_leg[leg]]) if (
                 j == 0 and behind) else None
             forced = found is not None
-            if not forced:
+            if not forced and ahead is None:
                 found = walk.first_safe(j, costs, span)
-            if roomy is not None and found is not None:  # room for the roll (contactnet.planning.roll)
+            elif not forced:  # with room for the roll (contactnet.planning.roll), in one walk
+                found = walk.first_safe_with_room(j, costs, span, ahead, self._actions_per_group)
+            elif roomy is not None:
                 found = self._with_room(roomy, j, costs, span, found)
             if forced:
                 rank, action, points = found
@@ -386,10 +388,11 @@ class ContactNetPlanner:
     def _with_room(self, roomy: tuple[OneLevelWalk, tuple[float, float], list[OneLevelWalk]], step: int,
                    costs: np.ndarray, span: tuple[int, int],
                    found: tuple[int, int, list[list[float]]]) -> tuple[int, int, list[list[float]]]:
-        """The legs of ``found`` (the first safe action) with room ahead for their feet's roll: the first action of
-        the same swing group in the ranking whose landings have it (its rank in the whole ``span``), else ``found``
-        itself. The network's choice of legs stands; only their landing cells may move back. ``roomy``: the plan's
-        plain walk, the room ahead (world XY, m) and a list holding the walk with that room once made."""
+        """The legs of ``found`` (a leg left behind's step, ``first_moving``'s) with room ahead for their feet's roll:
+        the first action of the same swing group in the ranking whose landings have it (its rank in the whole
+        ``span``), else ``found`` itself. The network's choice of legs stands; only their landing cells may move back.
+        ``roomy``: the plan's plain walk, the room ahead (world XY, m) and a list holding the walk with that room once
+        made. The other steps ask ``OneLevelWalk.first_safe_with_room``: the same rule in one compiled call."""
         plain, (ahead_x, ahead_y), made = roomy
         covers = plain.locator.covers_xy
         if all(covers(x + ahead_x, y + ahead_y) for x, y in found[2]):  # it has the room (most plans): no walk

@@ -272,25 +272,50 @@ class OneLevelWalk:
         """(rank, action, its landing points [[x, y], ...]) of the first action of the stable ascending order of
         ``costs`` whose landing points are all safe, None if there is none. ``span`` (first, stop): only the
         actions ``first..stop - 1`` are ranked (default all)."""
+        return self._walk(step, costs, span, None)
+
+    def first_safe_with_room(self, step: int, costs: np.ndarray, span: tuple[int, int] | None,
+                             ahead_xy: tuple[float, float],
+                             per_group: int) -> tuple[int, int, list[list[float]]] | None:
+        """``first_safe``'s answer with room for the foot's roll (``contactnet.planning.roll``): if a landing point
+        of the first safe action lacks the room ``ahead_xy`` (world, metres), the first action of its swing group
+        (``per_group`` actions each) in ``span`` whose landing points have it, with its rank in ``span``; else the
+        first safe action. The same answer as ``first_safe`` followed by ``with_ahead(ahead_xy).first_safe`` over
+        that group, in one compiled call (``safe_walk.first_safe_with_room``)."""
+        return self._walk(step, costs, span, (float(ahead_xy[0]), float(ahead_xy[1]), per_group))
+
+    def _walk(self, step: int, costs: np.ndarray, span: tuple[int, int] | None,
+              room: tuple[float, float, int] | None) -> tuple[int, int, list[list[float]]] | None:
+        """``first_safe`` (``room`` None) or ``first_safe_with_room`` (``room``: ahead x, y and actions per group)."""
         base_x, base_y = self.bases[step]
         first, stop = span or (0, len(costs))
         locator = self.locator
         outline = locator.outline
         if locator.codes.size == 0:  # no safe region at all
             return None
-        known = np.zeros(len(self.leg_cell), dtype=np.int8)
+        cells = len(self.leg_cell)
+        known = np.zeros(cells if room is None else 2 * cells, dtype=np.int8)
         hips, offsets = self.hips, self.offsets
         while True:
-            status, rank, index = safe_walk.first_safe(
-                costs, first, stop, self.action_flat, self.leg_cell_array, self.hips_world, self.offsets_world,
-                base_x, base_y, locator.raster, locator.codes, outline.segments, outline.row_first,
-                outline.row_segments, known, self.ahead_x, self.ahead_y)
+            if room is None:
+                status, rank, index = safe_walk.first_safe(
+                    costs, first, stop, self.action_flat, self.leg_cell_array, self.hips_world, self.offsets_world,
+                    base_x, base_y, locator.raster, locator.codes, outline.segments, outline.row_first,
+                    outline.row_segments, known, self.ahead_x, self.ahead_y)
+            else:
+                status, rank, index = safe_walk.first_safe_with_room(
+                    costs, first, stop, room[2], self.action_flat, self.leg_cell_array, self.hips_world,
+                    self.offsets_world, base_x, base_y, locator.raster, locator.codes, outline.segments,
+                    outline.row_first, outline.row_segments, known[:cells], known[cells:], room[0], room[1])
             if status != safe_walk.ASK:
                 break
-            leg, cell = self.leg_cell[index]  # a point on an outline: shapely answers (PointLocator.covers_xy)
+            # a point on an outline: shapely answers (PointLocator.covers_xy); a cell past ``cells`` is asked with
+            # the room ahead of it
+            ahead_x, ahead_y = (self.ahead_x, self.ahead_y) if index < cells else room[:2]
+            leg, cell = self.leg_cell[index % cells]
             x, y = (base_x + hips[leg][0]) + offsets[cell][0], (base_y + hips[leg][1]) + offsets[cell][1]
             safe = locator.covers_xy(x, y) and (
-                (self.ahead_x == 0.0 and self.ahead_y == 0.0) or locator.covers_xy(x + self.ahead_x, y + self.ahead_y))
+                (ahead_x == 0.0 and ahead_y == 0.0) or locator.covers_xy(x + ahead_x, y + ahead_y))
             known[index] = safe_walk.SAFE if safe else safe_walk.UNSAFE
         if status == safe_walk.NONE:
             return None

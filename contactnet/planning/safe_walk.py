@@ -155,3 +155,37 @@ def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray
             return ASK, 0, -1 - state
         if state == SAFE:
             return FOUND, rank_of(costs, first, stop, best), best
+
+
+@numba.njit(cache=True, nogil=True)
+def first_safe_with_room(costs: np.ndarray, first: int, stop: int, per_group: int, action_flat: np.ndarray,
+                         leg_cell: np.ndarray, hips: np.ndarray, offsets: np.ndarray, base_x: float, base_y: float,
+                         raster: np.ndarray, codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray,
+                         row_segments: np.ndarray, known: np.ndarray, known_room: np.ndarray, ahead_x: float,
+                         ahead_y: float) -> tuple[int, int, int]:
+    """``first_safe``'s action with room for the foot's roll (``contactnet.planning.roll``), in one call: the first
+    safe action of ``first..stop - 1``; if a landing point of it lacks the room ``ahead`` (world, metres: the point
+    that far on is not safe), the first action of its swing group (``per_group`` actions each) in the same span
+    whose landing points have it (with its rank in the whole span), else the first safe action itself.
+    ``known_room`` caches the cells' answers with the room as ``known`` does without it. With the status ASK the
+    third value is a cell of ``known`` (0..cells - 1) or of ``known_room`` (cells..2 cells - 1, less cells)."""
+    status, rank, found = first_safe(costs, first, stop, action_flat, leg_cell, hips, offsets, base_x, base_y,
+                                     raster, codes, segments, row_first, row_segments, known, 0.0, 0.0)
+    if status != FOUND:
+        return status, rank, found
+    cells = known.shape[0]
+    state = _all_safe(found, action_flat, known_room, leg_cell, hips, offsets, base_x, base_y, raster, codes,
+                      segments, row_first, row_segments, ahead_x, ahead_y)
+    if state < 0:
+        return ASK, 0, cells - 1 - state
+    if state == SAFE:  # it has the room (most plans)
+        return FOUND, rank, found
+    group = found // per_group
+    status, _, better = first_safe(costs, max(first, group * per_group), min(stop, (group + 1) * per_group),
+                                   action_flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, segments,
+                                   row_first, row_segments, known_room, ahead_x, ahead_y)
+    if status == ASK:
+        return ASK, 0, cells + better
+    if status == NONE or better == found:
+        return FOUND, rank, found
+    return FOUND, rank_of(costs, first, stop, better), better
