@@ -29,6 +29,7 @@ from contactnet.planning.planner import (
 )
 from contactnet.planning.ranking import ActionCells, OneLevelWalk
 from contactnet.planning.roll import roll_ahead_xy
+from contactnet.planning.stand import is_idle
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, random_field, random_heights, resolve
 
@@ -86,7 +87,7 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                               for leg, cell in zip(action_legs[a], action_cells[a], strict=True)) for a in order]
                 order = [a for a, u in zip(order, urgent, strict=True) if u] + [
                     a for a, u in zip(order, urgent, strict=True) if not u]
-        chosen = None
+        chosen, forced = None, False
         if j == 0 and not heights and planner.reach is not None:  # legs left behind go first, if one can step
             look = cmd_world * planner.reach.lookahead_steps * gait.step_duration_s
             behind = np.hypot(*(feet - (base + hips_world + look)).T) > planner.robot.kin_threshold_m
@@ -97,6 +98,7 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                     chosen = (tuple(int(leg) for leg in legs), int(action), rank, points)
                     if seen is not None:
                         seen["behind"] = seen.get("behind", 0) + 1
+                    forced = True
                     break
         for rank, action in enumerate(order):
             if chosen is not None:
@@ -132,6 +134,31 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                     seen["roomed"] = seen.get("roomed", 0) + 1
                 chosen = (chosen[0], int(action), rank, points)
                 break
+        # with a moving command, a useless swing gives way to the first safe step that moves its feet (and then the
+        # room for the roll among those), unless a leg left behind chose it (IdleConfig.step_when_moving)
+        idle = planner.idle
+        if (j == 0 and not heights and chosen is not None and idle is not None and idle.step_when_moving
+                and not is_idle(ctx.com_vel_world, ctx.vel_cmd_xy, idle) and not forced):
+            def moves(action: int, cells: np.ndarray = cells, min_swing_m: float = idle.min_swing_m) -> bool:
+                legs = action_legs[action]
+                return bool((np.hypot(*(cells[legs, action_cells[action]] - feet[legs]).T) >= min_swing_m).any())
+
+            def safe(action: int, room: tuple[float, float] = (0.0, 0.0), cells: np.ndarray = cells) -> bool:
+                points = cells[action_legs[action], action_cells[action]]
+                return bool(terrain.is_safe(points, planner.margin_m).all()
+                            and terrain.is_safe(points + np.array(room), planner.margin_m).all())
+
+            if not moves(chosen[1]):
+                first = next((int(a) for a in order if moves(a) and safe(a)), None)
+                if first is not None:
+                    moving_group = first // gait.actions_per_group
+                    if ahead is not None:
+                        first = next((int(a) for a in order if a // gait.actions_per_group == moving_group and moves(a)
+                                      and safe(a, ahead)), first)
+                    legs = action_legs[first]
+                    chosen = (tuple(int(leg) for leg in legs), first, order.index(first), cells[legs, action_cells[first]])
+                    if seen is not None:
+                        seen["moved"] = seen.get("moved", 0) + 1
         if chosen is None:
             steps.append((None, None, None, None))
             break
@@ -194,6 +221,54 @@ def test_a_leg_left_behind_goes_first(robot, models, gait, name):
         assert seen["behind"] > 10 and moved > 5, (seen, moved)  # it changed plans
     else:
         assert seen["behind"] == 0
+
+
+class _Fixed:
+    """A stand-in model whose scores do not depend on the state (one random score per action)."""
+
+    def __init__(self, gait, seed: int) -> None:
+        self.gait, self.n_actions, self.path = gait.name, gait.n_actions, "<fixed>"
+        self._scores = np.random.default_rng(seed).normal(size=gait.n_actions)
+
+    def scores(self, u):
+        return self._scores
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_a_useless_swing_gives_way_to_a_step_that_moves(robot, gait):
+    """With ``IdleConfig.step_when_moving`` and a command that moves: where the ranking's first safe step would put
+    its feet down within ``min_swing_m`` of where they are, the first step is the first safe one that moves them
+    (with the room for the roll among those), as the reference says. A model of fixed scores, and every foot placed
+    on the landing cell of the best-ranked action that moves its leg, so that the first safe step is often useless;
+    without the rule those plans keep the useless swing."""
+    action_legs, action_cells = gait.action_cells
+    seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0, "behind": 0, "moved": 0}
+    changed = 0
+    for seed, (_label, terrain) in enumerate(FLAT[:3]):
+        model = _Fixed(gait, seed)
+        planner = ContactNetPlanner(gait, robot.description, model, reach=None)  # (a leg left behind goes first)
+        with_rule = dataclasses.replace(planner.idle, step_when_moving=True)
+        contexts = planning_contexts(gait, terrain(), robot.description, 40, seed=6)
+        order = np.argsort(-model.scores(None), kind="stable")
+        for ctx in contexts:
+            ctx.vel_cmd_xy[:] = [0.05, 0.0]
+            to_world = _rotation(ctx.yaw_rad)
+            ctx.com_vel_world[:2] = to_world @ ctx.vel_cmd_xy  # on the command: no capture step
+            cells = (np.asarray(ctx.base_xy_world) + planner.hip_ref_xy_base @ to_world.T)[:, None, :] + (
+                gait.cell_offsets_xy @ to_world.T)[None]
+            placed = set()
+            for action in order:  # each foot on its leg's best-ranked landing cell
+                for leg, cell in zip(action_legs[action], action_cells[action], strict=True):
+                    if leg not in placed:
+                        ctx.foot_pos_world[leg, :2] = cells[leg, cell]
+                        placed.add(int(leg))
+        before = [planner.plan(ctx)[0].action_index for ctx in contexts]
+        planner.idle = with_rule
+        for key, value in _compare(planner, contexts).items():
+            seen[key] = seen.get(key, 0) + value
+        changed += sum(b != planner.plan(ctx)[0].action_index for b, ctx in zip(before, contexts, strict=True))
+    assert seen["plans"] == 120
+    assert seen["moved"] > 5 and changed == seen["moved"], (seen, changed)
 
 
 def _plan_first(reach, planner, ctx):  # noqa: ANN001, ANN202

@@ -52,6 +52,7 @@ from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
     IdleConfig,
+    first_step_that_moves,
     idle_stand_step,
     is_idle,
     network_stands,
@@ -328,9 +329,10 @@ class ContactNetPlanner:
             bases[0] = [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]]
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
         ahead = roll_ahead_xy(self.robot.foot_radius_m, cmd_world, self.roll)
-        roomy = None if ahead is None else (walk, ahead, [])  # the walk with room for the roll: made when needed
         behind = self._left_behind(feet, bases[0], hips_world, cmd_world) if capture_xy is None else []
         costs_of, action_group = self._costs, self._actions.group
+        # a useless swing gives way to a step that moves (IdleConfig.step_when_moving): its threshold, or None
+        moving = self.idle.min_swing_m if self.idle is not None and self.idle.step_when_moving else None
         steps = []
         for j in range(self._steps_per_plan):
             costs, stand_cost = self._split_stand(costs_of(network_input_values(feet, com, vel, cmd, cos_yaw, sin_yaw,
@@ -347,12 +349,21 @@ class ContactNetPlanner:
                 found = walk.first_safe(j, costs, span)
             elif not forced:  # with room for the roll (contactnet.planning.roll), in one walk
                 found = walk.first_safe_with_room(j, costs, span, ahead, self._actions_per_group)
-            elif roomy is not None:
-                found = self._with_room(roomy, j, costs, span, found)
+            elif ahead is not None:  # a leg left behind's step: its swing group's first landing with the room
+                group = found[1] // self._actions_per_group
+                roomed = walk.first_safe_with_room(j, costs, (max(span[0], group * self._actions_per_group), min(
+                    span[1], (group + 1) * self._actions_per_group)), ahead, self._actions_per_group)
+                if roomed is not None and roomed[1] != found[1]:
+                    found = int(rank_of(costs, span[0], span[1], roomed[1])), roomed[1], roomed[2]
+            top = found  # the stand is weighed against the ranking's first safe step
+            if (j == 0 and not forced and not idle and found is not None and moving is not None
+                    and useless_swing(action_group[found[1]], found[2], feet, moving)):
+                found = first_step_that_moves(walk, costs, span, found, feet, ahead, moving, self._actions.flat_array,
+                                              self._actions_per_group)
             if forced:
                 rank, action, points = found
                 step = PlannedStep.ranked(action_group[action], np.array(points), action, rank)
-            elif self._stands(costs, stand_cost, found):
+            elif self._stands(costs, stand_cost, top):
                 step, points = stand_step(gait, costs, stand_cost), []
             elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,
                                                               self.idle.min_swing_m):
@@ -384,28 +395,6 @@ class ContactNetPlanner:
         hips = [[base_xy[0] + x, base_xy[1] + y] for x, y in hips_world.tolist()]
         threshold = self.robot.kin_threshold_m if reach.threshold_m is None else reach.threshold_m
         return left_behind(feet, hips, (cmd_world[0] * look_s, cmd_world[1] * look_s), threshold)
-
-    def _with_room(self, roomy: tuple[OneLevelWalk, tuple[float, float], list[OneLevelWalk]], step: int,
-                   costs: np.ndarray, span: tuple[int, int],
-                   found: tuple[int, int, list[list[float]]]) -> tuple[int, int, list[list[float]]]:
-        """The legs of ``found`` (a leg left behind's step, ``first_moving``'s) with room ahead for their feet's roll:
-        the first action of the same swing group in the ranking whose landings have it (its rank in the whole
-        ``span``), else ``found`` itself. The network's choice of legs stands; only their landing cells may move back.
-        ``roomy``: the plan's plain walk, the room ahead (world XY, m) and a list holding the walk with that room once
-        made. The other steps ask ``OneLevelWalk.first_safe_with_room``: the same rule in one compiled call."""
-        plain, (ahead_x, ahead_y), made = roomy
-        covers = plain.locator.covers_xy
-        if all(covers(x + ahead_x, y + ahead_y) for x, y in found[2]):  # it has the room (most plans): no walk
-            return found
-        if not made:
-            made.append(plain.with_ahead((ahead_x, ahead_y)))
-        group = found[1] // self._actions_per_group
-        first = max(span[0], group * self._actions_per_group)
-        stop = min(span[1], (group + 1) * self._actions_per_group)
-        better = made[0].first_safe(step, costs, (first, stop))
-        if better is None or better[1] == found[1]:
-            return found
-        return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2]
 
     def _with_room_on_heights(self, walk: HeightsWalk | PlainHeightsWalk, ahead: tuple[float, float], step: int,
                               costs: np.ndarray, span: tuple[int, int],

@@ -6,7 +6,6 @@ ranking (``CandidateRanking``)."""
 
 from __future__ import annotations
 
-import copy
 import math
 import struct
 from collections.abc import Callable
@@ -255,13 +254,6 @@ class OneLevelWalk:
         self.hips_world, self.offsets_world, self.bases = hips_world, offsets_world, bases
         self.hips, self.offsets = hips_world.tolist(), offsets_world.tolist()
 
-    def with_ahead(self, ahead_xy: tuple[float, float]) -> OneLevelWalk:
-        """This walk with the room ``ahead_xy`` (world, metres) asked of every landing point: the same as a new
-        ``OneLevelWalk`` with that ``ahead_xy``, without making its lists again."""
-        walk = copy.copy(self)
-        walk.ahead_x, walk.ahead_y = float(ahead_xy[0]), float(ahead_xy[1])
-        return walk
-
     def grid(self, step: int) -> Callable[[], np.ndarray]:
         """A function making step ``step``'s (4, cells_per_leg, 2) candidate grid (``first_safe_step``'s)."""
         base_xy = np.array(self.bases[step])
@@ -280,8 +272,8 @@ class OneLevelWalk:
         """``first_safe``'s answer with room for the foot's roll (``contactnet.planning.roll``): if a landing point
         of the first safe action lacks the room ``ahead_xy`` (world, metres), the first action of its swing group
         (``per_group`` actions each) in ``span`` whose landing points have it, with its rank in ``span``; else the
-        first safe action. The same answer as ``first_safe`` followed by ``with_ahead(ahead_xy).first_safe`` over
-        that group, in one compiled call (``safe_walk.first_safe_with_room``)."""
+        first safe action. The same answer as ``first_safe`` followed by a walk over that group that asks every landing
+        point for the room, in one compiled call (``safe_walk.first_safe_with_room``)."""
         return self._walk(step, costs, span, (float(ahead_xy[0]), float(ahead_xy[1]), per_group))
 
     def _walk(self, step: int, costs: np.ndarray, span: tuple[int, int] | None,

@@ -12,7 +12,7 @@ So the planner asks for more than the landing point's margin where it can: once 
 the first safe action, the same legs' first cells in the ranking whose point ``allowance_radii`` foot radii
 further on along the commanded velocity (world frame) is safe too replace its cells (``Terrain.is_safe`` of both
 points with the plain margin; the planner's compiled walk makes the second lookup in the same raster,
-``ranking.OneLevelWalk(ahead_xy=...)``; on terrain with heights the walk with the height checks is asked again
+``ranking.OneLevelWalk.first_safe_with_room``, one compiled call with the first walk; on terrain with heights the walk with the height checks is asked again
 with the actions lacking the room ranked last, ``ContactNetPlanner._with_room_on_heights``; only with
 ``RollConfig(heights=True)``, off by default). The network's choice of legs
 stands: asking every action for the room first (a first version) made the walk move other legs rather than step

@@ -27,7 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from contactnet.motion.gait import GaitSpec
-from contactnet.planning.ranking import PlannedStep
+from contactnet.planning.ranking import OneLevelWalk, PlannedStep
+from contactnet.planning.safe_walk import rank_of
 
 
 def split_stand(gait: GaitSpec, order: np.ndarray) -> tuple[np.ndarray, int | None]:
@@ -81,11 +82,17 @@ class IdleConfig:
     command is zero (at most ``max_command_m_s``) and the state balanced (the CoM velocity within
     ``max_velocity_error_m_s`` of it), a chosen step whose swinging feet all land less than ``min_swing_m`` from
     where they are is replaced by standing. A push (a larger velocity error) or any command keeps it stepping.
+
+    With a command that moves, ``step_when_moving`` replaces such a useless swing (the first safe step of the
+    ranking) by the first safe step whose swinging feet move (``ContactNetPlanner``): standing still is then no
+    answer, and a step that puts its foot back wastes a step horizon. Whether to stand is still decided against the
+    useless swing's score, as without the rule.
     """
 
     max_command_m_s: float = 0.005  # |command| at or below this counts as zero
     max_velocity_error_m_s: float = 0.05  # |CoM velocity (xy) - command| at or below this counts as balanced
     min_swing_m: float = 0.02  # a swing moving every foot less than this is useless (simulate --json's measure)
+    step_when_moving: bool = False  # with a moving command, a useless swing gives way to the first step that moves
 
     def __post_init__(self) -> None:
         for name in ("max_command_m_s", "max_velocity_error_m_s", "min_swing_m"):
@@ -123,6 +130,30 @@ def useless_swing(legs: tuple[int, ...], landing_xy_world, feet_xy_world, min_sw
     return True
 
 
+def first_step_that_moves(walk: OneLevelWalk, costs: np.ndarray, span: tuple[int, int],
+                          found: tuple[int, int, list[list[float]]], feet_xy_world: list[list[float]],
+                          ahead_xy: tuple[float, float] | None, min_swing_m: float, action_flat: np.ndarray,
+                          per_group: int) -> tuple[int, int, list[list[float]]]:
+    """``IdleConfig.step_when_moving`` on a plan's first step: the first safe action of ``costs``' ranking over
+    ``span`` (with the room for the roll ``ahead_xy`` among those, as for any choice) whose swinging feet do not all
+    land within ``min_swing_m`` of where they are (``feet_xy_world``, one [x, y] per leg), as (its rank in the
+    ranking, action, landing points); ``found`` (the ranking's first safe action, a useless swing) when no such
+    action is safe. ``action_flat`` (N_a, legs per step): each action's grid cells (``ActionCells.flat_array``)."""
+    cells = walk.grid(0)()  # (4, cells per leg, 2), world
+    near = np.hypot(*(cells - np.asarray(feet_xy_world)[:, None, :]).transpose(2, 0, 1)) < min_swing_m
+    useless = near.reshape(-1)[action_flat].all(axis=1)
+    masked = costs.copy()
+    masked[useless] = np.nan  # ranked after every step that moves
+    better = walk.first_safe(0, masked, span)
+    if better is None or useless[better[1]]:  # no step that moves is safe
+        return found
+    if ahead_xy is not None:  # and the room for the roll, among the steps that move
+        roomy = walk.first_safe_with_room(0, masked, span, ahead_xy, per_group)
+        if roomy is not None and not useless[roomy[1]]:
+            better = roomy
+    return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2]
+
+
 def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
     """Standing at ``rank`` of the ranking (the actions above it discarded): the idle rule's choice over the useless
     step at ``rank`` (standing takes its place), and ``stand_step``'s."""
@@ -130,5 +161,5 @@ def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
                        discarded=rank)
 
 
-__all__ = ["DEFAULT_IDLE", "TOP_RANK_TIE", "IdleConfig", "idle_stand_step", "is_idle", "network_stands",
+__all__ = ["DEFAULT_IDLE", "TOP_RANK_TIE", "IdleConfig", "first_step_that_moves", "idle_stand_step", "is_idle", "network_stands",
            "prefer_stand", "split_stand", "stand_step", "useless_swing"]
