@@ -95,17 +95,19 @@ def stopped(frame) -> float | None:  # noqa: ANN001 - a playwright FrameLocator
 
 
 def click_scrubber(page, frame, fraction: float) -> float:  # noqa: ANN001 - playwright objects
-    """Click viser's scrubber at ``fraction`` of its width; the time it pauses at. A click the busy renderer lost
-    (no pause within 20 s) is repeated, twice at most."""
+    """Click viser's scrubber at ``fraction`` of its width; the time it pauses at. A player already paused stands
+    still before the click takes effect, so only a pause away from where it stood at the click counts. A click the
+    busy renderer lost (no such pause within 20 s) is repeated, twice at most."""
     bar = frame.locator(".mantine-Slider-root")
     seen = []
     for _ in range(3):
         box = bar.bounding_box()
+        before = scrubber(frame)[0]
         page.mouse.click(box["x"] + fraction * box["width"], box["y"] + box["height"] / 2)
         deadline = time.monotonic() + 20
         while time.monotonic() < deadline:
             t = stopped(frame)
-            if t is not None:
+            if t is not None and t != before:
                 return t
             seen.append(scrubber(frame)[0])
     raise AssertionError(f"the scrubber never paused after a click: it read {seen[-8:]}")

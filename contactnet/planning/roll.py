@@ -11,14 +11,14 @@ foot radius times the shin's turn, (stance travel) / (leg length): for Solo12's 
 So the planner asks for more than the landing point's margin where it can: once the network's ranking has given
 the first safe action, the same legs' first cells in the ranking whose point ``allowance_radii`` foot radii
 further on along the commanded velocity (world frame) is safe too replace its cells (``Terrain.is_safe`` of both
-points with the plain margin; the planner's compiled walk makes the second lookup in the same raster,
-``ranking.OneLevelWalk.first_safe_with_room``, one compiled call with the first walk; on terrain with heights the walk with the height checks is asked again
-with the actions lacking the room ranked last, ``ContactNetPlanner._with_room_on_heights``; only with
-``RollConfig(heights=True)``, off by default). The network's choice of legs
-stands: asking every action for the room first (a first version) made the walk move other legs rather than step
-onto narrow bars, and `narrow_map` fell from 84 to 57 / 100. Where those legs have no cell with room (3 cm bars)
-the plain choice stands. A command below ``min_speed_m_s`` (standing, turning on the spot) has no direction and
-no allowance. ``ContactNetPlanner(roll=None)`` turns it off.
+points with the plain margin; the planner's compiled walk makes the second lookup in the same raster, in the
+same call as the first walk, ``ranking.OneLevelWalk.first_safe_with_room``; on terrain with heights the walk with
+the height checks is asked again with the actions lacking the room ranked last,
+``ContactNetPlanner._with_room_on_heights``; only with ``RollConfig(heights=True)``, off by default). The network's
+choice of legs stands: asking every action for the room first (a first version) made the walk move other legs
+rather than step onto narrow bars, and `narrow_map` fell from 84 to 57 / 100. Where those legs have no cell with
+room (3 cm bars) the plain choice stands. A command below ``min_speed_m_s`` (standing, turning on the spot) has no
+direction and no allowance. ``ContactNetPlanner(roll=None)`` turns it off.
 """
 
 from __future__ import annotations
