@@ -240,17 +240,15 @@ class OneLevelWalk:
     compiled walk of ``contactnet.planning.safe_walk`` (no sort: the cheapest action not ruled out is tried, an unsafe cell
     rules out every action using it; each grid cell looked up once in the safe region's raster), with shapely asked
     here about the rare cells near an outline. The same choice as ``first_safe_step`` and the same floats: a landing point is (base + hip
-    reference) + cell offset, added in that order as there. ``bases`` are the base XY of the plan's steps.
-    ``ahead_xy`` (world, metres): a landing point is safe only if the point that far on is safe too (the room for the
-    foot's roll, ``contactnet.planning.roll``); two lookups in the margin's raster, no other region built."""
+    reference) + cell offset, added in that order as there. ``bases`` are the base XY of the plan's steps. With room
+    for the foot's roll (``first_safe_with_room``, ``contactnet.planning.roll``) the point that far on is looked up
+    in the same raster, no other region built."""
 
     def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, hips_world: np.ndarray,
-                 offsets_world: np.ndarray, bases: list[list[float]],
-                 ahead_xy: tuple[float, float] = (0.0, 0.0)) -> None:
+                 offsets_world: np.ndarray, bases: list[list[float]]) -> None:
         self.action_flat, self.flat_lists = actions.flat_array, actions.flat
         self.leg_cell, self.leg_cell_array = actions.leg_cell, actions.leg_cell_array
         self.terrain, self.locator = terrain, terrain.safe_locator(margin_m)
-        self.ahead_x, self.ahead_y = float(ahead_xy[0]), float(ahead_xy[1])
         self.hips_world, self.offsets_world, self.bases = hips_world, offsets_world, bases
         self.hips, self.offsets = hips_world.tolist(), offsets_world.tolist()
 
@@ -293,7 +291,7 @@ class OneLevelWalk:
                 status, rank, index = safe_walk.first_safe(
                     costs, first, stop, self.action_flat, self.leg_cell_array, self.hips_world, self.offsets_world,
                     base_x, base_y, locator.raster, locator.codes, outline.segments, outline.row_first,
-                    outline.row_segments, known, self.ahead_x, self.ahead_y)
+                    outline.row_segments, known)
             else:
                 status, rank, index = safe_walk.first_safe_with_room(
                     costs, first, stop, room[2], self.action_flat, self.leg_cell_array, self.hips_world,
@@ -303,11 +301,9 @@ class OneLevelWalk:
                 break
             # a point on an outline: shapely answers (PointLocator.covers_xy); a cell past ``cells`` is asked with
             # the room ahead of it
-            ahead_x, ahead_y = (self.ahead_x, self.ahead_y) if index < cells else room[:2]
             leg, cell = self.leg_cell[index % cells]
             x, y = (base_x + hips[leg][0]) + offsets[cell][0], (base_y + hips[leg][1]) + offsets[cell][1]
-            safe = locator.covers_xy(x, y) and (
-                (ahead_x == 0.0 and ahead_y == 0.0) or locator.covers_xy(x + ahead_x, y + ahead_y))
+            safe = locator.covers_xy(x, y) and (index < cells or locator.covers_xy(x + room[0], y + room[1]))
             known[index] = safe_walk.SAFE if safe else safe_walk.UNSAFE
         if status == safe_walk.NONE:
             return None
