@@ -21,13 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from contactnet.motion.gait import GaitSpec, gait_by_name, gait_for, gait_names, register_gait
+from contactnet.planning.heuristic import HeuristicPlanner
 from contactnet.planning.oracle import OraclePlanner
-from contactnet.planning.planner import (
-    ContactNetPlanner,
-    FixedGaitPlanner,
-    HeuristicPlanner,
-    Planner,
-)
+from contactnet.planning.planner import ContactNetPlanner, FixedGaitPlanner, Planner
 from contactnet.plugins import load_plugins
 from contactnet.robots import (
     DEFAULT_ROBOT,

@@ -317,7 +317,7 @@ def test_recorder_from_a_plain_loop(robot, tmp_path):
     from app.recordings.recorder import SceneRecorder, view_of, viser_html
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
     from contactnet.sim.pybullet_world import Push
 
     terrain = flat()

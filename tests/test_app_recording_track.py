@@ -68,7 +68,7 @@ def test_a_restart_and_a_fall_are_on_the_track(robot):
     from app.recordings.recorder import SceneRecorder, view_of
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
     from contactnet.sim.pybullet_world import Push
     from contactnet.terrain import resolve
 
@@ -128,7 +128,7 @@ def test_a_crash_keeps_the_track_with_the_recording(robot, tmp_path, monkeypatch
     from app.recordings.recorder import view_of
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
     from contactnet.terrain import resolve
 
     monkeypatch.setattr("app.recordings.live_recorder.JOURNAL_PERIOD_S", 0.0)  # every frame journaled

@@ -284,7 +284,7 @@ def test_a_run_that_ends_between_two_frames_ends_the_recording():
     from app.recordings.recorder import SceneRecorder, view_of
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
     from contactnet.robots import load_robot
     from contactnet.terrain import resolve
 

@@ -419,7 +419,7 @@ def test_the_delivered_forces_are_what_the_ground_gives(robot, engine):
     0.69 N along z."""
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
 
     with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), SimConfig(engine=engine),
                     vel_cmd_xy=(0.1, 0.0)) as loco:

@@ -13,8 +13,8 @@ from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.motion.controller import WholeBodyController
 from contactnet.motion.gait import WALK
 from contactnet.planning.capture import CaptureConfig, capture_offset
+from contactnet.planning.heuristic import HeuristicPlanner
 from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
-from contactnet.planning.planner import HeuristicPlanner
 from contactnet.terrain import flat
 
 

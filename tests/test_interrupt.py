@@ -118,7 +118,7 @@ def test_a_ctrl_c_at_a_random_moment_of_a_walk_is_raised(robot):
     """Simulation, controller (numba), MPC (casadi data, piqp), planner: a Ctrl-C anywhere in the tick loop."""
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
     from contactnet.terrain import flat
 
     rng = random.Random(1)

@@ -14,7 +14,8 @@ import pytest
 from contactnet.locomotion import Locomotion, LocomotionConfig
 from contactnet.motion.gait import TROT, WALK
 from contactnet.motion.trajopt import TrajoptSolution
-from contactnet.planning.planner import HeuristicPlanner, PlanningContext
+from contactnet.planning.heuristic import HeuristicPlanner
+from contactnet.planning.planner import PlanningContext
 from contactnet.sim.pybullet_world import Push
 from contactnet.terrain import flat, resolve
 

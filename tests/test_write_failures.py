@@ -284,7 +284,7 @@ def feed_frames(recorder: LiveRecorder, seconds: float) -> int:
     from app.recordings.recorder import view_of
     from contactnet.locomotion import Locomotion
     from contactnet.motion.gait import WALK
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
     from contactnet.robots import load_robot
     from contactnet.terrain import resolve
 

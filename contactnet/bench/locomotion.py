@@ -15,7 +15,7 @@ from contactnet.robots import DEFAULT_ROBOT
 
 def run_case(case: dict) -> dict:
     from contactnet.locomotion import Locomotion
-    from contactnet.planning.planner import HeuristicPlanner
+    from contactnet.planning.heuristic import HeuristicPlanner
     from contactnet.registry import gait_for, load_robot
     from contactnet.sim.world import Push, SimConfig
     from contactnet.terrain import flat

@@ -55,6 +55,8 @@ CHUNK = 25
 
 #: The row of ContactNet with ``roll=None`` (``contactnet.planning.roll``).
 NO_ROLL = "contactnet, roll room off"
+#: The row of ContactNet making each step in Python (``contactnet.planning.plan_kernel`` off): the same plans.
+IN_PYTHON = "contactnet, steps in Python"
 
 
 def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool = False,
@@ -85,15 +87,19 @@ def bench_planner(repeats: int = 3000, n_contexts: int = 100, single_core: bool 
             for gait in (WALK.scaled(description.size_scale), TROT.scaled(description.size_scale)):  # sized
                 path = model_path(robot_name, gait.name)
                 model = path if path.exists() else _random_model_file(gait, robot_name)
-                # and, on the flat field, ContactNet without the room for the foot's roll (its cost, as a ratio)
-                names = ("contactnet", "fixed", *((NO_ROLL,) if terrain_name == TERRAINS[0] else ()))
+                # and, on the flat field, ContactNet without the room for the foot's roll and with its steps made in
+                # Python (the costs of each, as ratios)
+                names = ("contactnet", "fixed", *((NO_ROLL, IN_PYTHON) if terrain_name == TERRAINS[0] else ()))
                 for name in names:
                     for holes in HOLES:
                         terrain = resolve(terrain_name, removed=holes, seed=0)
                         contexts = planning_contexts(gait, terrain, description, n_contexts)
-                        planner = make_planner("contactnet" if name == NO_ROLL else name, gait, robot, model=model)
+                        planner = make_planner("contactnet" if name in (NO_ROLL, IN_PYTHON) else name, gait, robot,
+                                               model=model)
                         if name == NO_ROLL:
                             planner.roll = None
+                        if name == IN_PYTHON:
+                            planner._one_level = None
                         row = {"gait": gait.name, "planner": name, "terrain": terrain_name, "holes": holes,
                                "model": "shipped" if path.exists() else "random weights", "ranks": []}
                         timed.append((row, _plan_call(planner, contexts, row["ranks"])))

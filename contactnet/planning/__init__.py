@@ -23,7 +23,7 @@ _EXPORTS = {
     "PlanningContext": "contactnet.planning.planner",
     "ContactNetPlanner": "contactnet.planning.planner",
     "FixedGaitPlanner": "contactnet.planning.planner",
-    "HeuristicPlanner": "contactnet.planning.planner",
+    "HeuristicPlanner": "contactnet.planning.heuristic",
     "RankingCost": "contactnet.planning.cost",
     "load_model": "contactnet.planning.network",
     "ModelFileError": "contactnet.planning.network",

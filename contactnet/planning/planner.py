@@ -4,13 +4,11 @@ Every planner answers `plan(context) -> list[PlannedStep]` with `gait.steps_per_
 first is executed now, the next two complete the optimizer's 960 ms horizon. Planners differ only
 in how they choose; the loop (`locomotion.py`) treats them alike.
 
-- `HeuristicPlanner`: the fixed cyclic gait (walk: HL, FL, HR, FR; trot: alternating diagonal
-  pairs) with Raibert-style footholds. Blind to holes. The baseline, and the loop's planner until
-  ContactNet is trained.
 - `ContactNetPlanner`, `FixedGaitPlanner`: the network's ranking, the first safe action (acyclic), or the
   best safe foothold of the leg whose turn it is (the paper's fixed-gait baseline).
 
-The exact teacher, `OraclePlanner`, lives in `contactnet.planning.oracle`.
+The blind baseline, `HeuristicPlanner` (the fixed cyclic gait with Raibert-style footholds), lives in
+`contactnet.planning.heuristic`, the exact teacher, `OraclePlanner`, in `contactnet.planning.oracle`.
 """
 
 from __future__ import annotations
@@ -32,6 +30,7 @@ from contactnet.planning.heights_tables import CompiledHeights
 from contactnet.planning.network import NumpyContactNet
 from contactnet.planning.network_input import network_input_one, network_input_values
 from contactnet.planning.plain_walk import PlainHeightsWalk
+from contactnet.planning.plan_kernel import CompiledOneLevel
 from contactnet.planning.ranking import (
     SAFETY_CHUNK,
     WHOLE_GRID_MAX_POINTS,
@@ -65,7 +64,7 @@ from contactnet.terrain import Terrain
 #: Re-exported: choosing a step from a ranking lives in ``contactnet.planning.ranking``.
 __all__ = [
     "CORNERED_BACKSTEP_M", "CORNERED_LOOKAHEAD_STEPS", "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking",
-    "ContactNetPlanner", "FixedGaitPlanner", "HeuristicPlanner", "LandingCheck", "PlannedStep",
+    "ContactNetPlanner", "FixedGaitPlanner", "LandingCheck", "PlannedStep",
     "Planner", "PlanningContext", "cell_grid", "first_safe_step", "step_in_place", "touchdown_times_s",
 ]
 
@@ -119,45 +118,6 @@ def touchdown_times_s(gait: GaitSpec) -> np.ndarray:
     """Time of each planned step's touchdown, from the start of the plan, (steps_per_plan,)."""
     touchdown_in_step = (gait.n_stance_pre + gait.n_swing) * gait.node_dt_s
     return np.arange(gait.steps_per_plan) * gait.step_duration_s + touchdown_in_step
-
-
-@dataclass
-class HeuristicPlanner:
-    """Fixed cyclic gait with Raibert footholds: land under the hip's mid-stance position plus a
-    velocity-error correction. It never looks at the terrain (the baseline the paper beats)."""
-
-    gait: GaitSpec
-    raibert_gain: float = 0.15  # s: extra step per m/s of velocity error (about sqrt(h / g))
-    max_offset_m: float = 0.12  # clamp of the foothold around the hip reference
-    _next_group: int = field(default=0, init=False)
-    last_candidates: None = field(default=None, init=False)  # it does not rank
-
-    name = "heuristic"
-
-    def reset(self) -> None:
-        self._next_group = 0
-
-    def stance_duration_s(self) -> float:
-        """How long a leg stays down in the cyclic gait (one cycle minus its swing)."""
-        cycle = len(self.gait.cyclic_order) * self.gait.step_duration_s
-        return cycle - self.gait.swing_duration_s
-
-    def plan(self, ctx: PlanningContext) -> list[PlannedStep]:
-        gait = self.gait
-        vel_cmd = ctx.vel_cmd_world()
-        vel_err = ctx.com_vel_world[:2] - vel_cmd
-        half_stance = 0.5 * self.stance_duration_s()
-        steps = []
-        for j, t_td in enumerate(touchdown_times_s(gait)):
-            group = gait.cyclic_order[(self._next_group + j) % len(gait.cyclic_order)]
-            legs = gait.swing_groups[group]
-            base_td = ctx.base_xy_world + vel_cmd * t_td
-            hip_td = ctx.hip_ref_world(base_td)[list(legs)]
-            offset = vel_cmd * half_stance + (self.raibert_gain * vel_err if j == 0 else 0.0)
-            offset = np.clip(offset, -self.max_offset_m, self.max_offset_m)
-            steps.append(PlannedStep(legs=legs, footholds_xy_world=hip_td + offset))
-        self._next_group = (self._next_group + 1) % len(gait.cyclic_order)
-        return steps
 
 
 # A *cornered* leg (terrain with heights): one whose shank, knee or thigh would reach the terrain if it stood where it
@@ -230,6 +190,9 @@ class ContactNetPlanner:
         net = getattr(model, "net", None)
         self._cost_net = net.negated() if isinstance(net, NumpyContactNet) else None
         self._actions = ActionCells.of(gait)
+        # the common path of a plan on one level in one compiled call (contactnet.planning.plan_kernel)
+        self._one_level = None if self._cost_net is None else CompiledOneLevel(gait, self._cost_net, self._actions)
+        self._all_actions = np.array([[0, gait.n_actions]] * gait.steps_per_plan)  # each step ranks all actions
         self._n_actions, self._actions_per_group = gait.n_actions, gait.actions_per_group
         self._steps_per_plan, self._step_duration_s = gait.steps_per_plan, gait.step_duration_s
         self._may_stand = True  # with a model of N_a + 1 outputs (contactnet.planning.stand)
@@ -254,6 +217,10 @@ class ContactNetPlanner:
         if first == 0 and stop == self._n_actions:
             return lambda: costs.argsort(kind="stable")
         return lambda: first + costs[first:stop].argsort(kind="stable")
+
+    def _spans(self) -> np.ndarray:
+        """(steps, 2) the ``_group_range`` of each step of this plan."""
+        return self._all_actions
 
     def _advance(self) -> None:
         """Called once per plan (the fixed gait moves on to the next group)."""
@@ -327,12 +294,20 @@ class ContactNetPlanner:
             bases.append([base_x, base_y])
         if capture_xy is not None:
             bases[0] = [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]]
-        walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
         ahead = roll_ahead_xy(self.robot.foot_radius_m, cmd_world, self.roll)
-        behind = self._left_behind(feet, bases[0], hips_world, cmd_world) if capture_xy is None else []
-        costs_of, action_group = self._costs, self._actions.group
         # a useless swing gives way to a step that moves (IdleConfig.step_when_moving): its threshold, or None
         moving = self.idle.min_swing_m if self.idle is not None and self.idle.step_when_moving else None
+        if self._one_level is not None and not idle and moving is None:  # the common path, compiled
+            steps = self._one_level.plan(
+                np.array(feet), np.array(com), np.array(vel), cmd_xy, cmd_world, cos_yaw, sin_yaw, ground_z, com_z,
+                shift_x, shift_y, bases, self._spans(), self._may_stand, capture_xy is None, ahead, terrain,
+                self.margin_m, hips_world, offsets_world, self._reach_test(cmd_world) if capture_xy is None else None,
+                self)
+            if steps is not None:
+                return steps
+        behind = self._left_behind(feet, bases[0], hips_world, cmd_world) if capture_xy is None else []
+        walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
+        costs_of, action_group = self._costs, self._actions.group
         steps = []
         for j in range(self._steps_per_plan):
             costs, stand_cost = self._split_stand(costs_of(network_input_values(feet, com, vel, cmd, cos_yaw, sin_yaw,
@@ -388,13 +363,20 @@ class ContactNetPlanner:
     def _left_behind(self, feet: list[list[float]], base_xy: list[float], hips_world: np.ndarray,
                      cmd_world: list[float]) -> list[int]:
         """The legs left behind at the plan's start (``contactnet.planning.reach``); none without a ``reach`` config."""
+        shift_x, shift_y, threshold = self._reach_test(cmd_world)
+        if threshold == 0.0:
+            return []
+        hips = [[base_xy[0] + x, base_xy[1] + y] for x, y in hips_world.tolist()]
+        return left_behind(feet, hips, (shift_x, shift_y), threshold)
+
+    def _reach_test(self, cmd_world: list[float]) -> tuple[float, float, float]:
+        """``left_behind``'s shift of the hips (world x, y, m) and threshold (m), a threshold 0 without ``reach``."""
         reach = self.reach
         if reach is None:
-            return []
+            return 0.0, 0.0, 0.0
         look_s = reach.lookahead_steps * self._step_duration_s
-        hips = [[base_xy[0] + x, base_xy[1] + y] for x, y in hips_world.tolist()]
         threshold = self.robot.kin_threshold_m if reach.threshold_m is None else reach.threshold_m
-        return left_behind(feet, hips, (cmd_world[0] * look_s, cmd_world[1] * look_s), threshold)
+        return cmd_world[0] * look_s, cmd_world[1] * look_s, threshold
 
     def _with_room_on_heights(self, walk: HeightsWalk | PlainHeightsWalk, ahead: tuple[float, float], step: int,
                               costs: np.ndarray, span: tuple[int, int],
@@ -585,6 +567,9 @@ class FixedGaitPlanner(ContactNetPlanner):
         cyclic = self.gait.cyclic_order
         first = cyclic[(self._next_group + step_index) % len(cyclic)] * self._actions_per_group
         return first, first + self._actions_per_group
+
+    def _spans(self) -> np.ndarray:
+        return np.array([self._group_range(j) for j in range(self._steps_per_plan)])
 
     def _advance(self) -> None:
         self._next_group = (self._next_group + 1) % len(self.gait.cyclic_order)

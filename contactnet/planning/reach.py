@@ -53,10 +53,15 @@ DEFAULT_REACH = ReachConfig()
 def left_behind(feet_xy_world: list[list[float]], hips_xy_world: list[list[float]], shift_xy: tuple[float, float],
                 threshold_m: float) -> list[int]:
     """The legs whose foot ``feet_xy_world`` is further than ``threshold_m`` from its hip reference ``hips_xy_world``
-    moved by ``shift_xy`` (the commanded motion over the look-ahead, world metres). Python floats: it runs in every
-    plan."""
-    return [leg for leg, ((fx, fy), (hx, hy)) in enumerate(zip(feet_xy_world, hips_xy_world, strict=True))
-            if math.hypot(fx - hx - shift_xy[0], fy - hy - shift_xy[1]) > threshold_m]
+    moved by ``shift_xy`` (the commanded motion over the look-ahead, world metres). Python floats; the squared
+    distances are compared, as ``contactnet.planning.plan_kernel`` compares them (the same floats there)."""
+    limit = threshold_m * threshold_m
+    out = []
+    for leg, ((fx, fy), (hx, hy)) in enumerate(zip(feet_xy_world, hips_xy_world, strict=True)):
+        dx, dy = fx - hx - shift_xy[0], fy - hy - shift_xy[1]
+        if dx * dx + dy * dy > limit:
+            out.append(leg)
+    return out
 
 
 def first_moving(walk: OneLevelWalk, costs: np.ndarray,
