@@ -87,8 +87,10 @@ class LocomotionConfig:
     # While the observer's push is at least its threshold, new step horizons stand (contactnet.planning.brace).
     brace: BraceConfig | None = BraceConfig()
     # The CoM height reference this much below the robot's nominal (m, RobotDescription.check_crouch), all the time: a
-    # lower CoM moves the centre of pressure that balances a push less (F h / (m g)). 0: the paper's height.
-    crouch_m: float = 0.0
+    # lower CoM moves the centre of pressure that balances a push less (F h / (m g)). 0: the paper's height; None: the
+    # robot's default for the gait and the terrain (RobotDescription.default_crouch_m: Solo12's walk 2 cm lower on
+    # terrain of one level, nothing on terrain with heights, where the legs would meet the tops).
+    crouch_m: float | None = None
 
 
 class Locomotion:
@@ -106,7 +108,8 @@ class Locomotion:
         vel_cmd_xy: tuple[float, float] = (0.0, 0.0),
     ):
         sim_config = SimConfig() if sim_config is None else sim_config
-        robot.description.check_crouch(config.crouch_m)  # before anything is built
+        robot.description.check_crouch(robot.description.walk_crouch_m if config.crouch_m is None
+                                       else config.crouch_m)  # before anything is built
         self.robot = robot
         self.terrain = terrain
         self.gait = gait
@@ -126,7 +129,6 @@ class Locomotion:
         self.ticks_per_step = self.ticks_per_node * gait.nodes_per_step
         self._reoptimize_ticks = self.ticks_per_node * config.reoptimize_every_nodes
         self.foot_radius_m = robot.description.foot_radius_m
-        self.com_height_ref_m = robot.description.com_height_nominal_m - config.crouch_m
         self._front_to_hind_m = front_to_hind_m(robot.description.foot_nominal_base)
         self.vel_cmd_xy = np.asarray(vel_cmd_xy, dtype=float)
         self._use_terrain(terrain)
@@ -181,10 +183,16 @@ class Locomotion:
 
     def _use_terrain(self, terrain: Terrain) -> None:
         """Whether the terrain has tops at several heights: then swings clear the tops on their way and
-        touchdown adapts to the contact sensed (a single-height terrain takes the flat-ground path)."""
+        touchdown adapts to the contact sensed (a single-height terrain takes the flat-ground path); and the crouch
+        that goes with it."""
         self._heights = len(terrain.levels) > 1 or terrain.sloped
         adapt = self.config.adapt_touchdown
         self._adapt_touchdown = self._heights if adapt is None else bool(adapt)
+        description = self.robot.description
+        crouch = self.config.crouch_m
+        #: m, the crouch walked with (``LocomotionConfig.crouch_m``, or the robot's default for this terrain)
+        self.crouch_m = description.default_crouch_m(self.gait.name, self._heights) if crouch is None else crouch
+        self.com_height_ref_m = description.com_height_nominal_m - self.crouch_m
 
     def push(self, push: Push) -> None:
         self.sim.add_push(push)

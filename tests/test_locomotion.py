@@ -131,6 +131,25 @@ def test_a_crouch_lowers_the_body_by_as_much(robot):
         Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK), config=LocomotionConfig(crouch_m=float("nan")))
 
 
+def test_the_robot_s_default_crouch_is_the_walk_s_on_one_level(robot):
+    """``LocomotionConfig(crouch_m=None)``: Solo12's walk 2 cm lower on terrain of one level (its
+    ``walk_crouch_m``), at the nominal height on terrain with heights and for the trot; a given crouch, 0 too, is
+    taken as given; the crouch follows a terrain replaced while walking."""
+    assert robot.description.walk_crouch_m == 0.02
+    nominal = robot.description.com_height_nominal_m
+    cases = [(WALK, "flat", None, 0.02), (TROT, "flat", None, 0.0), (WALK, "stairs", None, 0.0),
+             (WALK, "flat", 0.0, 0.0), (WALK, "stairs", 0.01, 0.01)]
+    for gait, terrain, crouch_m, expected in cases:
+        with Locomotion(robot, resolve(terrain), gait, HeuristicPlanner(gait),
+                        config=LocomotionConfig(crouch_m=crouch_m)) as loco:
+            assert loco.crouch_m == expected and loco.com_height_ref_m == pytest.approx(nominal - expected)
+    flat_field = resolve("random", removed=0, seed=0)
+    with Locomotion(robot, flat_field, WALK, HeuristicPlanner(WALK)) as loco:
+        assert loco.crouch_m == 0.02
+        loco.replace_terrain(resolve("random_heights", removed=0, seed=0))
+        assert loco.crouch_m == 0.0 and loco.com_height_ref_m == pytest.approx(nominal)
+
+
 def test_watching_a_run_does_not_change_it(robot):
     """With sensor noise on, a run whose snapshots are taken (the web tool's view, ``simulate --record``) is the run
     without them: a snapshot reads the feet's contacts without drawing the noise."""

@@ -57,6 +57,11 @@ def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
     again = tmp_path / "again.toml"
     again.write_text(to_toml(spec_values(spec)))
     assert load_robot_file(again) == spec  # what to_toml writes reads back as the same robot
+    assert spec.walk_crouch_m == 0.0 and "walk_crouch_m" not in spec_values(spec)  # the default: not written
+    crouched = tmp_path / "crouched.toml"
+    crouched.write_text(A1.replace("fall_base_height_m = 0.12\n", "fall_base_height_m = 0.12\nwalk_crouch_m = 0.02\n")
+                        .replace('name = "a1_file"', 'name = "a1_crouched"'))
+    assert load_robot_file(crouched).walk_crouch_m == 0.02
     from contactnet.robots import robot_names
     from contactnet.robots.robot_file import registered_files
 
@@ -75,6 +80,8 @@ def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
     (lambda t: t.replace('name = "a1_file"', 'name = "a1_file'), "not TOML"),
     (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nfeet = "wheels"\n'),
      "feet: expected 'sphere' or 'mesh'"),
+    (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nwalk_crouch_m = -0.01\n'),
+     "walk_crouch_m: expected a number from 0 to 1"),
 ])
 def test_a_bad_robot_file_is_one_line_naming_the_field(tmp_path, change, message):
     path = tmp_path / "bad.toml"

@@ -120,7 +120,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UserError(str(exc)) from None
     robot = registry.load_robot(args.robot)
-    _check_crouch(args.crouch, robot)
+    if args.crouch is not None:
+        _check_crouch(args.crouch, robot)
     terrain = registry.terrain_for(args.terrain, robot, removed=args.removed, seed=args.seed, height_m=args.height,
                                    scale=args.terrain_scale)
     gait = registry.gait_for(args.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
@@ -276,7 +277,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
         raise
-    if args.crouch:  # a crouch too deep for the robot fails now, not in a worker
+    if args.crouch is not None:  # a crouch too deep for the robot fails now, not in a worker
         _check_crouch(args.crouch, registry.load_robot(args.robot))
     if any(registry.planner_entry(t.planner).needs_model for t in trials):  # a bad model fails now, not in a worker
         robot = registry.load_robot(args.robot)
@@ -358,7 +359,8 @@ OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean t
 RETARGET_HELP = ("rank a swinging leg's landing again when the measured velocity leaves the command "
                  "(contactnet.planning.retarget; off by default)")
 CROUCH_HELP = ("walk with the CoM this much below the robot's nominal height, all the time (metres, at most a "
-               "third of it; default 0): a push moves the balancing centre of pressure less")
+               "third of it): a push moves the balancing centre of pressure less; 0: the nominal height; default: "
+               "the robot's (Solo12: 0.02 for the walk on terrain of one level, else 0)")
 
 
 def _engine_arguments(parser: argparse.ArgumentParser) -> None:
@@ -440,7 +442,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
-    sim.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=0.0, metavar="M", help=CROUCH_HELP)
+    sim.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M", help=CROUCH_HELP)
     _mismatch_arguments(sim)
     sim.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     sim.add_argument("--record", metavar="FILE.viser")
@@ -540,7 +542,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
-    experiment.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=0.0, metavar="M",
+    experiment.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M",
                             help=CROUCH_HELP)
     _mismatch_arguments(experiment)
     experiment.add_argument("--sim", type=choices("--sim", SIM_ENGINES), metavar="|".join(SIM_ENGINES),

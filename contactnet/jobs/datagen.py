@@ -187,7 +187,7 @@ def write_shard(out_dir: Path, made: dict) -> dict:
 
 def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Run one shard's episodes: its ``u``, ``V``, ``episode`` arrays and how many episodes fell."""
-    from contactnet.locomotion import Locomotion
+    from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.robots import load_robot
     from contactnet.sim.world import SimConfig
     from contactnet.terrain import flat
@@ -196,7 +196,10 @@ def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndar
     gait = gait_for(config.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
     recorder = RecordingPlanner(make_oracle(gait, robot, config.oracle_evaluated_steps))
     us, vs, eps, falls = [], [], [], 0
-    with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard, engine=config.sim)) as loco:
+    # at the nominal height (the paper's data; a robot's default crouch is a choice of the walk, not of its data)
+    loop_config = LocomotionConfig(crouch_m=0.0)
+    with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard, engine=config.sim),
+                    config=loop_config) as loco:
         for episode in config.shard_episodes(shard):
             result = run_episode(loco, recorder, config, episode)
             us.append(result["u"])

@@ -149,13 +149,14 @@ class Trial:
     mismatch: ModelMismatch = ModelMismatch()  # how the simulated robot differs from the model (neutral: not at all)
     sim: str = "pybullet"  # the physics engine (contactnet.sim.engines; the command line passes the installed one)
     scale: float | None = None  # the scene's size against the paper's; None: the robot's (registry.terrain_for)
-    crouch_m: float = 0.0  # the CoM height reference this much below the nominal (LocomotionConfig.crouch_m)
+    crouch_m: float | None = None  # the CoM reference this much below the nominal; None: the robot's default
+    # for the gait and terrain (LocomotionConfig.crouch_m)
 
     @property
     def key(self) -> str:
         """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
         random_heights, a push's duration only when not 1 s, the observer only when off, retargeting only when on
-        and the mismatch only when there is one; the engine only when it is not PyBullet; a crouch only when set."""
+        and the mismatch only when there is one; the engine only when it is not PyBullet; a crouch only when given."""
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
@@ -168,7 +169,7 @@ class Trial:
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
                 f"{robot}{'' if self.observer else '/no-observer'}{'/retarget' if self.retarget else ''}{mismatch}"
                 f"{'' if self.sim == 'pybullet' else '/' + self.sim}{scale}"
-                f"{'' if self.crouch_m == 0.0 else f'/crouch{self.crouch_m:g}'}")
+                f"{'' if self.crouch_m is None else f'/crouch{self.crouch_m:g}'}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -178,7 +179,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               robot: str = DEFAULT_ROBOT, height_m: float = DEFAULT_HEIGHT_M,
               forces_n: tuple[float, ...] = (5.0,), observer: bool = True, impulses_ns: tuple[float, ...] = (),
               push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False,
-              sims: tuple[str, ...] = ("pybullet",), scale: float | None = None, crouch_m: float = 0.0) -> list[Trial]:
+              sims: tuple[str, ...] = ("pybullet",), scale: float | None = None, crouch_m: float | None = None) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
     ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 sampled pushes
@@ -232,7 +233,7 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
     out = [replace(t, sim=sim) for sim in dict.fromkeys(sims) for t in out]
     if scale is not None:
         out = [replace(t, scale=float(scale)) for t in out]
-    if crouch_m:
+    if crouch_m is not None:
         out = [replace(t, crouch_m=float(crouch_m)) for t in out]
     return [replace(t, observer=observer, retarget=retarget) for t in out] if not observer or retarget else out
 
@@ -340,8 +341,8 @@ def trial_inputs(trial: Trial) -> dict:
         del settings["mismatch"]
     if trial.scale is None:
         del settings["scale"]  # the robot's: named by the robot (older logs resume)
-    if not settings["crouch_m"]:
-        del settings["crouch_m"]  # as before the option existed (older logs resume)
+    if settings["crouch_m"] is None:
+        del settings["crouch_m"]  # the robot's default (named by the code), as before the option existed
     del settings["sim"]  # named with its version below
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
                               trial.height_m, trial.robot, trial.scale)

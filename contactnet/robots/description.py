@@ -80,6 +80,9 @@ class RobotSpec:
     #: How much larger than the paper's Solo12 the robot's gaits are sized (``contactnet.motion.gait.SIZE_RULE``);
     #: None: its leg's length over `REFERENCE_LEG_M`, to 0.001.
     size_scale: float | None = None
+    #: The walk's crouch on terrain of one level by default (m: the CoM reference this much lower,
+    #: ``LocomotionConfig.crouch_m``); 0: the nominal height. Set where a measurement says so (Solo12: pushes).
+    walk_crouch_m: float = 0.0
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -171,6 +174,7 @@ class RobotDescription:
     controller_gains: tuple[tuple[str, Any], ...] = ()
     leg_names: tuple[str, ...] = LEG_NAMES
     knee_pos_base: np.ndarray | None = None  #: (4, 3) knee joints in the nominal stance (None: not known)
+    walk_crouch_m: float = 0.0  #: the walk's crouch on terrain of one level by default (RobotSpec.walk_crouch_m)
 
     @property
     def base_height_standing_m(self) -> float:
@@ -194,6 +198,11 @@ class RobotDescription:
         if crouch_m > self.max_crouch_m:
             raise ValueError(f"crouch {crouch_m:g} m is more than a third of {self.name}'s nominal CoM height "
                              f"({self.com_height_nominal_m:.3f} m)")
+
+    def default_crouch_m(self, gait_name: str, heights: bool) -> float:
+        """The crouch ``LocomotionConfig(crouch_m=None)`` takes: ``walk_crouch_m`` for the walk on terrain of one
+        level (``heights`` False), else 0 (a lower body brings the legs nearer the tops of a terrain with heights)."""
+        return self.walk_crouch_m if gait_name == "walk" and not heights else 0.0
 
     @property
     def joint_standing(self) -> np.ndarray:
@@ -466,4 +475,5 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         fall_base_height_m=float(spec.fall_base_height_m),
         controller_gains=spec.controller_gains,
         knee_pos_base=_frozen(knees_base),
+        walk_crouch_m=float(spec.walk_crouch_m),
     )

@@ -19,6 +19,7 @@ read from them, as for the robots in modules::
     # optional: torque_limit_nm (else the URDF's), standing_leg_joints_rad = [abduction, flexion, knee],
     # feet = "sphere" (default: each foot a ball of foot_radius_m in the simulators) or "mesh" (the URDF's),
     # size_scale = 1.3 (the gaits' size against the paper's Solo12; default: the leg's length over 0.3245 m),
+    # walk_crouch_m = 0.02 (the walk's CoM reference this much lower on terrain of one level; default 0),
     # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains)
 
 `contactnet robot init` drafts one from a description folder or a URDF; `contactnet robot check FILE.toml` says
@@ -43,7 +44,7 @@ ROBOT_FILES_ENV = "CONTACTNET_ROBOT_FILES"
 _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes", "foot_suffix", "foot_radius_m",
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
-             "controller_gains", "size_scale")
+             "controller_gains", "size_scale", "walk_crouch_m")
 _POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm", "size_scale")
 
 
@@ -103,6 +104,9 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
             value = values[field]
             if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < 1e6:
                 raise bad(field, f"expected a positive number, got {value!r}")
+    crouch = values.get("walk_crouch_m", 0.0)
+    if isinstance(crouch, bool) or not isinstance(crouch, int | float) or not 0.0 <= crouch < 1.0:
+        raise bad("walk_crouch_m", f"expected a number from 0 to 1 (m), got {crouch!r}")
     stance = values.get("standing_leg_joints_rad")
     if stance is not None and not (isinstance(stance, list) and len(stance) == 3
                                    and all(isinstance(v, int | float) and not isinstance(v, bool) for v in stance)):
@@ -139,6 +143,7 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
                                for name, value in gains.items()),
         collision_recipe=recipe, recipe_version=f"file-{feet}-feet-v1",
         size_scale=None if "size_scale" not in values else float(values["size_scale"]),
+        walk_crouch_m=float(crouch),
     )
 
 
@@ -148,6 +153,8 @@ def spec_values(spec: RobotSpec) -> dict[str, Any]:
     for field in fields(RobotSpec):
         value = getattr(spec, field.name)
         if field.name in ("collision_recipe", "recipe_version") or value is None or value == "" or value == ():
+            continue
+        if field.name == "walk_crouch_m" and value == 0.0:  # the default: not written
             continue
         values[field.name] = list(value) if isinstance(value, tuple) and field.name != "controller_gains" else value
     values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"
