@@ -577,6 +577,7 @@ class Locomotion:
             "sim": self.sim.engine,
             "brace_steps": sum(r.braced for r in self.records),
             "brace_touchdowns": self.brace_touchdowns,
+            "crouch_m": self.crouch_m,
         }
 
     def close(self) -> None:
