@@ -30,7 +30,8 @@ def recorded_problems(loco: Locomotion) -> list:
 
 def test_single_height_terrain_keeps_today_s_references(robot):
     """Stepping stones (every top at the ground level): no height checks, no touchdown adaptation, the CoM
-    height reference is the nominal height at every node and the body stays level."""
+    height reference is the same at every node (the nominal height less the walk's crouch on one level,
+    ``RobotDescription.default_crouch_m``) and the body stays level."""
     gait = WALK
     with Locomotion(robot, resolve("stepping_stones"), gait, make_planner("contactnet", gait, robot),
                     vel_cmd_xy=(0.05, 0.0)) as loco:
@@ -38,7 +39,7 @@ def test_single_height_terrain_keeps_today_s_references(robot):
         problems = recorded_problems(loco)
         result = loco.run(1.0)
     assert problems and result["max_height_change_m"] == 0.0
-    nominal = robot.description.com_height_nominal_m
+    nominal = robot.description.com_height_nominal_m - robot.description.default_crouch_m("walk", heights=False)
     for problem in problems:
         np.testing.assert_array_equal(problem.com_height_ref_m, nominal)
         np.testing.assert_array_equal(problem.pitch_ref_rad, 0.0)
