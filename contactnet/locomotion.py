@@ -88,8 +88,8 @@ class LocomotionConfig:
     brace: BraceConfig | None = BraceConfig()
     # The CoM height reference this much below the robot's nominal (m, RobotDescription.check_crouch), all the time: a
     # lower CoM moves the centre of pressure that balances a push less (F h / (m g)). 0: the paper's height; None: the
-    # robot's default for the gait and the terrain (RobotDescription.default_crouch_m: Solo12's walk 2 cm lower on
-    # terrain of one level, nothing on terrain with heights, where the legs would meet the tops).
+    # robot's default for the gait and the terrain (RobotDescription.default_crouch_m: its walk_crouch_m for the walk
+    # on terrain of one level, nothing on terrain with heights, where the legs would meet the tops; 0 for Solo12).
     crouch_m: float | None = None
 
 

@@ -81,7 +81,8 @@ class RobotSpec:
     #: None: its leg's length over `REFERENCE_LEG_M`, to 0.001.
     size_scale: float | None = None
     #: The walk's crouch on terrain of one level by default (m: the CoM reference this much lower,
-    #: ``LocomotionConfig.crouch_m``); 0: the nominal height. Set where a measurement says so (Solo12: pushes).
+    #: ``LocomotionConfig.crouch_m``); 0: the nominal height. Solo12 and Go2 keep 0 (Solo12's 2 cm, measured:
+    #: docs/results.md).
     walk_crouch_m: float = 0.0
 
     @property
