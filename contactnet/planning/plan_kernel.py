@@ -4,14 +4,14 @@
 state (``network_input_values``), the forward pass (``network_kernel.forward_one``), the walk down the ranking to
 the first safe action (``safe_walk``), the stand choice (``stand.network_stands``), and the state a step later.
 Each of these is a few microseconds of compiled or numpy work, but the calls between them cost more than the work:
-about two thirds of a plan (Go2's walk, 55 us, line-profiled). Here the same operations, on the same floats in the
-same order, run in one call (``plan_steps``), and Python only wraps the answer (``compiled_plan``).
+about two thirds of a plan (line-profiled on Go2's walk). Here the same operations, on the same floats in the
+same order, run in one call (``plan_steps``), and Python only wraps the answer (``CompiledOneLevel.plan``).
 
 It covers the path almost every plan takes while walking: a network planner (the numpy network), no zero command
-with a balanced state (the idle rule), no leg left behind (``contactnet.planning.reach``), no useless-swing rule
-(``IdleConfig.step_when_moving``). Anything else a step meets (a
-landing point on an outline that only shapely can decide, no safe action and no stand) stops it: it returns how many
-steps it made, and the planner then makes the whole plan in Python (the reference: ``tests/test_plan_kernel.py``
+with a balanced state (the idle rule), no useless-swing rule (``IdleConfig.step_when_moving``). Anything else a plan
+meets (a leg left behind, ``contactnet.planning.reach``; a landing point on an outline
+that only shapely can decide, no safe action and no stand) stops it: it returns how many steps it made, and the
+planner then makes the whole plan in Python (the reference: ``tests/test_plan_kernel.py``
 checks that both give the same plans, step by step, on fields with and without holes, pushes, both gaits and the
 fixed gait, Solo12 and Go2).
 """
@@ -27,7 +27,7 @@ from contactnet.motion.gait import GaitSpec
 from contactnet.planning.network import NumpyContactNet
 from contactnet.planning.network_kernel import forward_one
 from contactnet.planning.ranking import ActionCells, CandidateRanking, PlannedStep
-from contactnet.planning.safe_walk import ASK, FOUND, first_safe, first_safe_with_room
+from contactnet.planning.safe_walk import ASK, FOUND, NONE, first_safe, first_safe_with_room
 from contactnet.planning.stand import TOP_RANK_TIE, stand_step
 from contactnet.terrain import Terrain
 
@@ -100,7 +100,7 @@ def plan_steps(feet: np.ndarray, com: np.ndarray, vel: np.ndarray, cmd: np.ndarr
         base_x, base_y = bases[j, 0], bases[j, 1]
         first, stop = spans[j, 0], spans[j, 1]
         if codes.size == 0:  # no safe region at all
-            status, rank, action = 1, -1, -1
+            status, rank, action = NONE, -1, -1
         elif with_room:
             status, rank, action = first_safe_with_room(
                 costs, first, stop, per_group, action_flat, leg_cell, hips, offsets, base_x, base_y, raster, codes,
