@@ -190,4 +190,5 @@ class CompiledOneLevel:
             planned[0].action_index)
         return planned
 
+
 __all__ = ["STAND", "STEP", "CompiledOneLevel", "plan_steps"]
