@@ -18,18 +18,16 @@ fixed gait, Solo12 and Go2).
 
 from __future__ import annotations
 
-from typing import Any
-
 import numba
 import numpy as np
 
 from contactnet.motion.gait import GaitSpec
 from contactnet.planning.network import NumpyContactNet
 from contactnet.planning.network_kernel import forward_one
-from contactnet.planning.ranking import ActionCells, CandidateRanking, PlannedStep
+from contactnet.planning.ranking import ActionCells, PlannedStep
 from contactnet.planning.safe_walk import ASK, FOUND, NONE, first_safe, first_safe_with_room
 from contactnet.planning.stand import TOP_RANK_TIE, stand_step
-from contactnet.terrain import Terrain
+from contactnet.terrain.locate import PointLocator
 
 #: ``plan_steps``' kinds of step: a step of an action, or standing chosen from the network's stand output.
 STEP, STAND = 0, 1
@@ -151,20 +149,19 @@ class CompiledOneLevel:
     def plan(self, feet: np.ndarray, com: np.ndarray, vel: np.ndarray, cmd: np.ndarray, cmd_world: list[float],
              cos_yaw: float, sin_yaw: float, ground_z: float, com_z: float, shift_x: float, shift_y: float,
              bases: list[list[float]], spans: np.ndarray, may_stand: bool, stand_first: bool,
-             ahead: tuple[float, float] | None, terrain: Terrain, margin_m: float, hips_world: np.ndarray,
-             offsets_world: np.ndarray, reach: tuple[float, float, float] | None,
-             planner: Any) -> list[PlannedStep] | None:
-        """The plan's steps, or None (plan in Python); sets ``planner.last_candidates`` (the first step's view, its
-        ranking ``planner._ranking``'s). ``feet`` (4, 2) is changed; ``may_stand``: standing may be chosen (not by
-        the fixed gait), ``stand_first``: at the first step too (not by a pushed robot); ``ahead`` None: no room for
-        the roll; ``terrain`` and ``margin_m``: where landing is safe; ``reach``: the left-behind test's shift and
-        threshold (None: no test); the rest as ``plan_steps`` takes it."""
+             ahead: tuple[float, float] | None, locator: PointLocator, hips_world: np.ndarray,
+             offsets_world: np.ndarray,
+             reach: tuple[float, float, float] | None) -> tuple[list[PlannedStep], np.ndarray] | None:
+        """The plan's steps and the first step's costs (N_a,: its ranking's), or None (plan in Python). ``feet``
+        (4, 2) is changed; ``may_stand``: standing may be chosen (not by the fixed gait), ``stand_first``: at the
+        first step too (not by a pushed robot); ``ahead`` None: no room for the roll; ``locator``: where landing is
+        safe (``Terrain.safe_locator``); ``reach``: the left-behind test's shift and threshold (None: no test); the
+        rest as ``plan_steps`` takes it."""
         gait, actions, n_actions = self.gait, self.actions, self.n_actions
         steps = len(bases)
         costs = np.empty((steps, self.n_out), dtype=self.dtype)
         result = np.empty((steps, 3), dtype=np.int64)
         points = np.empty((steps, actions.legs_per_step, 2))
-        locator = terrain.safe_locator(margin_m)
         outline = locator.outline
         ahead_x, ahead_y = ahead if ahead is not None else (0.0, 0.0)
         behind_x, behind_y, behind_threshold = reach if reach is not None else (0.0, 0.0, 0.0)
@@ -183,12 +180,7 @@ class CompiledOneLevel:
                 planned.append(stand_step(gait, costs[j, :n_actions], float(costs[j, n_actions])))
             else:
                 planned.append(PlannedStep.ranked(group[action], points[j], action, rank))
-        base_xy = np.array(bases[0])
-        planner.last_candidates = CandidateRanking(
-            gait, planner._ranking(costs[0, :n_actions], 0),
-            lambda: (base_xy + hips_world)[:, None, :] + offsets_world[None], terrain, margin_m,
-            planned[0].action_index)
-        return planned
+        return planned, costs[0, :n_actions]
 
 
 __all__ = ["STAND", "STEP", "CompiledOneLevel", "plan_steps"]

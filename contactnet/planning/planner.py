@@ -42,6 +42,7 @@ from contactnet.planning.ranking import (
     PlannedStep,
     cell_grid,
     first_safe_step,
+    one_level_grid,
     step_in_place,
     urgent_first,
 )
@@ -271,9 +272,7 @@ class ContactNetPlanner:
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
         hips_world = self.hip_ref_xy_base @ to_world.T
         offsets_world = gait.cell_offsets_xy @ to_world.T
-        feet = np.asarray(ctx.foot_pos_world, dtype=float)[:, 0:2].tolist()
-        com = np.asarray(ctx.com_pos_world, dtype=float).tolist()
-        vel = np.asarray(ctx.com_vel_world, dtype=float).tolist()
+        feet_xy = np.array(np.asarray(ctx.foot_pos_world, dtype=float)[:, 0:2])  # a copy (the compiled plan moves it)
         base_x, base_y = np.asarray(ctx.base_xy_world, dtype=float).tolist()
         cmd_xy = np.asarray(ctx.vel_cmd_xy, dtype=float)
         cmd = cmd_xy.tolist()
@@ -283,7 +282,7 @@ class ContactNetPlanner:
         if level_z == terrain.surface_z:  # every foot on a top or over a hole: the same height (ground_z)
             tops = [level_z] * 4
         else:
-            tops = terrain.ground_z(np.array(feet)).tolist()
+            tops = terrain.ground_z(feet_xy).tolist()
         ground_z = sum(tops) / len(tops)
         com_z = ground_z + ctx.com_height_ref_m
         cos_yaw, sin_yaw = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
@@ -298,13 +297,21 @@ class ContactNetPlanner:
         # a useless swing gives way to a step that moves (IdleConfig.step_when_moving): its threshold, or None
         moving = self.idle.min_swing_m if self.idle is not None and self.idle.step_when_moving else None
         if self._one_level is not None and not idle and moving is None:  # the common path, compiled
-            steps = self._one_level.plan(
-                np.array(feet), np.array(com), np.array(vel), cmd_xy, cmd_world, cos_yaw, sin_yaw, ground_z, com_z,
-                shift_x, shift_y, bases, self._spans(), self._may_stand, capture_xy is None, ahead, terrain,
-                self.margin_m, hips_world, offsets_world, self._reach_test(cmd_world) if capture_xy is None else None,
-                self)
-            if steps is not None:
+            compiled = self._one_level.plan(
+                feet_xy, np.asarray(ctx.com_pos_world, dtype=float), np.asarray(ctx.com_vel_world, dtype=float),
+                cmd_xy, cmd_world, cos_yaw, sin_yaw, ground_z, com_z, shift_x, shift_y, bases, self._spans(),
+                self._may_stand, capture_xy is None, ahead, terrain.safe_locator(self.margin_m), hips_world,
+                offsets_world, self._reach_test(cmd_world) if capture_xy is None else None)
+            if compiled is not None:
+                steps, costs = compiled
+                self.last_candidates = CandidateRanking(gait, self._ranking(costs, 0),
+                                                        one_level_grid(bases[0], hips_world, offsets_world), terrain,
+                                                        self.margin_m, steps[0].action_index)
                 return steps
+            feet_xy = np.asarray(ctx.foot_pos_world, dtype=float)[:, 0:2]  # as given (the compiled plan moved the copy)
+        feet = feet_xy.tolist()
+        com = np.asarray(ctx.com_pos_world, dtype=float).tolist()
+        vel = np.asarray(ctx.com_vel_world, dtype=float).tolist()
         behind = self._left_behind(feet, bases[0], hips_world, cmd_world) if capture_xy is None else []
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
         costs_of, action_group = self._costs, self._actions.group

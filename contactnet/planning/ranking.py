@@ -235,6 +235,14 @@ class ActionCells:
                    np.array(leg_cell, dtype=np.int64).reshape(-1, 2))
 
 
+def one_level_grid(base_xy: list[float], hips_world: np.ndarray, offsets_world: np.ndarray) -> Callable[[], np.ndarray]:
+    """A function making a step's (4, cells_per_leg, 2) candidate grid on one level (``first_safe_step``'s): the
+    base XY ``base_xy`` plus each leg's hip reference ``hips_world`` (4, 2), plus each cell offset ``offsets_world``
+    (cells_per_leg, 2), world, added in that order."""
+    base = np.array(base_xy)
+    return lambda: (base + hips_world)[:, None, :] + offsets_world[None]
+
+
 class OneLevelWalk:
     """``first_safe_step`` for the steps of one plan on a terrain with one level (usable = safe), found faster: the
     compiled walk of ``contactnet.planning.safe_walk`` (no sort: the cheapest action not ruled out is tried, an unsafe cell
@@ -253,9 +261,8 @@ class OneLevelWalk:
         self.hips, self.offsets = hips_world.tolist(), offsets_world.tolist()
 
     def grid(self, step: int) -> Callable[[], np.ndarray]:
-        """A function making step ``step``'s (4, cells_per_leg, 2) candidate grid (``first_safe_step``'s)."""
-        base_xy = np.array(self.bases[step])
-        return lambda: (base_xy + self.hips_world)[:, None, :] + self.offsets_world[None]
+        """A function making step ``step``'s (4, cells_per_leg, 2) candidate grid (``one_level_grid``)."""
+        return one_level_grid(self.bases[step], self.hips_world, self.offsets_world)
 
     def first_safe(self, step: int, costs: np.ndarray,
                    span: tuple[int, int] | None = None) -> tuple[int, int, list[list[float]]] | None:
