@@ -43,6 +43,7 @@ from contactnet.planning.brace import BraceConfig, braces, standing_horizon, tou
 from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
 from contactnet.planning.planner import Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
+from contactnet.planning.stand import StallWatch, stalled
 from contactnet.records import Snapshot, StepCounts, StepRecord, summary_stats
 from contactnet.robots.description import Robot
 from contactnet.sim.engines import make_simulator
@@ -131,6 +132,7 @@ class Locomotion:
         self.foot_radius_m = robot.description.foot_radius_m
         self._front_to_hind_m = front_to_hind_m(robot.description.foot_nominal_base)
         self.vel_cmd_xy = np.asarray(vel_cmd_xy, dtype=float)
+        self._stall = StallWatch(gait.step_duration_s)  # plans in a row with the CoM not following the command
         self._use_terrain(terrain)
         self.reset()
 
@@ -139,6 +141,7 @@ class Locomotion:
         """Back to the terrain's start (standing, or the given joint positions and velocities)."""
         self.sim.reset(joint_pos=joint_pos, joint_vel=joint_vel)
         self.planner.reset()
+        self._stall.reset()
         self.tick = 0
         self.yaw_ref_rad = 0.0
         self.set_command(*self.vel_cmd_xy)
@@ -149,6 +152,7 @@ class Locomotion:
         self.trajopt_times_s: list[float] = []
         self.trajopt_failures = 0
         self.swing_retargets = 0
+        self.stall_plans = 0  # plans made stalled (contactnet.planning.stand.StallWatch): the first step went on
         self.brace_touchdowns = 0  # steps whose swinging feet bracing put down early
         self.fall_reason: str | None = None
         self.reached_goal = False
@@ -300,6 +304,10 @@ class Locomotion:
 
     def _plan_steps(self, state: SimState) -> None:
         ctx = self._context(state)
+        # a moving command the CoM has not followed for some plans: the planner's stall rule (contactnet.planning.stand)
+        idle = getattr(self.planner, "idle", None)
+        ctx = replace(ctx, still_plans=self._stall.count(ctx.com_pos_world, ctx.vel_cmd_xy, ctx.yaw_rad, idle))
+        self.stall_plans += stalled(ctx.still_plans, idle)
         self._close_height_change(ctx.foot_pos_world)
         t0 = time.perf_counter()
         steps = self.planner.plan(ctx)
@@ -550,7 +558,8 @@ class Locomotion:
         ``steps`` counts the steps that swung legs; ``stand_steps`` the step horizons the planner chose to stand;
         ``useless_steps`` the steps whose feet landed less than ``USELESS_STEP_M`` from where they lifted off;
         ``capture_steps`` the steps whose candidates moved towards the capture point after a push
-        (``contactnet.planning.capture``)."""
+        (``contactnet.planning.capture``); ``stall_plans`` the plans made while the CoM had stopped following a moving
+        command, whose first step went on along it (``contactnet.planning.stand.StallWatch``)."""
         ranks = [r.rank for r in self.records if r.rank is not None]
         sim_time = float(self.sim.t_s)
         displacement = self._state.base_pos_world[:2] - self.start_xy
@@ -578,6 +587,7 @@ class Locomotion:
             "brace_steps": sum(r.braced for r in self.records),
             "brace_touchdowns": self.brace_touchdowns,
             "crouch_m": self.crouch_m,
+            "stall_plans": self.stall_plans,
         }
 
     def close(self) -> None:

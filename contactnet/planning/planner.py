@@ -56,6 +56,8 @@ from contactnet.planning.stand import (
     idle_stand_step,
     is_idle,
     network_stands,
+    stalled,
+    stalled_step,
     stand_step,
     useless_swing,
 )
@@ -89,6 +91,9 @@ class PlanningContext:
     # An external horizontal force on the body (N, world) the capture step leans into (contactnet.planning.observer);
     # None: none known.
     external_force_xy_world: tuple[float, float] | None = None
+    # Plans in a row, this one included, with a moving command while the CoM did not follow it (counted by the loop:
+    # contactnet.planning.stand.StallWatch); 0 for a state seen on its own.
+    still_plans: int = 0
 
     def vel_cmd_world(self) -> np.ndarray:
         return rotate_xy(self.vel_cmd_xy, self.yaw_rad)
@@ -253,20 +258,22 @@ class ContactNetPlanner:
         offset = capture_offset(ctx.com_vel_world, ctx.vel_cmd_xy, ctx.yaw_rad, self.capture,
                                 ctx.external_force_xy_world, self._lean_m_per_n)
         idle = is_idle(ctx.com_vel_world, ctx.vel_cmd_xy, self.idle)
+        must_step = stalled(ctx.still_plans, self.idle)  # a stop with a moving command (StallWatch)
         if self.footholds.applies(ctx.terrain):
-            steps = self._plan_with_heights(ctx, offset, idle)
+            steps = self._plan_with_heights(ctx, offset, idle, must_step)
         else:
-            steps = self._plan_one_level(ctx, offset, idle)
+            steps = self._plan_one_level(ctx, offset, idle, must_step)
         if offset is not None:
             steps[0] = dataclasses.replace(steps[0], captured=True)
         self._advance()
         return steps
 
     def _plan_one_level(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
-                        idle: bool = False) -> list[PlannedStep]:
+                        idle: bool = False, must_step: bool = False) -> list[PlannedStep]:
         """``plan`` on a terrain whose tops are all at one height, where a candidate is usable when it is safe:
         ``first_safe_step``'s choice, found faster (``OneLevelWalk``). ``capture_xy``: the first step's grid shift
-        (``contactnet.planning.capture``), None for none; ``idle``: a useless swing is replaced by standing (``is_idle``)."""
+        (``contactnet.planning.capture``), None for none; ``idle``: a useless swing is replaced by standing (``is_idle``);
+        ``must_step``: the first step does not stand (a stall, ``StallWatch``; a pushed robot's as well)."""
         gait, terrain = self.gait, ctx.terrain
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
@@ -295,12 +302,15 @@ class ContactNetPlanner:
             bases[0] = [bases[0][0] + capture_xy[0], bases[0][1] + capture_xy[1]]
         ahead = roll_ahead_xy(self.robot.foot_radius_m, cmd_world, self.roll)
         # a useless swing gives way to a step that moves (IdleConfig.step_when_moving): its threshold, or None
-        moving = self.idle.min_swing_m if self.idle is not None and self.idle.step_when_moving else None
+        # (always when stalled: standing is no answer, nor a step that does not go along the command)
+        moving = self.idle.min_swing_m if self.idle is not None and (self.idle.step_when_moving or must_step) else None
+        speed = math.hypot(cmd_world[0], cmd_world[1])
+        forward = (cmd_world[0] / speed, cmd_world[1] / speed) if must_step else None  # (stalled: a moving command)
         if self._one_level is not None and not idle and moving is None:  # the common path, compiled
             compiled = self._one_level.plan(
                 feet_xy, np.asarray(ctx.com_pos_world, dtype=float), np.asarray(ctx.com_vel_world, dtype=float),
                 cmd_xy, cmd_world, cos_yaw, sin_yaw, ground_z, com_z, shift_x, shift_y, bases, self._spans(),
-                self._may_stand, capture_xy is None, ahead, terrain.safe_locator(self.margin_m), hips_world,
+                self._may_stand, capture_xy is None and not must_step, ahead, terrain.safe_locator(self.margin_m), hips_world,
                 offsets_world, self._reach_test(cmd_world) if capture_xy is None else None)
             if compiled is not None:
                 steps, costs = compiled
@@ -319,8 +329,8 @@ class ContactNetPlanner:
         for j in range(self._steps_per_plan):
             costs, stand_cost = self._split_stand(costs_of(network_input_values(feet, com, vel, cmd, cos_yaw, sin_yaw,
                                                                                 ground_z)))
-            if j == 0 and capture_xy is not None:
-                stand_cost = None  # a pushed robot steps
+            if j == 0 and (capture_xy is not None or must_step):
+                stand_cost = None  # a pushed robot steps, and so does a stalled one
             order = self._ranking(costs, j)
             span = self._group_range(j)
             # a leg left behind goes first (contactnet.planning.reach); else the first safe action
@@ -338,7 +348,12 @@ class ContactNetPlanner:
                 if roomed is not None and roomed[1] != found[1]:
                     found = int(rank_of(costs, span[0], span[1], roomed[1])), roomed[1], roomed[2]
             top = found  # the stand is weighed against the ranking's first safe step
-            if (j == 0 and not forced and not idle and found is not None and moving is not None
+            if j == 0 and must_step and found is not None:  # stalled: a step along the command (StallWatch)
+                stuck = found
+                found = stalled_step(walk, costs, span, found, feet, ahead, moving, self._actions, self._actions_per_group,
+                                     forward)
+                forced = forced and found is stuck
+            elif (j == 0 and not forced and not idle and found is not None and moving is not None
                     and useless_swing(action_group[found[1]], found[2], feet, moving)):
                 found = first_step_that_moves(walk, costs, span, found, feet, ahead, moving, self._actions.flat_array,
                                               self._actions_per_group)
@@ -416,12 +431,12 @@ class ContactNetPlanner:
         return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2], better[3]
 
     def _plan_with_heights(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
-                           idle: bool = False) -> list[PlannedStep]:
+                           idle: bool = False, must_step: bool = False) -> list[PlannedStep]:
         """``plan`` on a terrain with tops at several heights (see the class doc): ``first_safe_step`` with the
         height checks, the first step's ranking with the actions moving a cornered leg first (see
         ``CORNERED_LOOKAHEAD_STEPS``), found faster (``HeightsWalk``, one per planner and terrain). ``capture_xy``:
         the first step's grid shift (the hips at touchdown, for the reach check, are not shifted), None for none;
-        ``idle`` as in ``_plan_one_level``."""
+        ``idle`` and ``must_step`` as in ``_plan_one_level``."""
         gait, terrain = self.gait, ctx.terrain
         c, s = np.cos(ctx.yaw_rad), np.sin(ctx.yaw_rad)
         to_world = np.array([[c, -s], [s, c]])  # heading frame -> world
@@ -471,8 +486,8 @@ class ContactNetPlanner:
             order = self._ranking(costs, j)
             if j == 0:
                 grid = walk.grid(0)
-                if capture_xy is not None or walk.cornered is not None:
-                    stand_cost = None  # a pushed robot steps, and so does one with a cornered leg
+                if capture_xy is not None or walk.cornered is not None or must_step:
+                    stand_cost = None  # a pushed robot steps, and so do one with a cornered leg and a stalled one
                     if walk.cornered is not None:
                         order = functools.partial(_urgent_ranking, order, walk.urgent(span, grid), span[0])
             if self._stands(costs, stand_cost, found):

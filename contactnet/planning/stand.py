@@ -94,12 +94,18 @@ class IdleConfig:
     max_velocity_error_m_s: float = 0.05  # |CoM velocity (xy) - command| at or below this counts as balanced
     min_swing_m: float = 0.02  # a swing moving every foot less than this is useless (simulate --json's measure)
     step_when_moving: bool = False  # with a moving command, a useless swing gives way to the first step that moves
+    #: A stall (``StallWatch``): after this many plans in a row with a moving command and the CoM not following it,
+    #: a plan's first step neither stands nor swings uselessly (0: never)
+    stall_plans: int = 3
+    stall_speed_share: float = 0.25  # ... not following: since the last plan, less than this share of the command's way
 
     def __post_init__(self) -> None:
-        for name in ("max_command_m_s", "max_velocity_error_m_s", "min_swing_m"):
+        for name in ("max_command_m_s", "max_velocity_error_m_s", "min_swing_m", "stall_speed_share"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"IdleConfig.{name} must be a finite number >= 0, got {value!r}")
+        if isinstance(self.stall_plans, bool) or not isinstance(self.stall_plans, int) or self.stall_plans < 0:
+            raise ValueError(f"IdleConfig.stall_plans must be an integer >= 0, got {self.stall_plans!r}")
 
 
 #: The planners' default: the idle rule on (``ContactNetPlanner(idle=None)`` turns it off).
@@ -119,6 +125,57 @@ def is_idle(com_vel_world: np.ndarray, vel_cmd_xy: np.ndarray, config: IdleConfi
     return math.hypot(float(com_vel_world[0]), float(com_vel_world[1])) <= config.max_velocity_error_m_s
 
 
+class StallWatch:
+    """How long a robot with a moving command has not been following it: the stand choice's dead end.
+
+    A network with the stand output stands when standing ranks above the first safe step. Where every safe step
+    ranks low (Go2's trot model on its stepping stones: the first safe step 41st of 163, plan after plan) it stands
+    with a moving command, the body comes to rest over its feet, and the next plan, from the same state, stands
+    again, to the time limit; a model that swings a leg without moving it (a useless swing) does the same by
+    stepping. The loop (``contactnet.locomotion``) counts its plans made with a moving command while the CoM did
+    not follow it (since the previous plan it moved along the command less than ``IdleConfig.stall_speed_share`` of
+    the way the command asked for) and hands the count to the planner (``PlanningContext.still_plans``); after
+    ``IdleConfig.stall_plans`` such plans in a row a ContactNet planner's first step neither stands nor puts its
+    feet back where they are (it takes the first safe step that moves them, ``first_step_that_moves``) until the CoM
+    follows again or the command stops. A robot walking as commanded never counts: standing between steps, its CoM
+    moves on over the feet."""
+
+    def __init__(self, interval_s: float) -> None:
+        self.interval_s = interval_s  # the time between two plans (one step: the loop plans every step)
+        self.still_plans = 0  # plans in a row with a moving command and the CoM not following it
+        self._last_xy: tuple[float, float] | None = None  # the CoM at the last plan (world, m)
+
+    def reset(self) -> None:
+        self.still_plans, self._last_xy = 0, None
+
+    def count(self, com_pos_world: np.ndarray, vel_cmd_xy: np.ndarray, yaw_rad: float,
+              config: IdleConfig | None) -> int:
+        """Count a plan's state (the CoM, world; the command, heading frame, horizontal; the heading's yaw) and
+        return how many plans in a row, this one included, the CoM has not followed a moving command: it moved
+        along the command less than ``config.stall_speed_share`` of the command's way over one interval since the
+        previous plan. 0 with ``config`` None (the planner's: one without the idle rule)."""
+        x, y = float(com_pos_world[0]), float(com_pos_world[1])
+        last, self._last_xy = self._last_xy, (x, y)
+        cmd_x, cmd_y = float(vel_cmd_xy[0]), float(vel_cmd_xy[1])
+        speed = math.hypot(cmd_x, cmd_y)
+        if config is None or last is None or not speed > config.max_command_m_s:
+            self.still_plans = 0
+            return 0
+        c, s = math.cos(yaw_rad), math.sin(yaw_rad)  # the way along the command, the command turned into the world
+        along = ((x - last[0]) * (c * cmd_x - s * cmd_y) + (y - last[1]) * (s * cmd_x + c * cmd_y)) / speed
+        if along >= config.stall_speed_share * speed * self.interval_s:
+            self.still_plans = 0
+        else:
+            self.still_plans += 1
+        return self.still_plans
+
+
+def stalled(still_plans: int, config: IdleConfig | None) -> bool:
+    """Whether a plan's first step must move (``StallWatch``): ``still_plans`` (``PlanningContext.still_plans``)
+    beyond ``config.stall_plans``; never with the rule off (``config`` None or ``stall_plans`` 0)."""
+    return config is not None and 0 < config.stall_plans < still_plans
+
+
 def useless_swing(legs: tuple[int, ...], landing_xy_world, feet_xy_world, min_swing_m: float) -> bool:  # noqa: ANN001
     """Whether every swinging foot (``legs``) lands less than ``min_swing_m`` from where it is: ``landing_xy_world``
     one [x, y] per leg of ``legs``, ``feet_xy_world`` one [x, y] per leg (lists or arrays)."""
@@ -131,18 +188,37 @@ def useless_swing(legs: tuple[int, ...], landing_xy_world, feet_xy_world, min_sw
     return True
 
 
+def moves_forward(legs: tuple[int, ...], landing_xy_world, feet_xy_world, forward_xy: tuple[float, float],  # noqa: ANN001
+                  min_swing_m: float) -> bool:
+    """Whether the swinging feet (``legs``, landing at ``landing_xy_world``, one [x, y] per leg of ``legs``) move
+    ``min_swing_m`` or more along the unit vector ``forward_xy`` (world) on average; standing does not."""
+    if not legs:
+        return False
+    way = sum((x - feet_xy_world[leg][0]) * forward_xy[0] + (y - feet_xy_world[leg][1]) * forward_xy[1]
+              for leg, (x, y) in zip(legs, landing_xy_world, strict=True))
+    return way >= min_swing_m * len(legs)
+
+
 def first_step_that_moves(walk: OneLevelWalk, costs: np.ndarray, span: tuple[int, int],
                           found: tuple[int, int, list[list[float]]], feet_xy_world: list[list[float]],
                           ahead_xy: tuple[float, float] | None, min_swing_m: float, action_flat: np.ndarray,
-                          per_group: int) -> tuple[int, int, list[list[float]]]:
+                          per_group: int,
+                          forward_xy: tuple[float, float] | None = None) -> tuple[int, int, list[list[float]]]:
     """``IdleConfig.step_when_moving`` on a plan's first step: the first safe action of ``costs``' ranking over
     ``span`` (with the room for the roll ``ahead_xy`` among those, as for any choice) whose swinging feet do not all
     land within ``min_swing_m`` of where they are (``feet_xy_world``, one [x, y] per leg), as (its rank in the
-    ranking, action, landing points); ``found`` (the ranking's first safe action, a useless swing) when no such
-    action is safe. ``action_flat`` (N_a, legs per step): each action's grid cells (``ActionCells.flat_array``)."""
+    ranking, action, landing points); ``found`` (the ranking's first safe action) when no such action is safe.
+    ``action_flat`` (N_a, legs per step): each action's grid cells (``ActionCells.flat_array``). With
+    ``forward_xy`` (a unit vector, world): the first whose swinging feet move ``min_swing_m`` or more along it on
+    average (``moves_forward``; a stalled robot's step, ``StallWatch``)."""
     cells = walk.grid(0)()  # (4, cells per leg, 2), world
-    near = np.hypot(*(cells - np.asarray(feet_xy_world)[:, None, :]).transpose(2, 0, 1)) < min_swing_m
-    useless = near.reshape(-1)[action_flat].all(axis=1)
+    offsets = cells - np.asarray(feet_xy_world)[:, None, :]
+    if forward_xy is None:
+        near = np.hypot(*offsets.transpose(2, 0, 1)) < min_swing_m
+        useless = near.reshape(-1)[action_flat].all(axis=1)
+    else:
+        way = offsets @ np.asarray(forward_xy, dtype=float)
+        useless = way.reshape(-1)[action_flat].mean(axis=1) < min_swing_m
     masked = costs.copy()
     masked[useless] = np.nan  # ranked after every step that moves
     better = walk.first_safe(0, masked, span)
@@ -155,6 +231,24 @@ def first_step_that_moves(walk: OneLevelWalk, costs: np.ndarray, span: tuple[int
     return int(rank_of(costs, span[0], span[1], better[1])), better[1], better[2]
 
 
+def stalled_step(walk: OneLevelWalk, costs: np.ndarray, span: tuple[int, int], found: tuple[int, int, list[list[float]]],
+                 feet_xy_world: list[list[float]], ahead_xy: tuple[float, float] | None, min_swing_m: float,
+                 actions, per_group: int, forward_xy: tuple[float, float]) -> tuple[int, int, list[list[float]]]:  # noqa: ANN001
+    """A stalled plan's first step (``StallWatch``) on terrain of one level, from ``found`` (the ranking's first safe
+    step, as ``first_step_that_moves`` takes it): that step if it goes along the command (``moves_forward``), else
+    the first safe step that does, else, if ``found`` is a useless swing, the first safe step that moves the feet at
+    all, else ``found`` itself (the same object: nothing better is safe). ``actions``: the planner's
+    ``ActionCells`` (``per_group`` actions a swing group); ``forward_xy`` the command's direction (unit, world)."""
+    if moves_forward(actions.group[found[1]], found[2], feet_xy_world, forward_xy, min_swing_m):
+        return found
+    ahead = first_step_that_moves(walk, costs, span, found, feet_xy_world, ahead_xy, min_swing_m, actions.flat_array,
+                                  per_group, forward_xy)
+    if ahead is found and useless_swing(actions.group[found[1]], found[2], feet_xy_world, min_swing_m):
+        return first_step_that_moves(walk, costs, span, found, feet_xy_world, ahead_xy, min_swing_m,
+                                     actions.flat_array, per_group)
+    return ahead
+
+
 def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
     """Standing at ``rank`` of the ranking (the actions above it discarded): the idle rule's choice over the useless
     step at ``rank`` (standing takes its place), and ``stand_step``'s."""
@@ -162,5 +256,6 @@ def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
                        discarded=rank)
 
 
-__all__ = ["DEFAULT_IDLE", "TOP_RANK_TIE", "IdleConfig", "first_step_that_moves", "idle_stand_step", "is_idle",
-           "network_stands", "prefer_stand", "split_stand", "stand_step", "useless_swing"]
+__all__ = ["DEFAULT_IDLE", "TOP_RANK_TIE", "IdleConfig", "StallWatch", "first_step_that_moves", "idle_stand_step",
+           "is_idle", "moves_forward", "network_stands", "prefer_stand", "split_stand", "stalled", "stalled_step",
+           "stand_step", "useless_swing"]
