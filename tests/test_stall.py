@@ -26,20 +26,26 @@ STEP_S = 0.32
 
 
 def test_the_watch_counts_plans_whose_com_did_not_follow_a_moving_command():
+    """Each plan's CoM against the one where it last followed (the anchor): following means a quarter of the
+    command's way per plan since then, along the command."""
     watch, config = StallWatch(STEP_S), IdleConfig(stall_speed_share=0.25)
     cmd = np.array([0.05, 0.0])
     way = 0.05 * STEP_S  # the command's way between two plans
-    assert watch.count(np.zeros(3), cmd, 0.0, config) == 0  # the first plan: nothing to compare with
-    assert watch.count(np.array([0.2 * way, 0.0, 0.0]), cmd, 0.0, config) == 1  # a fifth of the way: not following
-    assert watch.count(np.array([0.2 * way, 0.05, 0.0]), cmd, 0.0, config) == 2  # sideways does not count
-    assert watch.count(np.array([0.2 * way - 0.01, 0.05, 0.0]), cmd, 0.0, config) == 3  # nor back
-    assert watch.count(np.array([0.5 * way, 0.05, 0.0]), cmd, 0.0, config) == 0  # 0.3 of the way: it follows
-    assert watch.count(np.array([0.5 * way, 0.05, 0.0]), cmd, 0.0, config) == 1
-    assert watch.count(np.array([0.5 * way, 0.05, 0.0]), np.zeros(2), 0.0, config) == 0  # no command: no stall
-    assert watch.count(np.array([0.5 * way, 0.05, 0.0]), cmd, 0.0, config) == 1
+    at = (lambda x, y=0.0: np.array([x, y, 0.3]))  # noqa: E731
+    assert watch.count(at(0.0), cmd, 0.0, config) == 0  # the first plan: the anchor
+    assert watch.count(at(0.2 * way), cmd, 0.0, config) == 1  # a fifth of the way: not following
+    assert watch.count(at(0.2 * way, 0.05), cmd, 0.0, config) == 2  # sideways does not count
+    assert watch.count(at(0.6 * way, 0.05), cmd, 0.0, config) == 3  # 0.6 of the way in 3 plans: less than 0.75
+    assert watch.count(at(0.9 * way), cmd, 0.0, config) == 4  # ... 0.9 in 4 plans: less than 1
+    assert watch.count(at(1.3 * way), cmd, 0.0, config) == 0  # 1.3 in 5 plans: it follows (a new anchor)
+    assert watch.count(at(1.3 * way + 0.3 * way), cmd, 0.0, config) == 0  # 0.3 of the way in one plan
+    for k in range(1, 6):  # a body that sways back and forth (0.3 of the way each plan) never follows
+        assert watch.count(at(1.6 * way - 0.3 * way * (k % 2)), cmd, 0.0, config) == k
+    assert watch.count(at(1.6 * way), np.zeros(2), 0.0, config) == 0  # no command: no stall
+    assert watch.count(at(1.6 * way), cmd, 0.0, config) == 1
     watch.reset()
-    assert watch.count(np.array([0.5 * way, 0.05, 0.0]), cmd, 0.0, config) == 0  # after a reset: a first plan
-    assert watch.count(np.array([0.5 * way, 0.05, 0.0]), cmd, 0.0, None) == 0  # a planner without the rule
+    assert watch.count(at(1.6 * way), cmd, 0.0, config) == 0  # after a reset: a first plan
+    assert watch.count(at(1.6 * way), cmd, 0.0, None) == 0  # a planner without the rule
 
 
 def test_the_way_is_measured_along_the_command_in_the_world():

@@ -97,7 +97,7 @@ class IdleConfig:
     #: A stall (``StallWatch``): after this many plans in a row with a moving command and the CoM not following it,
     #: a plan's first step neither stands nor swings uselessly (0: never)
     stall_plans: int = 3
-    stall_speed_share: float = 0.25  # ... not following: since the last plan, less than this share of the command's way
+    stall_speed_share: float = 0.25  # ... not following: less than this share of the command's way since it last did
 
     def __post_init__(self) -> None:
         for name in ("max_command_m_s", "max_velocity_error_m_s", "min_swing_m", "stall_speed_share"):
@@ -133,8 +133,8 @@ class StallWatch:
     with a moving command, the body comes to rest over its feet, and the next plan, from the same state, stands
     again, to the time limit; a model that swings a leg without moving it (a useless swing) does the same by
     stepping. The loop (``contactnet.locomotion``) counts its plans made with a moving command while the CoM did
-    not follow it (since the previous plan it moved along the command less than ``IdleConfig.stall_speed_share`` of
-    the way the command asked for) and hands the count to the planner (``PlanningContext.still_plans``); after
+    not follow it (since the plan where it last did, it moved along the command less than
+    ``IdleConfig.stall_speed_share`` of the way the command asked for) and hands the count to the planner (``PlanningContext.still_plans``); after
     ``IdleConfig.stall_plans`` such plans in a row a ContactNet planner's first step neither stands nor puts its
     feet back where they are (it takes the first safe step that moves them, ``first_step_that_moves``) until the CoM
     follows again or the command stops. A robot walking as commanded never counts: standing between steps, its CoM
@@ -143,30 +143,33 @@ class StallWatch:
     def __init__(self, interval_s: float) -> None:
         self.interval_s = interval_s  # the time between two plans (one step: the loop plans every step)
         self.still_plans = 0  # plans in a row with a moving command and the CoM not following it
-        self._last_xy: tuple[float, float] | None = None  # the CoM at the last plan (world, m)
+        self._anchor_xy: tuple[float, float] | None = None  # the CoM where it last followed (world, m)
 
     def reset(self) -> None:
-        self.still_plans, self._last_xy = 0, None
+        self.still_plans, self._anchor_xy = 0, None
 
     def count(self, com_pos_world: np.ndarray, vel_cmd_xy: np.ndarray, yaw_rad: float,
               config: IdleConfig | None) -> int:
         """Count a plan's state (the CoM, world; the command, heading frame, horizontal; the heading's yaw) and
-        return how many plans in a row, this one included, the CoM has not followed a moving command: it moved
-        along the command less than ``config.stall_speed_share`` of the command's way over one interval since the
-        previous plan. 0 with ``config`` None (the planner's: one without the idle rule)."""
+        return how many plans in a row, this one included, the CoM has not followed a moving command: since the
+        plan where it last did (the anchor) it moved along the command less than ``config.stall_speed_share`` of
+        the way the command asked for over those plans (one interval each). Measured from the anchor, so a body that
+        sways back and forth with its steps does not count as following. 0 with ``config`` None (the planner's: one
+        without the idle rule)."""
         x, y = float(com_pos_world[0]), float(com_pos_world[1])
-        last, self._last_xy = self._last_xy, (x, y)
+        anchor = self._anchor_xy
         cmd_x, cmd_y = float(vel_cmd_xy[0]), float(vel_cmd_xy[1])
         speed = math.hypot(cmd_x, cmd_y)
-        if config is None or last is None or not speed > config.max_command_m_s:
-            self.still_plans = 0
+        if config is None or anchor is None or not speed > config.max_command_m_s:
+            self.still_plans, self._anchor_xy = 0, (x, y)
             return 0
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)  # the way along the command, the command turned into the world
-        along = ((x - last[0]) * (c * cmd_x - s * cmd_y) + (y - last[1]) * (s * cmd_x + c * cmd_y)) / speed
-        if along >= config.stall_speed_share * speed * self.interval_s:
-            self.still_plans = 0
+        along = ((x - anchor[0]) * (c * cmd_x - s * cmd_y) + (y - anchor[1]) * (s * cmd_x + c * cmd_y)) / speed
+        plans = self.still_plans + 1  # plans since the anchor
+        if along >= config.stall_speed_share * speed * self.interval_s * plans:
+            self.still_plans, self._anchor_xy = 0, (x, y)
         else:
-            self.still_plans += 1
+            self.still_plans = plans
         return self.still_plans
 
 
