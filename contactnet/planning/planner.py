@@ -310,7 +310,7 @@ class ContactNetPlanner:
             compiled = self._one_level.plan(
                 feet_xy, np.asarray(ctx.com_pos_world, dtype=float), np.asarray(ctx.com_vel_world, dtype=float),
                 cmd_xy, cmd_world, cos_yaw, sin_yaw, ground_z, com_z, shift_x, shift_y, bases, self._spans(),
-                self._may_stand, capture_xy is None and not must_step, ahead, terrain.safe_locator(self.margin_m), hips_world,
+                self._may_stand, capture_xy is None, ahead, terrain.safe_locator(self.margin_m), hips_world,
                 offsets_world, self._reach_test(cmd_world) if capture_xy is None else None)
             if compiled is not None:
                 steps, costs = compiled

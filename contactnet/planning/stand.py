@@ -95,7 +95,7 @@ class IdleConfig:
     min_swing_m: float = 0.02  # a swing moving every foot less than this is useless (simulate --json's measure)
     step_when_moving: bool = False  # with a moving command, a useless swing gives way to the first step that moves
     #: A stall (``StallWatch``): after this many plans in a row with a moving command and the CoM not following it,
-    #: a plan's first step neither stands nor swings uselessly (0: never)
+    #: a plan's first step does not stand and goes along the command (``stalled_step``; 0: never)
     stall_plans: int = 3
     stall_speed_share: float = 0.25  # ... not following: less than this share of the command's way since it last did
 
@@ -134,10 +134,10 @@ class StallWatch:
     again, to the time limit; a model that swings a leg without moving it (a useless swing) does the same by
     stepping. The loop (``contactnet.locomotion``) counts its plans made with a moving command while the CoM did
     not follow it (since the plan where it last did, it moved along the command less than
-    ``IdleConfig.stall_speed_share`` of the way the command asked for) and hands the count to the planner (``PlanningContext.still_plans``); after
-    ``IdleConfig.stall_plans`` such plans in a row a ContactNet planner's first step neither stands nor puts its
-    feet back where they are (it takes the first safe step that moves them, ``first_step_that_moves``) until the CoM
-    follows again or the command stops. A robot walking as commanded never counts: standing between steps, its CoM
+    ``IdleConfig.stall_speed_share`` of the way the command asked for) and hands the count to the planner
+    (``PlanningContext.still_plans``); after ``IdleConfig.stall_plans`` such plans in a row a ContactNet planner's
+    first step does not stand and, on terrain of one level, goes along the command where a safe step does
+    (``stalled_step``), until the CoM follows again or the command stops. A robot walking as commanded never counts: standing between steps, its CoM
     moves on over the feet."""
 
     def __init__(self, interval_s: float) -> None:
