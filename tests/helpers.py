@@ -5,6 +5,8 @@ from __future__ import annotations
 import contextlib
 import time
 
+import numpy as np
+
 
 def wait_for(predicate, timeout: float = 20.0, what: str = "condition", poll_s: float = 0.02):
     """Poll ``predicate`` until it returns something truthy (returned), else fail naming ``what``."""
@@ -229,3 +231,15 @@ def served_flat_tool(data):  # noqa: ANN001, ANN201 - a Path
             yield app, port
     finally:
         app.close()
+
+
+class FixedScores:
+    """A stand-in network model whose scores do not depend on the state: one random score per stepping action of
+    ``gait`` (no stand output), drawn with ``seed``."""
+
+    def __init__(self, gait, seed: int) -> None:  # noqa: ANN001 - a GaitSpec
+        self.gait, self.n_actions, self.path = gait.name, gait.n_actions, "<fixed>"
+        self._scores = np.random.default_rng(seed).normal(size=gait.n_actions)
+
+    def scores(self, u):  # noqa: ANN001, ANN201
+        return self._scores

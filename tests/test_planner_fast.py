@@ -10,7 +10,7 @@ import dataclasses
 import numpy as np
 import pytest
 import shapely
-from helpers import save_random_models
+from helpers import FixedScores, save_random_models
 
 from contactnet.bench.planner import planning_contexts
 from contactnet.motion.gait import TROT, WALK
@@ -223,15 +223,6 @@ def test_a_leg_left_behind_goes_first(robot, models, gait, name):
         assert seen["behind"] == 0
 
 
-class _Fixed:
-    """A stand-in model whose scores do not depend on the state (one random score per action)."""
-
-    def __init__(self, gait, seed: int) -> None:
-        self.gait, self.n_actions, self.path = gait.name, gait.n_actions, "<fixed>"
-        self._scores = np.random.default_rng(seed).normal(size=gait.n_actions)
-
-    def scores(self, u):
-        return self._scores
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
@@ -245,7 +236,7 @@ def test_a_useless_swing_gives_way_to_a_step_that_moves(robot, gait):
     seen = {"plans": 0, "deep": 0, "in_place": 0, "roomed": 0, "behind": 0, "moved": 0}
     changed = 0
     for seed, (_label, terrain) in enumerate(FLAT[:3]):
-        model = _Fixed(gait, seed)
+        model = FixedScores(gait, seed)
         planner = ContactNetPlanner(gait, robot.description, model, reach=None)  # (a leg left behind goes first)
         with_rule = dataclasses.replace(planner.idle, step_when_moving=True)
         contexts = planning_contexts(gait, terrain(), robot.description, 40, seed=6)

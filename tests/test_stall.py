@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import FixedScores
 
 from contactnet.bench.planner import planning_contexts
 from contactnet.locomotion import Locomotion
@@ -161,15 +162,6 @@ def test_a_walking_robot_is_never_counted_as_stalled(robot):
     assert max(seen[5:]) <= DEFAULT_IDLE.stall_plans, seen
 
 
-class _Fixed:
-    """A stand-in model whose scores do not depend on the state (one random score per action, no stand output)."""
-
-    def __init__(self, gait, seed: int) -> None:  # noqa: ANN001
-        self.gait, self.n_actions, self.path = gait.name, gait.n_actions, "<fixed>"
-        self._scores = np.random.default_rng(seed).normal(size=gait.n_actions)
-
-    def scores(self, u):  # noqa: ANN001, ANN201
-        return self._scores
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
@@ -182,7 +174,7 @@ def test_a_stalled_plans_first_step_is_the_first_safe_step_along_the_command(rob
     action_legs, action_cells = gait.action_cells
     replaced = 0
     for seed in range(3):
-        model = _Fixed(gait, seed)
+        model = FixedScores(gait, seed)
         planner = ContactNetPlanner(gait, robot.description, model, reach=None)
         terrain = resolve("random", removed=100, seed=seed)
         order = np.argsort(-model.scores(None), kind="stable")

@@ -304,8 +304,10 @@ class ContactNetPlanner:
         # a useless swing gives way to a step that moves (IdleConfig.step_when_moving): its threshold, or None
         # (always when stalled: standing is no answer, nor a step that does not go along the command)
         moving = self.idle.min_swing_m if self.idle is not None and (self.idle.step_when_moving or must_step) else None
-        speed = math.hypot(cmd_world[0], cmd_world[1])
-        forward = (cmd_world[0] / speed, cmd_world[1] / speed) if must_step else None  # (stalled: a moving command)
+        forward = None  # the way a stalled step goes: the command's direction (a stall has a moving command)
+        if must_step:
+            speed = math.hypot(cmd_world[0], cmd_world[1])
+            forward = (cmd_world[0] / speed, cmd_world[1] / speed)
         if self._one_level is not None and not idle and moving is None:  # the common path, compiled
             compiled = self._one_level.plan(
                 feet_xy, np.asarray(ctx.com_pos_world, dtype=float), np.asarray(ctx.com_vel_world, dtype=float),
