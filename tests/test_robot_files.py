@@ -82,6 +82,10 @@ def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
      "feet: expected 'sphere' or 'mesh'"),
     (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nwalk_crouch_m = -0.01\n'),
      "walk_crouch_m: expected a number from 0 to 1"),
+    (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nstance_abduction_rad = 0.5\n'),
+     "stance_abduction_rad: expected a number from 0 to 0.3"),
+    (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nstance_abduction_rad = true\n'),
+     "stance_abduction_rad: expected a number"),
 ])
 def test_a_bad_robot_file_is_one_line_naming_the_field(tmp_path, change, message):
     path = tmp_path / "bad.toml"
@@ -142,3 +146,31 @@ def test_a_drafted_robot_file_walks_through_the_command_line_and_the_workers(tmp
     assert experiment.returncode == 0, experiment.stderr
     records = [json.loads(line) for line in (out / "trials.jsonl").read_text().splitlines()]
     assert len(records) == 2 and all(r["trial"]["robot"] == "laikago" for r in records)
+
+
+def test_a_wider_stance_turns_each_abduction_outward(tmp_path):
+    """``stance_abduction_rad``: every foot moves away from the sagittal plane by about the angle times the foot's
+    depth below its abduction axis, the left and right alike, its x unchanged; the base settles a little lower.
+    Written to a robot file only when not 0."""
+    import dataclasses
+
+    import numpy as np
+
+    from contactnet.robots.description import Robot
+
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace("fall_base_height_m = 0.12\n", "fall_base_height_m = 0.12\nstance_abduction_rad = 0.1\n")
+                    .replace('name = "a1_file"', 'name = "a1_wide"'))
+    wide_spec = load_robot_file(path)
+    assert wide_spec.stance_abduction_rad == 0.1 and spec_values(wide_spec)["stance_abduction_rad"] == 0.1
+    for spec in (dataclasses.replace(wide_spec, stance_abduction_rad=0.0), robot_spec("solo12")):
+        plain = Robot.load(spec, cache_dir=tmp_path).description
+        wide = Robot.load(dataclasses.replace(spec, stance_abduction_rad=0.1), cache_dir=tmp_path).description
+        out = np.abs(wide.foot_nominal_base[:, 1]) - np.abs(plain.foot_nominal_base[:, 1])
+        depth = -plain.foot_nominal_base[:, 2]  # the feet's depth below the base, about their depth below the axis
+        assert np.all(out > 0.5 * 0.1 * depth) and np.all(out < 1.5 * 0.1 * depth), (spec.name, out)
+        assert np.ptp(out) < 1e-9  # the four alike
+        assert np.allclose(wide.foot_nominal_base[:, 0], plain.foot_nominal_base[:, 0], atol=1e-9)
+        assert wide.com_height_nominal_m < plain.com_height_nominal_m
+    with pytest.raises(RobotDataError, match="stance_abduction_rad must be from 0 to 0.3"):
+        Robot.load(dataclasses.replace(robot_spec("solo12"), stance_abduction_rad=-0.1), cache_dir=tmp_path)

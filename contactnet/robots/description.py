@@ -84,6 +84,9 @@ class RobotSpec:
     #: ``LocomotionConfig.crouch_m``); 0: the nominal height. Solo12 and Go2 keep 0 (Solo12's 2 cm, measured:
     #: docs/results.md).
     walk_crouch_m: float = 0.0
+    #: Each leg's abduction this much further out than the stance's (rad, SRDF pose or ``standing_leg_joints_rad``):
+    #: the feet wider apart, sideways from under the hips. 0: the stance as given.
+    stance_abduction_rad: float = 0.0
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -422,6 +425,37 @@ class Robot:
         return write_pybullet_urdf(self.spec, self.files, self.cache_dir, sphere_feet)
 
 
+#: The largest ``RobotSpec.stance_abduction_rad`` (rad): about 17 degrees.
+MAX_STANCE_ABDUCTION_RAD = 0.3
+
+
+def widened_stance(model: Any, q: np.ndarray, spec: RobotSpec) -> np.ndarray:
+    """``q`` (pinocchio configuration, the base at the origin) with each leg's abduction joint turned
+    ``spec.stance_abduction_rad`` outward: its foot away from the body's sagittal plane (the left legs, FL and HL, to
+    +y). Which way a joint turns is read from the model (a small turn's effect on the foot), not assumed, so a robot
+    whose abduction axes are mirrored widens the same way."""
+    import pinocchio as pin
+
+    angle = spec.stance_abduction_rad
+    if not (math.isfinite(angle) and 0.0 <= angle <= MAX_STANCE_ABDUCTION_RAD):
+        raise RobotDataError(f"{spec.name}: stance_abduction_rad must be from 0 to {MAX_STANCE_ABDUCTION_RAD} rad, "
+                             f"got {angle!r}")
+    data = model.createData()
+    widened = np.array(q, dtype=float)
+    for leg in range(4):
+        index = model.joints[model.getJointId(spec.joint_names[3 * leg])].idx_q
+        foot = model.getFrameId(spec.foot_frames[leg])
+        outward = 1.0 if leg in (0, 2) else -1.0  # FL, HL on the left (+y)
+        probe = widened.copy()
+        probe[index] += 1e-3
+        pin.framesForwardKinematics(model, data, widened)
+        before_y = float(data.oMf[foot].translation[1])
+        pin.framesForwardKinematics(model, data, probe)
+        turn = 1.0 if (float(data.oMf[foot].translation[1]) - before_y) * outward > 0.0 else -1.0
+        widened[index] += turn * angle
+    return widened
+
+
 def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription:
     """Derive a robot's numbers from its pinocchio model, SRDF and spec."""
     import pinocchio as pin
@@ -432,6 +466,8 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         q[7:] = standing_joint_positions(files.srdf, spec.joint_names, spec.standing_pose)
     if spec.standing_leg_joints_rad is not None:
         q[7:] = np.tile(spec.standing_leg_joints_rad, 4)
+    if spec.stance_abduction_rad:
+        q = widened_stance(model, q, spec)
 
     def frames(q_: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
         pin.framesForwardKinematics(model, data, q_)
