@@ -150,12 +150,13 @@ def test_a_drafted_robot_file_walks_through_the_command_line_and_the_workers(tmp
 
 def test_a_wider_stance_turns_each_abduction_outward(tmp_path):
     """``stance_abduction_rad``: every foot moves away from the sagittal plane by about the angle times the foot's
-    depth below its abduction axis, the left and right alike, its x unchanged; the base settles a little lower.
-    Written to a robot file only when not 0."""
+    depth below its abduction axis, the left and right alike, its x unchanged; the base settles a little lower; the
+    legs' upright feet stay the stance's. Written to a robot file only when not 0."""
     import dataclasses
 
     import numpy as np
 
+    from contactnet.planning.footholds import LegGeometry
     from contactnet.robots.description import Robot
 
     path = tmp_path / "a1.toml"
@@ -172,5 +173,10 @@ def test_a_wider_stance_turns_each_abduction_outward(tmp_path):
         assert np.ptp(out) < 1e-9  # the four alike
         assert np.allclose(wide.foot_nominal_base[:, 0], plain.foot_nominal_base[:, 0], atol=1e-9)
         assert wide.com_height_nominal_m < plain.com_height_nominal_m
+        # the legs lean from where their feet stood before (the height checks' leg planes, LegGeometry)
+        np.testing.assert_array_equal(wide.foot_upright_base, plain.foot_nominal_base)
+        np.testing.assert_array_equal(plain.foot_upright_base, plain.foot_nominal_base)
+        plane = LegGeometry.of(wide).plane_left_m  # about the plain stance's (the hips turn with the abduction)
+        np.testing.assert_allclose(plane, LegGeometry.of(plain).plane_left_m, atol=2e-3)
     with pytest.raises(RobotDataError, match="stance_abduction_rad must be from 0 to 0.3"):
         Robot.load(dataclasses.replace(robot_spec("solo12"), stance_abduction_rad=-0.1), cache_dir=tmp_path)

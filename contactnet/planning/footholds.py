@@ -86,7 +86,7 @@ class LegGeometry:
     foot_radius_m: float
     hip_from_com_base: np.ndarray  # (4, 3) hips relative to the CoM in the nominal stance
     hip_above_foot_m: np.ndarray  # (4,) hip height above the foot-ball centre in the nominal stance
-    plane_left_m: np.ndarray  # (4,) the leg's plane (where its foot stands, nominal stance) left of its hip
+    plane_left_m: np.ndarray  # (4,) the leg's plane (where its foot stands upright, nominal stance) left of its hip
     com_height_m: float  # nominal CoM height above the ground
     front_to_hind_m: float  # from the hind to the front feet along x, nominal stance
 
@@ -94,6 +94,8 @@ class LegGeometry:
     def of(cls, robot: RobotDescription) -> LegGeometry:
         hips = np.asarray(robot.hip_pos_base, dtype=float)
         feet = np.asarray(robot.foot_nominal_base, dtype=float)
+        # a widened stance's legs lean: their plane is where the foot stood before (RobotSpec.stance_abduction_rad)
+        upright = feet if robot.foot_upright_base is None else np.asarray(robot.foot_upright_base, dtype=float)
         knees = None if robot.knee_pos_base is None else np.asarray(robot.knee_pos_base, dtype=float)
         if knees is None:
             half = np.full(4, 0.5 * robot.leg_reach_m)
@@ -105,7 +107,7 @@ class LegGeometry:
             side = np.sign(knees[:, 0] - 0.5 * (hips[:, 0] + feet[:, 0]))
         return cls(hips, thigh, shank, side, float(robot.leg_reach_m), float(robot.foot_radius_m),
                    hips - np.asarray(robot.com_base_standing, dtype=float), hips[:, 2] - feet[:, 2],
-                   feet[:, 1] - hips[:, 1], float(robot.com_height_nominal_m), front_to_hind_m(feet))
+                   upright[:, 1] - hips[:, 1], float(robot.com_height_nominal_m), front_to_hind_m(feet))
 
     def hip_heights(self, com_z_world: float | np.ndarray, pitch_rad: float | np.ndarray) -> np.ndarray:
         """(..., 4) world z of the hips with the CoM at ``com_z_world`` and the body pitched by ``pitch_rad``

@@ -179,6 +179,10 @@ class RobotDescription:
     leg_names: tuple[str, ...] = LEG_NAMES
     knee_pos_base: np.ndarray | None = None  #: (4, 3) knee joints in the nominal stance (None: not known)
     walk_crouch_m: float = 0.0  #: the walk's crouch on terrain of one level by default (RobotSpec.walk_crouch_m)
+    #: (4, 3) the feet of the stance before ``RobotSpec.stance_abduction_rad`` turned them out (base frame, with
+    #: the hips where the widened stance has them): each leg's upright position, the vertical plane its leg leans
+    #: from; None: ``foot_nominal_base``.
+    foot_upright_base: np.ndarray | None = None
 
     @property
     def base_height_standing_m(self) -> float:
@@ -466,6 +470,8 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         q[7:] = standing_joint_positions(files.srdf, spec.joint_names, spec.standing_pose)
     if spec.standing_leg_joints_rad is not None:
         q[7:] = np.tile(spec.standing_leg_joints_rad, 4)
+    upright = q.copy()  # the stance before it is widened: its feet stand where each leg's vertical plane is
+    upright[:7] = [0, 0, 0, 0, 0, 0, 1]
     if spec.stance_abduction_rad:
         q = widened_stance(model, q, spec)
 
@@ -477,6 +483,7 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
     q[:7] = [0, 0, 0, 0, 0, 0, 1]
     at_origin = q.copy()
     feet_base = frames(at_origin, spec.foot_frames)
+    upright_feet_base = frames(upright, spec.foot_frames) if spec.stance_abduction_rad else feet_base
     hips_base = frames(at_origin, spec.hip_frames)
     knees_base = frames(at_origin, spec.joint_names[2::3])
     com_base = np.asarray(pin.centerOfMass(model, data, at_origin)).copy()
@@ -513,4 +520,5 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         controller_gains=spec.controller_gains,
         knee_pos_base=_frozen(knees_base),
         walk_crouch_m=float(spec.walk_crouch_m),
+        foot_upright_base=_frozen(upright_feet_base),
     )
