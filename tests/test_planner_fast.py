@@ -223,8 +223,6 @@ def test_a_leg_left_behind_goes_first(robot, models, gait, name):
         assert seen["behind"] == 0
 
 
-
-
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
 def test_a_useless_swing_gives_way_to_a_step_that_moves(robot, gait):
     """With ``IdleConfig.step_when_moving`` and a command that moves: where the ranking's first safe step would put

@@ -162,8 +162,6 @@ def test_a_walking_robot_is_never_counted_as_stalled(robot):
     assert max(seen[5:]) <= DEFAULT_IDLE.stall_plans, seen
 
 
-
-
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
 def test_a_stalled_plans_first_step_is_the_first_safe_step_along_the_command(robot, gait):
     """Every foot on the landing cell of the best-ranked action moving its leg (a model of fixed scores), so that the

@@ -470,8 +470,7 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         q[7:] = standing_joint_positions(files.srdf, spec.joint_names, spec.standing_pose)
     if spec.standing_leg_joints_rad is not None:
         q[7:] = np.tile(spec.standing_leg_joints_rad, 4)
-    upright = q.copy()  # the stance before it is widened: its feet stand where each leg's vertical plane is
-    upright[:7] = [0, 0, 0, 0, 0, 0, 1]
+    upright = q.copy()  # the stance before it is widened (the base at the origin): each leg's vertical plane
     if spec.stance_abduction_rad:
         q = widened_stance(model, q, spec)
 
