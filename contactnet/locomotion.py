@@ -1,8 +1,7 @@
 """The locomotion loop: plan after each touchdown, optimize the body motion, track it at 1 kHz.
 
-One `Locomotion` object owns a PyBullet world, a planner, the trajectory optimizer and the
-whole-body controller. A CLI, a test or the web server drives it the same way: `advance(n_ticks)`
-and `snapshot()`; `run(duration)` does both until the end, a fall or the goal.
+One `Locomotion` object owns a PyBullet world, a planner, the trajectory optimizer and the whole-body controller. A
+CLI, a test or the web server drives it the same way: `advance(n_ticks)` and `snapshot()`; `run(duration)` does both.
 
 Timing (the paper's Sec. III-C): a step horizon lasts 8 nodes of 40 ms. At the start of each one (right after the
 previous touchdown) the planner gives 3 steps, the optimizer plans CoM motion and forces over those 3 steps (960 ms),
@@ -68,7 +67,7 @@ class LocomotionConfig:
     ref_leash_m: float = 0.05
     mu: float = 0.6
     trajopt: TrajoptConfig = TrajoptConfig()
-    trajopt_weights: TrajoptWeights = TrajoptWeights()
+    trajopt_weights: TrajoptWeights | None = None  # None: the robot's (TrajoptWeights.for_robot; Solo12: the defaults)
     # Terrain with heights (tops at several heights; a single-height terrain takes the flat-ground path):
     # swings pass this far above the tops they travel over (contactnet.motion.swing) ...
     swing_clearance_m: float = 0.015
@@ -125,7 +124,8 @@ class Locomotion:
             trajopt = replace(trajopt, dt_s=gait.node_dt_s)
         if trajopt.n_nodes != gait.horizon_nodes:
             raise ValueError("the optimizer's horizon must be the gait's 3 step horizons")
-        self.optimizer = TrajectoryOptimizer(model, trajopt, config.trajopt_weights, tilted_normals=terrain.sloped)
+        self.optimizer = TrajectoryOptimizer(model, trajopt, config.trajopt_weights or TrajoptWeights.for_robot(
+            robot.description), tilted_normals=terrain.sloped)
         self.ticks_per_node = round(gait.node_dt_s / sim_config.dt_s)
         self.ticks_per_step = self.ticks_per_node * gait.nodes_per_step
         self._reoptimize_ticks = self.ticks_per_node * config.reoptimize_every_nodes

@@ -491,6 +491,25 @@ def test_the_force_term_is_per_squared_body_weight():
     assert 6.0 < k < 7.0
     assert np.allclose(np.asarray(ranking_trajopt_weights(go2).force) * k**2, TrajoptWeights().force, rtol=1e-3)
     assert RankingCost(registry.gait_for("walk", load_robot("go2")), go2).trajopt_weights == ranking_trajopt_weights(go2)
+    assert TrajoptWeights.for_robot(go2) == ranking_trajopt_weights(go2)  # the walking loop's, as the ranking's
+
+
+def test_the_walking_loop_weighs_forces_per_squared_body_weight():
+    """The loop's optimizer takes the robot's weights unless the config names others: with Solo12's force weight
+    Go2's CoM stayed over the centroid of its feet (the equal shares of the reference forces outweighed the CoM's
+    tracking) and it stopped on the narrow stones."""
+    from contactnet.locomotion import Locomotion, LocomotionConfig
+    from contactnet.motion.trajopt import TrajoptWeights
+    from contactnet.robots import load_robot
+    from contactnet.terrain import flat
+
+    go2 = load_robot("go2")
+    gait = registry.gait_for("walk", go2)
+    planner = registry.make_planner("heuristic", gait, go2)
+    with Locomotion(go2, flat(), gait, planner) as loco:
+        assert loco.optimizer.weights == TrajoptWeights.for_robot(go2.description) != TrajoptWeights()
+    with Locomotion(go2, flat(), gait, planner, config=LocomotionConfig(trajopt_weights=TrajoptWeights())) as loco:
+        assert loco.optimizer.weights == TrajoptWeights()
 
 
 @pytest.mark.slow

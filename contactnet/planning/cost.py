@@ -62,10 +62,9 @@ failures tie at the bottom in index order and the order of the others is untouch
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
@@ -83,7 +82,7 @@ from contactnet.motion.trajopt import (
     TrajoptSolution,
     TrajoptWeights,
 )
-from contactnet.robots.description import REFERENCE_WEIGHT_N, RobotDescription
+from contactnet.robots.description import RobotDescription
 
 #: The candidate grids are centred on the hips at the base position moved by this much of commanded
 #: velocity (0: the current hips, the paper's "fixed offsets from the current hip position").
@@ -192,18 +191,11 @@ def candidate_footholds_world(gait: GaitSpec, grid_centres_world: np.ndarray, ya
 
 
 def ranking_trajopt_weights(robot: RobotDescription) -> TrajoptWeights:
-    """The optimizer's weights when it ranks ``robot``'s candidates: the force term per squared body weight.
-
-    ``TrajoptWeights.force`` is per N^2 and was tuned with Solo12 (`REFERENCE_WEIGHT_N`); the forces of a robot k
-    times heavier are k times larger, and the force term of V_opt k^2 times, so it outweighs everything the
-    ranking weights balance against it. Measured with Go2 (k = 6.4, oracle, walk, 0.05 m/s on flat, 6 s): V_opt
-    2-5 times Solo12's, standing chosen in 6 of 17 plans and 0.14 m walked of 0.30 m commanded; with the force
-    weight divided by k^2, 2 of 17 and 0.27 m (Solo12: 4 of 19, 0.30 m). Solo12's weights are unchanged."""
-    ratio = REFERENCE_WEIGHT_N / float(robot.weight_n)
-    default = TrajoptWeights()
-    if math.isclose(ratio, 1.0, rel_tol=1e-3):
-        return default
-    return replace(default, force=tuple(w * ratio**2 for w in default.force))
+    """The optimizer's weights when it ranks ``robot``'s candidates: ``TrajoptWeights.for_robot``, the force term
+    per squared body weight, as the walking loop's. Measured with Go2 (k = 6.4, oracle, walk, 0.05 m/s on flat,
+    6 s): V_opt 2-5 times Solo12's, standing chosen in 6 of 17 plans and 0.14 m walked of 0.30 m commanded; with
+    the force weight divided by k^2, 2 of 17 and 0.27 m (Solo12: 4 of 19, 0.30 m). Solo12's weights are unchanged."""
+    return TrajoptWeights.for_robot(robot)
 
 
 class RankingCost:

@@ -26,7 +26,8 @@ without support infeasible).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -104,6 +105,24 @@ class TrajoptWeights:
         positive = (*self.com_vel, *self.ang_vel, *self.force, self.terminal_factor)
         if min(positive) <= 0.0 or min(*self.com_pos, *self.rpy) < 0.0:
             raise ValueError("velocity, angular velocity and force weights must be > 0, the others >= 0")
+
+    @classmethod
+    def for_robot(cls, description: RobotDescription) -> TrajoptWeights:
+        """The weights for ``description``: the force term per squared body weight.
+
+        ``force`` is per N^2 and was tuned with Solo12 (``REFERENCE_WEIGHT_N``); a robot k times heavier has k times
+        larger forces and a k^2 times larger force term, which then outweighs the CoM's tracking: the reference
+        forces share the weight equally among the stance feet, so the CoM stays over their centroid. So its force
+        weight is divided by k^2 (Solo12: these weights). Measured with Go2 (k = 6.4), in the ranking (the oracle on
+        flat: 0.14 -> 0.27 m walked of 0.30 m commanded in 6 s) and in the walking loop (narrow stones, ``stone_grid``
+        trotted, the stepping stones trotted: stopped, its CoM 5 cm behind the reference, -> crossed)."""
+        from contactnet.robots.description import REFERENCE_WEIGHT_N
+
+        default = cls()
+        ratio = REFERENCE_WEIGHT_N / float(description.weight_n)
+        if math.isclose(ratio, 1.0, rel_tol=1e-3):
+            return default
+        return replace(default, force=tuple(w * ratio**2 for w in default.force))
 
     def state_weights(self) -> np.ndarray:
         """Diagonal state weight (12,)."""
