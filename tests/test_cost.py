@@ -491,10 +491,12 @@ def test_the_force_term_is_per_squared_body_weight():
     assert 6.0 < k < 7.0
     assert np.allclose(np.asarray(ranking_trajopt_weights(go2).force) * k**2, TrajoptWeights().force, rtol=1e-3)
     assert RankingCost(registry.gait_for("walk", load_robot("go2")), go2).trajopt_weights == ranking_trajopt_weights(go2)
-    assert TrajoptWeights.for_robot(go2) == ranking_trajopt_weights(go2)  # the walking loop's, as the ranking's
+    # the walking loop's: per body weight
+    assert np.allclose(np.asarray(TrajoptWeights.for_robot(go2).force) * k, TrajoptWeights().force, rtol=1e-3)
+    assert TrajoptWeights.for_robot(solo12) == TrajoptWeights()
 
 
-def test_the_walking_loop_weighs_forces_per_squared_body_weight():
+def test_the_walking_loop_weighs_forces_per_body_weight():
     """The loop's optimizer takes the robot's weights unless the config names others: with Solo12's force weight
     Go2's CoM stayed over the centroid of its feet (the equal shares of the reference forces outweighed the CoM's
     tracking) and it stopped on the narrow stones."""

@@ -191,11 +191,12 @@ def candidate_footholds_world(gait: GaitSpec, grid_centres_world: np.ndarray, ya
 
 
 def ranking_trajopt_weights(robot: RobotDescription) -> TrajoptWeights:
-    """The optimizer's weights when it ranks ``robot``'s candidates: ``TrajoptWeights.for_robot``, the force term
-    per squared body weight, as the walking loop's. Measured with Go2 (k = 6.4, oracle, walk, 0.05 m/s on flat,
-    6 s): V_opt 2-5 times Solo12's, standing chosen in 6 of 17 plans and 0.14 m walked of 0.30 m commanded; with
-    the force weight divided by k^2, 2 of 17 and 0.27 m (Solo12: 4 of 19, 0.30 m). Solo12's weights are unchanged."""
-    return TrajoptWeights.for_robot(robot)
+    """The optimizer's weights when it ranks ``robot``'s candidates: the force term per squared body weight
+    (``TrajoptWeights.for_robot`` with power 2; the walking loop's is per body weight). Measured with Go2 (k = 6.4,
+    oracle, walk, 0.05 m/s on flat, 6 s): V_opt 2-5 times Solo12's, standing chosen in 6 of 17 plans and 0.14 m
+    walked of 0.30 m commanded; with the force weight divided by k^2, 2 of 17 and 0.27 m (Solo12: 4 of 19, 0.30 m).
+    Solo12's weights are unchanged."""
+    return TrajoptWeights.for_robot(robot, power=2.0)
 
 
 class RankingCost:

@@ -107,22 +107,24 @@ class TrajoptWeights:
             raise ValueError("velocity, angular velocity and force weights must be > 0, the others >= 0")
 
     @classmethod
-    def for_robot(cls, description: RobotDescription) -> TrajoptWeights:
-        """The weights for ``description``: the force term per squared body weight.
+    def for_robot(cls, description: RobotDescription, power: float = 1.0) -> TrajoptWeights:
+        """The weights for ``description``: the force term divided by k^``power``, k its weight over Solo12's.
 
         ``force`` is per N^2 and was tuned with Solo12 (``REFERENCE_WEIGHT_N``); a robot k times heavier has k times
-        larger forces and a k^2 times larger force term, which then outweighs the CoM's tracking: the reference
-        forces share the weight equally among the stance feet, so the CoM stays over their centroid. So its force
-        weight is divided by k^2 (Solo12: these weights). Measured with Go2 (k = 6.4), in the ranking (the oracle on
-        flat: 0.14 -> 0.27 m walked of 0.30 m commanded in 6 s) and in the walking loop (narrow stones, ``stone_grid``
-        trotted, the stepping stones trotted: stopped, its CoM 5 cm behind the reference, -> crossed)."""
+        larger forces and a k^2 times larger force term. The walking loop takes ``power`` 1 (the default), measured
+        with Go2 (k = 6.4; 0.05 m/s, its ContactNet): with Solo12's weights (power 0) the reference forces' equal
+        shares outweighed the CoM's tracking, its CoM stayed 5 cm behind its reference over its feet and it stopped on
+        the narrow stones and the stone grid (and the stepping stones' trot); with power 2 the forces swung so freely
+        that feet slipped off the edges of holes (the random field n = 80, walk: 3 of 4 seeds fell that crossed with
+        power 0); with power 1 all of these crossed. The ranking takes power 2
+        (``contactnet.planning.cost.ranking_trajopt_weights``). Solo12 (k = 1): these weights."""
         from contactnet.robots.description import REFERENCE_WEIGHT_N
 
         default = cls()
         ratio = REFERENCE_WEIGHT_N / float(description.weight_n)
         if math.isclose(ratio, 1.0, rel_tol=1e-3):
             return default
-        return replace(default, force=tuple(w * ratio**2 for w in default.force))
+        return replace(default, force=tuple(w * ratio**power for w in default.force))
 
     def state_weights(self) -> np.ndarray:
         """Diagonal state weight (12,)."""
