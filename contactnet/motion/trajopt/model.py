@@ -115,8 +115,8 @@ class TrajoptWeights:
         with Go2 (k = 6.4; 0.05 m/s, its ContactNet): with Solo12's weights (power 0) the reference forces' equal
         shares outweighed the CoM's tracking, its CoM stayed 5 cm behind its reference over its feet and it stopped on
         the narrow stones and the stone grid (and the stepping stones' trot); with power 2 the forces swung so freely
-        that feet slipped off the edges of holes (the random field n = 80, walk: 3 of 4 seeds fell that crossed with
-        power 0); with power 1 all of these crossed. The ranking takes power 2
+        that feet slipped off the edges of holes (the random field n = 80, walk: 6 of seeds 0-9 fell); with power 1
+        all of these crossed (docs/results.md, "Go2's body follows its command"). The ranking takes power 2
         (``contactnet.planning.cost.ranking_trajopt_weights``). Solo12 (k = 1): these weights."""
         from contactnet.robots.description import REFERENCE_WEIGHT_N
 
