@@ -531,3 +531,22 @@ def test_go2_walks_the_paper_command_instead_of_standing():
         x_m = float(loco.snapshot().q[0])
         assert loco.fall_reason is None
     assert x_m > 0.22, f"walked {x_m:.3f} m of 0.30 m"
+
+
+def test_the_height_checks_are_sized_to_the_robot():
+    """Every length of the height checks times the robot's size_scale (as its gaits); Solo12's are the defaults."""
+    from dataclasses import fields
+
+    from contactnet.planning.footholds import HeightChecks
+    from contactnet.robots import load_robot
+
+    for name in ("solo12", "go2"):
+        robot = load_robot(name)
+        planner = registry.make_planner("contactnet", registry.gait_for("walk", robot), robot)
+        checks, scale = planner.footholds.checks, robot.description.size_scale
+        for f in fields(HeightChecks):
+            expected = getattr(HeightChecks(), f.name) * (scale if f.name.endswith("_m") else 1)
+            assert getattr(checks, f.name) == pytest.approx(expected), f.name
+    assert load_robot("solo12").description.size_scale == 1.0
+    assert registry.make_planner("contactnet", registry.gait_for("walk", load_robot("solo12")),
+                                 load_robot("solo12")).footholds.checks == HeightChecks()

@@ -294,3 +294,33 @@ def test_go2_trots_across_the_stone_grid_with_its_contactnet(tmp_path):
     with Locomotion(robot, terrain, gait, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
         summary = loco.run(60.0)
     assert summary["success"], (summary["fall_reason"], summary["reached_x"])
+
+
+def test_go2s_calf_is_two_cylinders_along_its_bend_that_stop_above_the_foot_ball(tmp_path):
+    """The URDF's two convex hulls of Go2's calf filled its bend and wrapped the foot, 3-5 mm beyond the ball: a foot
+    brushing a riser counted as the calf touching it. The recipe's cylinders lie inside the visual mesh's outline
+    (to its radius) and every point of them is farther from the foot's centre than the ball's radius."""
+    import trimesh
+
+    from contactnet.robots import go2
+
+    robot = load_robot("go2", cache_dir=tmp_path)
+    root = ET.parse(robot.pybullet_urdf()).getroot()
+    calves = [link for link in root.iter("link") if link.get("name").endswith("_calf")]
+    assert len(calves) == 4
+    for link in calves:
+        assert [c.find("geometry")[0].tag for c in link.findall("collision")] == ["cylinder", "cylinder"]
+    visual = trimesh.load(robot.files.urdf.parent.parent / "visuals" / "calf.dae", force="mesh")
+    foot_xz = np.array([0.0, -0.213])
+    for bottom, top, radius in go2.CALF_CYLINDERS_M:
+        bottom, top = np.asarray(bottom), np.asarray(top)
+        length = np.linalg.norm(top - bottom)
+        unit = (top - bottom) / length
+        along = float((foot_xz - bottom) @ unit)  # the foot's centre from the solid cylinder, exactly
+        across = abs(float(np.cross(unit, foot_xz - bottom)))
+        beyond_end = max(0.0, -along, along - length)
+        assert np.hypot(max(0.0, across - radius), beyond_end) > go2.FOOT_RADIUS_M
+        axis = bottom + np.linspace(0.0, 1.0, 20)[:, None] * (top - bottom)
+        for x, z in axis:  # the axis inside the mesh's cross-section at its height
+            section = visual.vertices[np.abs(visual.vertices[:, 2] - z) < 0.01]
+            assert section[:, 0].min() - 0.002 <= x <= section[:, 0].max() + 0.002

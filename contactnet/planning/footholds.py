@@ -40,7 +40,7 @@ is checked on both sides at ``fallback_shin_elevation_rad``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -51,7 +51,8 @@ from contactnet.terrain import Terrain
 
 @dataclass(frozen=True)
 class HeightChecks:
-    """Limits of the height checks (metres unless named)."""
+    """Limits of the height checks (metres unless named), Solo12's; a planner sizes them to its robot
+    (``scaled(size_scale)``, as the gaits are: `contactnet.motion.gait.SIZE_RULE`)."""
 
     max_step_m: float = 0.13  # largest rise or drop between lift-off and landing tops, and obstacle above them
     reach_margin_m: float = 0.015  # the foot stays this much inside the leg's straight length
@@ -72,6 +73,10 @@ class HeightChecks:
     side_reach_m: float = 0.06  # ... needs the ground this far beside it, toward the plane, no higher than its top
     small_top_inradius_m: float = 0.04  # candidates on a top this small (its largest disk) go to its centre
     fallback_shin_elevation_rad: float = math.radians(35.0)  # shin elevation when the knee is not known
+
+    def scaled(self, scale: float) -> HeightChecks:
+        """The limits for a robot ``scale`` times Solo12's size: every length times ``scale``, counts and angle kept."""
+        return replace(self, **{f.name: getattr(self, f.name) * scale for f in fields(self) if f.name.endswith("_m")})
 
 
 @dataclass(frozen=True)

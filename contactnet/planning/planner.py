@@ -25,7 +25,7 @@ import numpy as np
 from contactnet.frames import rotate_xy
 from contactnet.motion.gait import GaitSpec
 from contactnet.planning.capture import DEFAULT_CAPTURE, CaptureConfig, capture_offset
-from contactnet.planning.footholds import FootholdChecker
+from contactnet.planning.footholds import FootholdChecker, HeightChecks
 from contactnet.planning.heights_tables import CompiledHeights
 from contactnet.planning.network import NumpyContactNet
 from contactnet.planning.network_input import network_input_one, network_input_values
@@ -186,7 +186,7 @@ class ContactNetPlanner:
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
         self.capture, self.idle, self.roll, self.reach = capture, idle, roll, reach
-        self.footholds = FootholdChecker(robot)
+        self.footholds = FootholdChecker(robot, HeightChecks().scaled(robot.size_scale))
         self._compiled: CompiledHeights | None = None  # the compiled height checks (``_compiled_heights``)
         self._heights_walk: HeightsWalk | PlainHeightsWalk | None = None  # and the walk with them on the last terrain
         self.hip_xy_base = np.array(robot.hip_pos_base[:, :2], dtype=float)

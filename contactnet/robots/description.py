@@ -43,8 +43,9 @@ REFERENCE_WEIGHT_N = 24.53
 LEG_NAMES: tuple[str, ...] = ("FL", "FR", "HL", "HR")
 
 #: Makes the collision element PyBullet simulates for one link of the URDF, or None to keep the URDF's:
-#: ``(link_name) -> (geometry element, origin xyz text) | None``.
-CollisionRecipe = Callable[[str], "tuple[ET.Element, str] | None"]
+#: ``(link_name) -> (geometry element, origin xyz text) | None``, or a list of ``(geometry element, origin xyz text,
+#: origin rpy text)``: the link's collisions, all of the URDF's replaced (a bent lower leg as two cylinders).
+CollisionRecipe = Callable[[str], "tuple[ET.Element, str] | list[tuple[ET.Element, str, str]] | None"]
 
 
 class RobotDataError(RuntimeError):
@@ -278,9 +279,15 @@ def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | No
     if sphere_feet and spec.collision_recipe is not None:
         for link in root.iter("link"):
             replacement = spec.collision_recipe(link.get("name", ""))
-            collision = link.find("collision")
             if replacement is None:
                 continue
+            if isinstance(replacement, list):  # the link's collisions, all of them
+                for collision in link.findall("collision"):
+                    link.remove(collision)
+                for shape, xyz, rpy in replacement:
+                    _set_collision(ET.SubElement(link, "collision"), shape, xyz, rpy)
+                continue
+            collision = link.find("collision")
             if collision is None:
                 collision = ET.SubElement(link, "collision")
             _set_collision(collision, *replacement)
@@ -333,12 +340,12 @@ def _meshes_exist(urdf: Path) -> bool:
     return all((urdf.parent / mesh.get("filename", "")).is_file() for mesh in root.iter("mesh"))
 
 
-def _set_collision(collision: ET.Element, shape: ET.Element, xyz: str) -> None:
+def _set_collision(collision: ET.Element, shape: ET.Element, xyz: str, rpy: str = "0 0 0") -> None:
     origin = collision.find("origin")
     if origin is None:
         origin = ET.SubElement(collision, "origin")
     origin.set("xyz", xyz)
-    origin.set("rpy", "0 0 0")
+    origin.set("rpy", rpy)
     geometry = collision.find("geometry")
     if geometry is None:
         geometry = ET.SubElement(collision, "geometry")

@@ -7,6 +7,7 @@ about 2.2 cm radius at the `*_foot` frame (the collision mesh spans 4.5 x 4 x 3.
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 
 from contactnet.robots.description import RobotSpec
@@ -14,10 +15,32 @@ from contactnet.robots.description import RobotSpec
 FOOT_RADIUS_M = 0.022
 
 
-def collision_recipe(link_name: str) -> tuple[ET.Element, str] | None:
-    """PyBullet collisions: each foot a ball of the foot's radius; the other links keep their convex meshes."""
+#: The calf (its frame at the knee, the foot 0.213 m below along -z) as two cylinders along the visual mesh's
+#: centre line, which bends 2 cm forward (+x) in the middle: (bottom xz, top xz, radius), metres. The lower one
+#: stops 6 mm above the foot ball, as Solo12's shin does.
+CALF_CYLINDERS_M = (((0.020, -0.130), (-0.003, 0.0), 0.014), ((0.012, -0.185), (0.020, -0.130), 0.013))
+
+
+def _cylinder_between(bottom_xz: tuple[float, float], top_xz: tuple[float, float],
+                      radius_m: float) -> tuple[ET.Element, str, str]:
+    """A cylinder from ``bottom_xz`` to ``top_xz`` (link frame, y = 0): its element, origin xyz and rpy."""
+    dx, dz = top_xz[0] - bottom_xz[0], top_xz[1] - bottom_xz[1]
+    length = math.hypot(dx, dz)
+    centre_x, centre_z = 0.5 * (top_xz[0] + bottom_xz[0]), 0.5 * (top_xz[1] + bottom_xz[1])
+    pitch = math.atan2(dx, dz)  # turns the cylinder's z axis onto the segment
+    shape = ET.Element("cylinder", radius=f"{radius_m}", length=f"{length:.5f}")
+    return shape, f"{centre_x:.5f} 0 {centre_z:.5f}", f"0 {pitch:.5f} 0"
+
+
+def collision_recipe(link_name: str) -> tuple[ET.Element, str] | list[tuple[ET.Element, str, str]] | None:
+    """PyBullet collisions: each foot a ball of the foot's radius; each calf two cylinders along its bend that stop
+    above the foot ball (the URDF's two convex hulls fill the bend and wrap the foot: they reach 3-5 mm beyond the
+    ball beside it, so a foot brushing a riser counted as the calf touching it); the other links keep their convex
+    meshes."""
     if link_name.endswith("_foot"):
         return ET.Element("sphere", radius=f"{FOOT_RADIUS_M}"), "0 0 0"
+    if link_name.endswith("_calf"):
+        return [_cylinder_between(*cylinder) for cylinder in CALF_CYLINDERS_M]
     return None
 
 
@@ -45,5 +68,5 @@ SPEC = RobotSpec(
         ("kd_joint", 0.2),
     ),
     collision_recipe=collision_recipe,
-    recipe_version="sphere-feet-v1",
+    recipe_version="sphere-feet-calf-cylinders-v2",
 )
