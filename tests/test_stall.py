@@ -233,3 +233,59 @@ def _stalled_reference(planner, terrain, order, cells, feet, forward, room, plai
             return next((int(a) for a in order if a // gait.actions_per_group == group and rule(a) and safe(a, room)),
                         first)
     return plain.action_index
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=["walk", "trot"])
+def test_a_stalled_plans_first_step_on_heights_is_the_first_usable_step_along_the_command(robot, gait):
+    """On terrain with heights (the random field with heights; a model of fixed scores, every foot on the cell of the
+    best-ranked action moving its leg, so that the first usable step often goes nowhere): a stalled plan's first step
+    is the plain plan's first step when its feet move 2 cm or more along the command on average, else, as a reference
+    walking the ranking says (safe with the planner's margin, and usable by its height checks), the first usable step
+    that does, else the plain one. Go2's walk stood on its field with heights until the time limit (seeds 7, 13) without this."""
+    from contactnet.planning.footholds import FootholdChecker
+
+    action_legs, action_cells = gait.action_cells
+    replaced = compared = 0
+    for seed in range(3):
+        model = FixedScores(gait, seed)
+        planner = ContactNetPlanner(gait, robot.description, model, reach=None)
+        terrain = resolve("random_heights", removed=80, seed=seed)
+        checker = FootholdChecker(robot.description, planner.footholds.checks)
+        order = np.argsort(-model.scores(None), kind="stable")
+        for ctx in planning_contexts(gait, terrain, robot.description, 20, seed=6):
+            ctx.vel_cmd_xy[:] = [0.05, 0.0]
+            c, s = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
+            to_world = np.array([[c, -s], [s, c]])
+            ctx.com_vel_world[:2] = to_world @ ctx.vel_cmd_xy
+            cells = (np.asarray(ctx.base_xy_world) + planner.hip_ref_xy_base @ to_world.T)[:, None, :] + (
+                gait.cell_offsets_xy @ to_world.T)[None]
+            placed = set()
+            for action in order:
+                for leg, cell in zip(action_legs[action], action_cells[action], strict=True):
+                    if leg not in placed:
+                        ctx.foot_pos_world[leg, :2] = cells[leg, cell]
+                        ctx.foot_pos_world[leg, 2] = terrain.ground_z(cells[leg, cell][None])[0] + robot.description.foot_radius_m
+                        placed.add(int(leg))
+            plain = planner.plan(ctx)[0]
+            stalled_ctx = dataclasses.replace(ctx, still_plans=DEFAULT_IDLE.stall_plans + 1)
+            stalled_step = planner.plan(stalled_ctx)[0]
+            if planner._heights_walk.cornered is not None or not plain.legs:  # a cornered leg's own ranking
+                continue
+            check, feet = planner.last_candidates.check, np.asarray(ctx.foot_pos_world)[:, :2]
+            forward = to_world @ np.array([1.0, 0.0])
+
+            def moves(legs, points, feet=feet, forward=forward):  # noqa: ANN001, ANN202
+                return float(np.mean((np.asarray(points) - feet[list(legs)]) @ forward)) >= DEFAULT_IDLE.min_swing_m
+
+            expected = plain.action_index
+            if not moves(plain.legs, plain.footholds_xy_world):
+                for action in order:
+                    legs = np.asarray(action_legs[action])
+                    points = checker.centred(terrain, cells[legs, action_cells[action]])
+                    if moves(legs, points) and terrain.is_safe(points, planner.margin_m).all() and check(legs, points).all():
+                        expected = int(action)
+                        break
+            compared += 1
+            assert stalled_step.action_index == expected
+            replaced += stalled_step.action_index != plain.action_index
+    assert compared > 20 and replaced > 3

@@ -1,14 +1,13 @@
 """Contact planners: given the robot's state, decide the next steps (which legs swing, where they land).
 
-Every planner answers `plan(context) -> list[PlannedStep]` with `gait.steps_per_plan` (3) steps: the
-first is executed now, the next two complete the optimizer's 960 ms horizon. Planners differ only
-in how they choose; the loop (`locomotion.py`) treats them alike.
+Every planner answers `plan(context) -> list[PlannedStep]` with `gait.steps_per_plan` (3) steps: the first is executed
+now, the next two complete the optimizer's 960 ms horizon. The loop (`locomotion.py`) treats planners alike.
 
 - `ContactNetPlanner`, `FixedGaitPlanner`: the network's ranking, the first safe action (acyclic), or the
   best safe foothold of the leg whose turn it is (the paper's fixed-gait baseline).
 
-The blind baseline, `HeuristicPlanner` (the fixed cyclic gait with Raibert-style footholds), lives in
-`contactnet.planning.heuristic`, the exact teacher, `OraclePlanner`, in `contactnet.planning.oracle`.
+The blind baseline, `HeuristicPlanner` (the fixed cyclic gait, Raibert-style footholds), is in
+`contactnet.planning.heuristic`; the exact teacher, `OraclePlanner`, in `contactnet.planning.oracle`.
 """
 
 from __future__ import annotations
@@ -58,6 +57,7 @@ from contactnet.planning.stand import (
     network_stands,
     stalled,
     stalled_step,
+    stalled_step_on_heights,
     stand_step,
     useless_swing,
 )
@@ -88,8 +88,7 @@ class PlanningContext:
     com_height_ref_m: float  # nominal CoM height above the ground (the robot's)
     rpy: np.ndarray = field(default_factory=lambda: np.zeros(3))  # base roll, pitch, yaw
     ang_vel_world: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    # An external horizontal force on the body (N, world) the capture step leans into (contactnet.planning.observer);
-    # None: none known.
+    # An external horizontal force on the body (N, world; None: none known) the capture step leans into (observer).
     external_force_xy_world: tuple[float, float] | None = None
     # Plans in a row, this one included, with a moving command while the CoM did not follow it (counted by the loop:
     # contactnet.planning.stand.StallWatch); 0 for a state seen on its own.
@@ -485,6 +484,8 @@ class ContactNetPlanner:
             found = walk.first_usable(j, costs, span)
             if ahead is not None and found is not None and not (j == 0 and walk.cornered is not None):
                 found = self._with_room_on_heights(walk, ahead, j, costs, span, found)
+            if j == 0 and must_step and found is not None:  # stalled: a step along the command (StallWatch)
+                found = stalled_step_on_heights(walk, costs, span, found, feet, cmd_world, self.idle.min_swing_m, self._actions)
             order = self._ranking(costs, j)
             if j == 0:
                 grid = walk.grid(0)

@@ -136,8 +136,8 @@ class StallWatch:
     not follow it (since the plan where it last did, it moved along the command less than
     ``IdleConfig.stall_speed_share`` of the way the command asked for) and hands the count to the planner
     (``PlanningContext.still_plans``); after ``IdleConfig.stall_plans`` such plans in a row a ContactNet planner's
-    first step does not stand and, on terrain of one level, goes along the command where a safe step does
-    (``stalled_step``), until the CoM follows again or the command stops. A robot walking as commanded never counts: standing between steps, its CoM
+    first step does not stand and goes along the command where a safe step does (``stalled_step``; on terrain with
+    heights ``stalled_step_on_heights``, a usable one), until the CoM follows again or the command stops. A robot walking as commanded never counts: standing between steps, its CoM
     moves on over the feet."""
 
     def __init__(self, interval_s: float) -> None:
@@ -252,6 +252,33 @@ def stalled_step(walk: OneLevelWalk, costs: np.ndarray, span: tuple[int, int], f
     return ahead
 
 
+def stalled_step_on_heights(walk, costs: np.ndarray, span: tuple[int, int],  # noqa: ANN001 - a heights walk
+                            found: tuple[int, int, list[list[float]], list[float]], feet_xy_world: list[list[float]],
+                            cmd_world: list[float], min_swing_m: float, actions) -> tuple:  # noqa: ANN001
+    """``stalled_step`` on terrain with heights (``HeightsWalk``, ``PlainHeightsWalk``: ``first_usable`` with the
+    height checks): ``found`` (the ranking's first usable step, (rank, action, landing points, tops)) if it goes along
+    the command (``cmd_world``, world XY, moving), else the first usable step that does, its rank in the plain
+    ranking, else ``found``. The walk looks
+    for it in the ranking with the other actions ranked last (NaN costs) and, when none goes along, is asked for
+    ``found`` again, so that its state is ``found``'s (as ``ContactNetPlanner._with_room_on_heights`` does)."""
+    speed = math.hypot(cmd_world[0], cmd_world[1])
+    forward_xy = (cmd_world[0] / speed, cmd_world[1] / speed)
+    if moves_forward(actions.group[found[1]], found[2], feet_xy_world, forward_xy, min_swing_m):
+        return found
+    first, stop = span
+    way = (walk.grid(0)() - np.asarray(feet_xy_world)[:, None, :]) @ np.asarray(forward_xy, dtype=float)
+    behind = way.reshape(-1)[actions.flat_array[first:stop]].mean(axis=1) < min_swing_m
+    if behind.all():
+        return found
+    masked = np.array(costs, dtype=float)
+    masked[first:stop][behind] = np.nan
+    better = walk.first_usable(0, masked, span)
+    if better is None or behind[better[1] - first]:  # none that goes along is usable
+        walk.first_usable(0, costs, span)
+        return found
+    return int(rank_of(costs, first, stop, better[1])), better[1], better[2], better[3]
+
+
 def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
     """Standing at ``rank`` of the ranking (the actions above it discarded): the idle rule's choice over the useless
     step at ``rank`` (standing takes its place), and ``stand_step``'s."""
@@ -261,4 +288,4 @@ def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
 
 __all__ = ["DEFAULT_IDLE", "TOP_RANK_TIE", "IdleConfig", "StallWatch", "first_step_that_moves", "idle_stand_step",
            "is_idle", "moves_forward", "network_stands", "prefer_stand", "split_stand", "stalled", "stalled_step",
-           "stand_step", "useless_swing"]
+           "stalled_step_on_heights", "stand_step", "useless_swing"]
