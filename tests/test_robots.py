@@ -317,7 +317,7 @@ def test_go2s_calf_is_two_cylinders_along_its_bend_that_stop_above_the_foot_ball
         length = np.linalg.norm(top - bottom)
         unit = (top - bottom) / length
         along = float((foot_xz - bottom) @ unit)  # the foot's centre from the solid cylinder, exactly
-        across = abs(float(np.cross(unit, foot_xz - bottom)))
+        across = abs(float(unit[0] * (foot_xz - bottom)[1] - unit[1] * (foot_xz - bottom)[0]))
         beyond_end = max(0.0, -along, along - length)
         assert np.hypot(max(0.0, across - radius), beyond_end) > go2.FOOT_RADIUS_M
         axis = bottom + np.linspace(0.0, 1.0, 20)[:, None] * (top - bottom)
