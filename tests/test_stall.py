@@ -177,18 +177,7 @@ def test_a_stalled_plans_first_step_is_the_first_safe_step_along_the_command(rob
         terrain = resolve("random", removed=100, seed=seed)
         order = np.argsort(-model.scores(None), kind="stable")
         for ctx in planning_contexts(gait, terrain, robot.description, 30, seed=6):
-            ctx.vel_cmd_xy[:] = [0.05, 0.0]
-            c, s = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
-            to_world = np.array([[c, -s], [s, c]])
-            ctx.com_vel_world[:2] = to_world @ ctx.vel_cmd_xy  # on the command: no capture step
-            cells = (np.asarray(ctx.base_xy_world) + planner.hip_ref_xy_base @ to_world.T)[:, None, :] + (
-                gait.cell_offsets_xy @ to_world.T)[None]
-            placed = set()
-            for action in order:
-                for leg, cell in zip(action_legs[action], action_cells[action], strict=True):
-                    if leg not in placed:
-                        ctx.foot_pos_world[leg, :2] = cells[leg, cell]
-                        placed.add(int(leg))
+            to_world, cells = _feet_on_best_cells(ctx, planner, order)
             plain = planner.plan(ctx)[0]
             stalled_step = planner.plan(dataclasses.replace(ctx, still_plans=DEFAULT_IDLE.stall_plans + 1))[0]
             room = roll_ahead_xy(robot.description.foot_radius_m, to_world @ ctx.vel_cmd_xy, planner.roll)
@@ -198,6 +187,29 @@ def test_a_stalled_plans_first_step_is_the_first_safe_step_along_the_command(rob
             assert stalled_step.rank == list(order).index(expected)
             replaced += stalled_step.action_index != plain.action_index
     assert replaced > 5
+
+
+def _feet_on_best_cells(ctx, planner, order, terrain=None):  # noqa: ANN001, ANN202
+    """Walk along +x at 0.05 m/s (the velocity on the command: no capture step) with every foot on the landing cell
+    of the best-ranked action (``order``) moving its leg, on its top when ``terrain`` is given; (heading -> world
+    rotation, the (4, cells per leg, 2) candidate grid)."""
+    gait = planner.gait
+    action_legs, action_cells = gait.action_cells
+    ctx.vel_cmd_xy[:] = [0.05, 0.0]
+    c, s = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
+    to_world = np.array([[c, -s], [s, c]])
+    ctx.com_vel_world[:2] = to_world @ ctx.vel_cmd_xy
+    cells = (np.asarray(ctx.base_xy_world) + planner.hip_ref_xy_base @ to_world.T)[:, None, :] + (
+        gait.cell_offsets_xy @ to_world.T)[None]
+    placed = set()
+    for action in order:
+        for leg, cell in zip(action_legs[action], action_cells[action], strict=True):
+            if leg not in placed:
+                ctx.foot_pos_world[leg, :2] = cells[leg, cell]
+                if terrain is not None:
+                    ctx.foot_pos_world[leg, 2] = terrain.ground_z(cells[leg, cell][None])[0] + planner.robot.foot_radius_m
+                placed.add(int(leg))
+    return to_world, cells
 
 
 def _stalled_reference(planner, terrain, order, cells, feet, forward, room, plain):  # noqa: ANN001, ANN202
@@ -253,19 +265,7 @@ def test_a_stalled_plans_first_step_on_heights_is_the_first_usable_step_along_th
         checker = FootholdChecker(robot.description, planner.footholds.checks)
         order = np.argsort(-model.scores(None), kind="stable")
         for ctx in planning_contexts(gait, terrain, robot.description, 20, seed=6):
-            ctx.vel_cmd_xy[:] = [0.05, 0.0]
-            c, s = math.cos(ctx.yaw_rad), math.sin(ctx.yaw_rad)
-            to_world = np.array([[c, -s], [s, c]])
-            ctx.com_vel_world[:2] = to_world @ ctx.vel_cmd_xy
-            cells = (np.asarray(ctx.base_xy_world) + planner.hip_ref_xy_base @ to_world.T)[:, None, :] + (
-                gait.cell_offsets_xy @ to_world.T)[None]
-            placed = set()
-            for action in order:
-                for leg, cell in zip(action_legs[action], action_cells[action], strict=True):
-                    if leg not in placed:
-                        ctx.foot_pos_world[leg, :2] = cells[leg, cell]
-                        ctx.foot_pos_world[leg, 2] = terrain.ground_z(cells[leg, cell][None])[0] + robot.description.foot_radius_m
-                        placed.add(int(leg))
+            to_world, cells = _feet_on_best_cells(ctx, planner, order, terrain)
             plain = planner.plan(ctx)[0]
             stalled_ctx = dataclasses.replace(ctx, still_plans=DEFAULT_IDLE.stall_plans + 1)
             stalled_step = planner.plan(stalled_ctx)[0]

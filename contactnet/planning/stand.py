@@ -202,6 +202,15 @@ def moves_forward(legs: tuple[int, ...], landing_xy_world, feet_xy_world, forwar
     return way >= min_swing_m * len(legs)
 
 
+def not_forward(cells_world: np.ndarray, feet_xy_world: list[list[float]], forward_xy: tuple[float, float],
+                action_flat: np.ndarray, min_swing_m: float) -> np.ndarray:
+    """(N_a,) the actions whose swinging feet move less than ``min_swing_m`` along the unit vector ``forward_xy`` on
+    average (``moves_forward`` of every action at once): ``cells_world`` (4, cells per leg, 2) the candidate grid,
+    ``action_flat`` (N_a, legs per step) each action's grid cells (``ActionCells.flat_array``)."""
+    way = (cells_world - np.asarray(feet_xy_world)[:, None, :]) @ np.asarray(forward_xy, dtype=float)
+    return way.reshape(-1)[action_flat].mean(axis=1) < min_swing_m
+
+
 def first_step_that_moves(walk: OneLevelWalk, costs: np.ndarray, span: tuple[int, int],
                           found: tuple[int, int, list[list[float]]], feet_xy_world: list[list[float]],
                           ahead_xy: tuple[float, float] | None, min_swing_m: float, action_flat: np.ndarray,
@@ -220,8 +229,7 @@ def first_step_that_moves(walk: OneLevelWalk, costs: np.ndarray, span: tuple[int
         near = np.hypot(*offsets.transpose(2, 0, 1)) < min_swing_m
         useless = near.reshape(-1)[action_flat].all(axis=1)
     else:
-        way = offsets @ np.asarray(forward_xy, dtype=float)
-        useless = way.reshape(-1)[action_flat].mean(axis=1) < min_swing_m
+        useless = not_forward(cells, feet_xy_world, forward_xy, action_flat, min_swing_m)
     masked = costs.copy()
     masked[useless] = np.nan  # ranked after every step that moves
     better = walk.first_safe(0, masked, span)
@@ -258,22 +266,21 @@ def stalled_step_on_heights(walk, costs: np.ndarray, span: tuple[int, int],  # n
     """``stalled_step`` on terrain with heights (``HeightsWalk``, ``PlainHeightsWalk``: ``first_usable`` with the
     height checks): ``found`` (the ranking's first usable step, (rank, action, landing points, tops)) if it goes along
     the command (``cmd_world``, world XY, moving), else the first usable step that does, its rank in the plain
-    ranking, else ``found``. The walk looks
-    for it in the ranking with the other actions ranked last (NaN costs) and, when none goes along, is asked for
-    ``found`` again, so that its state is ``found``'s (as ``ContactNetPlanner._with_room_on_heights`` does)."""
+    ranking, else ``found``. The walk looks for it in the ranking with the other actions ranked last (NaN costs)
+    and, when none goes along, is asked for ``found`` again, so that its state is ``found``'s (as
+    ``ContactNetPlanner._with_room_on_heights`` does)."""
     speed = math.hypot(cmd_world[0], cmd_world[1])
     forward_xy = (cmd_world[0] / speed, cmd_world[1] / speed)
     if moves_forward(actions.group[found[1]], found[2], feet_xy_world, forward_xy, min_swing_m):
         return found
     first, stop = span
-    way = (walk.grid(0)() - np.asarray(feet_xy_world)[:, None, :]) @ np.asarray(forward_xy, dtype=float)
-    behind = way.reshape(-1)[actions.flat_array[first:stop]].mean(axis=1) < min_swing_m
-    if behind.all():
+    behind = not_forward(walk.grid(0)(), feet_xy_world, forward_xy, actions.flat_array, min_swing_m)
+    if behind[first:stop].all():
         return found
     masked = np.array(costs, dtype=float)
-    masked[first:stop][behind] = np.nan
+    masked[behind] = np.nan
     better = walk.first_usable(0, masked, span)
-    if better is None or behind[better[1] - first]:  # none that goes along is usable
+    if better is None or behind[better[1]]:  # none that goes along is usable
         walk.first_usable(0, costs, span)
         return found
     return int(rank_of(costs, first, stop, better[1])), better[1], better[2], better[3]
@@ -287,5 +294,5 @@ def idle_stand_step(gait: GaitSpec, rank: int) -> PlannedStep:
 
 
 __all__ = ["DEFAULT_IDLE", "TOP_RANK_TIE", "IdleConfig", "StallWatch", "first_step_that_moves", "idle_stand_step",
-           "is_idle", "moves_forward", "network_stands", "prefer_stand", "split_stand", "stalled", "stalled_step",
+           "is_idle", "moves_forward", "network_stands", "not_forward", "prefer_stand", "split_stand", "stalled", "stalled_step",
            "stalled_step_on_heights", "stand_step", "useless_swing"]
