@@ -3,10 +3,11 @@
 The main objects, importable from here (loaded on first use, so ``import contactnet`` stays cheap)::
 
     from contactnet import Locomotion, registry, resolve_terrain
-    robot = registry.load_robot("solo12")
+    terrain = resolve_terrain("stepping_stones")
+    robot = registry.load_robot("solo12").for_terrain(terrain)  # its stance for this terrain
     gait = registry.gait_by_name("walk")
     planner = registry.make_planner("contactnet", gait, robot)
-    with Locomotion(robot, resolve_terrain("stepping_stones"), gait, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
+    with Locomotion(robot, terrain, gait, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
         print(loco.run(40.0))
 
 See ``examples/`` for runnable scripts and ``docs/architecture.md`` for the layers.

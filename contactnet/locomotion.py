@@ -12,7 +12,8 @@ milliseconds, and pushes do far less harm.
 Terrain with heights (tops at several heights): the optimizer's CoM height and pitch references follow
 the tops under the feet node by node (``contactnet.motion.ground``), swings clear the tops on their way
 (``contactnet.motion.swing``) and touchdown adapts to the contact sensed (``contactnet.motion.touchdown``). A terrain whose
-tops are all at one height takes exactly the flat-ground path.
+tops are all at one height takes exactly the flat-ground path, and a robot may stand wider on it: build the planner
+and the loop with ``robot.for_terrain(terrain)`` (``contactnet.robots.Robot.for_terrain``; Solo12 does).
 """
 
 from __future__ import annotations
@@ -186,14 +187,12 @@ class Locomotion:
         self._use_terrain(terrain)
 
     def _use_terrain(self, terrain: Terrain) -> None:
-        """Whether the terrain has tops at several heights: then swings clear the tops on their way and
-        touchdown adapts to the contact sensed (a single-height terrain takes the flat-ground path); and the crouch
-        that goes with it."""
-        self._heights = len(terrain.levels) > 1 or terrain.sloped
+        """Whether the terrain has heights (``Terrain.has_heights``: swings clear the tops on their way, touchdown
+        adapts to the contact sensed; else the flat-ground path), and the crouch that goes with it."""
+        self._heights = terrain.has_heights
         adapt = self.config.adapt_touchdown
         self._adapt_touchdown = self._heights if adapt is None else bool(adapt)
-        description = self.robot.description
-        crouch = self.config.crouch_m
+        description, crouch = self.robot.description, self.config.crouch_m
         #: m, the crouch walked with (``LocomotionConfig.crouch_m``, or the robot's default for this terrain)
         self.crouch_m = description.default_crouch_m(self.gait.name, self._heights) if crouch is None else crouch
         self.com_height_ref_m = description.com_height_nominal_m - self.crouch_m
@@ -587,6 +586,7 @@ class Locomotion:
             "brace_steps": sum(r.braced for r in self.records),
             "brace_touchdowns": self.brace_touchdowns,
             "crouch_m": self.crouch_m,
+            "stance_abduction_rad": float(self.robot.spec.stance_abduction_rad),
             "stall_plans": self.stall_plans,
         }
 

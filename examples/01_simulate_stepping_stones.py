@@ -17,8 +17,8 @@ parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--duration", type=float, default=40.0, help="simulated seconds (stops at the goal)")
 args = parser.parse_args()
 
-robot = registry.load_robot("solo12")
 terrain = resolve_terrain("stepping_stones")
+robot = registry.load_robot("solo12").for_terrain(terrain)  # its stance for this terrain (wider on one level)
 gait = registry.gait_by_name("walk")
 planner = registry.make_planner("contactnet", gait, robot)  # the shipped contactnet/models/walk.pt
 

@@ -33,7 +33,7 @@ if args.out:
     terrain.render_png(args.out)
     print("drew", args.out)
 
-robot = registry.load_robot("solo12")
+robot = registry.load_robot("solo12").for_terrain(terrain)  # its stance for this terrain (wider on one level)
 gait = registry.gait_by_name("walk")
 planner = registry.make_planner("contactnet", gait, robot)
 with Locomotion(robot, terrain, gait, planner, vel_cmd_xy=(0.05, 0.0)) as loco:

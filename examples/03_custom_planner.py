@@ -43,10 +43,11 @@ if __name__ == "__main__":
     parser.add_argument("--duration", type=float, default=10.0)
     args = parser.parse_args()
     print("planners:", ", ".join(registry.planner_names()))
-    robot = registry.load_robot("solo12")
+    terrain = resolve_terrain("stepping_stones")
+    robot = registry.load_robot("solo12").for_terrain(terrain)  # its stance for this terrain (wider on one level)
     gait = registry.gait_by_name("walk")
     planner = registry.make_planner("cautious", gait, robot)
-    with Locomotion(robot, resolve_terrain("stepping_stones"), gait, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
+    with Locomotion(robot, terrain, gait, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
         summary = loco.run(args.duration)
     print(f"cautious planner: fell={summary['fell']} reached_x={summary['reached_x']:.2f} m, "
           f"steps={summary['steps']}, mean rank {summary['rank_chosen']['mean']:.1f}")

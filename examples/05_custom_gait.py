@@ -29,9 +29,10 @@ if __name__ == "__main__":
     parser.add_argument("--duration", type=float, default=10.0)
     args = parser.parse_args()
     print("gaits:", ", ".join(registry.gait_names()))
-    robot = registry.load_robot("solo12")
+    terrain = resolve_terrain("flat")
+    robot = registry.load_robot("solo12").for_terrain(terrain)  # its stance for this terrain (wider on one level)
     planner = registry.make_planner("heuristic", PACE, robot)
-    with Locomotion(robot, resolve_terrain("flat"), PACE, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
+    with Locomotion(robot, terrain, PACE, planner, vel_cmd_xy=(0.05, 0.0)) as loco:
         summary = loco.run(args.duration, stop_at_goal=False)
     print(f"pace: fell={summary['fell']} ({summary['fall_reason']}), mean vx {summary['mean_velocity_xy'][0]:.3f} m/s, "
           f"{summary['steps']} steps, first: {summary['gait_sequence'][:4]}")

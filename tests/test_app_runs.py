@@ -200,6 +200,40 @@ def test_a_new_terrain_restarts_every_robot(tmp_path):
         live.stop()
 
 
+def _far_raised_stone(data):  # noqa: ANN001, ANN202 - an edit (terrain dict -> terrain dict)
+    """A 20 cm stone 5 cm high, 5 m beside the start: far from the robot, but a terrain with heights now."""
+    from contactnet.terrain.edits import validated
+
+    return validated({**data, "regions": [*data["regions"], {"shape": "rect", "center": [0.0, 5.0],
+                                                             "size": [0.2, 0.2], "z": 0.05}]})
+
+
+def test_the_robot_takes_its_stance_for_the_terrain_and_an_edit_that_changes_the_kind_restarts_it(tmp_path):
+    """Solo12 stands wider on terrain of one level (``Robot.for_terrain``): its abduction joints at the standing
+    start are 0.1 rad further out than the SRDF's; an edit that gives the terrain heights, however far away, restarts
+    it in the SRDF's stance and says why; undone, the wider stance again."""
+    import numpy as np
+
+    from contactnet.robots import load_robot
+
+    nominal = load_robot("solo12").joint_standing[0::3]  # FL, FR, HL, HR abduction
+    live = make_session(tmp_path, flat(), vx_m_s=0.0, wait_for_viewer=False, paused=True)
+    try:
+        abduction = np.asarray(live.view.snapshot.q[7::3])
+        np.testing.assert_allclose(np.abs(abduction - nominal), 0.1, atol=0.02)  # wider, standing
+        assert live.call(EditTerrain(_far_raised_stone)) is True
+        view = live.view
+        assert view.terrain.has_heights and view.snapshot.t_s == 0.0
+        assert "stance for terrain with heights" in view.notices[-1].text
+        np.testing.assert_allclose(np.asarray(view.snapshot.q[7::3]), nominal, atol=0.02)
+        live.call(UndoTerrainEdit())
+        view = live.view
+        assert not view.terrain.has_heights and "stance for terrain of one level" in view.notices[-1].text
+        np.testing.assert_allclose(np.abs(np.asarray(view.snapshot.q[7::3]) - nominal), 0.1, atol=0.02)
+    finally:
+        live.stop()
+
+
 def test_a_push_refused_at_the_end_says_when_the_next_run_starts_or_to_reset():
     from app.live.runs import RunClock
 

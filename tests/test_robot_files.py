@@ -86,6 +86,9 @@ def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
      "stance_abduction_rad: expected a number from 0 to 0.3"),
     (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nstance_abduction_rad = true\n'),
      "stance_abduction_rad: expected a number"),
+    (lambda t: t.replace('fall_base_height_m = 0.12\n',
+                         'fall_base_height_m = 0.12\none_level_stance_abduction_rad = 0.4\n'),
+     "one_level_stance_abduction_rad: expected a number from 0 to 0.3"),
 ])
 def test_a_bad_robot_file_is_one_line_naming_the_field(tmp_path, change, message):
     path = tmp_path / "bad.toml"
@@ -180,3 +183,40 @@ def test_a_wider_stance_turns_each_abduction_outward(tmp_path):
         np.testing.assert_allclose(plane, LegGeometry.of(plain).plane_left_m, atol=2e-3)
     with pytest.raises(RobotDataError, match="stance_abduction_rad must be from 0 to 0.3"):
         Robot.load(dataclasses.replace(robot_spec("solo12"), stance_abduction_rad=-0.1), cache_dir=tmp_path)
+
+
+def test_on_terrain_of_one_level_a_robot_stands_in_its_wider_stance(tmp_path):
+    """``one_level_stance_abduction_rad`` (Solo12's 0.1): ``Robot.for_terrain`` gives, on terrain of one level, a twin
+    whose stance is the spec's widened by it (the same as ``stance_abduction_rad`` would make it: feet 0.169 m from the
+    centre line instead of 0.147 m), built once; on terrain with heights (several levels or sloped) the robot itself.
+    A robot without it is itself everywhere; the value reads from and writes to a robot file, range-checked."""
+    import dataclasses
+
+    import numpy as np
+
+    from contactnet.robots.description import Robot
+    from contactnet.terrain import flat, resolve
+
+    solo = load_robot("solo12", cache_dir=tmp_path)
+    assert solo.spec.one_level_stance_abduction_rad == 0.1 and solo.spec.stance_abduction_rad == 0.0
+    one_level, heights = resolve("push_field"), resolve("random_heights", removed=80, seed=0)
+    assert not one_level.has_heights and heights.has_heights and resolve("ramps").has_heights
+    wide = solo.for_terrain(one_level)
+    assert wide is not solo and wide is solo.for_terrain(flat()) and wide.for_terrain(flat()) is wide
+    assert solo.for_terrain(heights) is solo and wide.name == solo.name == "solo12"
+    np.testing.assert_allclose(np.abs(solo.description.foot_nominal_base[:, 1]), 0.147, atol=5e-4)
+    np.testing.assert_allclose(np.abs(wide.description.foot_nominal_base[:, 1]), 0.169, atol=5e-4)
+    reference = Robot.load(dataclasses.replace(solo.spec, stance_abduction_rad=0.1), cache_dir=tmp_path).description
+    np.testing.assert_array_equal(wide.description.q_standing, reference.q_standing)
+    np.testing.assert_array_equal(wide.description.foot_upright_base, solo.description.foot_nominal_base)
+    go2 = load_robot("go2", cache_dir=tmp_path)
+    assert go2.for_terrain(one_level) is go2  # no such stance: itself
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace("fall_base_height_m = 0.12\n",
+                               "fall_base_height_m = 0.12\none_level_stance_abduction_rad = 0.05\n")
+                    .replace('name = "a1_file"', 'name = "a1_one_level"'))
+    spec = load_robot_file(path)
+    assert spec.one_level_stance_abduction_rad == 0.05 and spec_values(spec)["one_level_stance_abduction_rad"] == 0.05
+    assert "one_level_stance_abduction_rad" not in spec_values(robot_spec("go2"))  # 0: not written
+    with pytest.raises(RobotDataError, match="one_level_stance_abduction_rad must be from 0 to 0.3"):
+        Robot.load(dataclasses.replace(solo.spec, one_level_stance_abduction_rad=float("nan")), cache_dir=tmp_path)

@@ -202,15 +202,16 @@ class LiveSession(SessionCommands):
     def _build(self, publish: bool = True) -> None:
         """(Re)build the Locomotion (and its PyBullet world) for the current settings; ``publish=False``
         leaves publishing the new view to the caller (a command publishes once it is fully applied)."""
-        gait = registry.gait_for(self._gait_name, self._robot)
-        planner, active, note = self._planner_factory(self._planner_name, gait, self._robot)
+        robot = self._robot.for_terrain(self._terrain)  # its stance for this terrain (Robot.for_terrain)
+        gait = registry.gait_for(self._gait_name, robot)
+        planner, active, note = self._planner_factory(self._planner_name, gait, robot)
         sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0, engine=self._sim)
         config = loco_config(self._retarget, observer=self._observer)
-        loco = Locomotion(self._robot, self._terrain, gait, planner, sim_config, config=config, vel_cmd_xy=self._vel)
+        loco = Locomotion(robot, self._terrain, gait, planner, sim_config, config=config, vel_cmd_xy=self._vel)
         try:
             compare = (
                 CompareRobots(
-                    self._compare_planners[1:], self._robot, self._terrain, gait, self._planner_factory,
+                    self._compare_planners[1:], robot, self._terrain, gait, self._planner_factory,
                     sim_config, self._vel, config,
                 )
                 if self._compare_planners
@@ -225,7 +226,7 @@ class LiveSession(SessionCommands):
             self._compare.close()
         self._loco, self._compare = loco, compare
         self._planner_active, self._planner_note = active, note
-        self._tracker = ViewTracker(self._robot, self._terrain, gait)
+        self._tracker = ViewTracker(robot, self._terrain, gait)
         self._after_restart(publish)
 
     def _after_restart(self, publish: bool = True) -> None:

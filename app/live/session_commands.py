@@ -239,7 +239,9 @@ class SessionCommands:
         restarting the robot (paused, so several edits can be made before it walks again)."""
         terrain = to_terrain(data)
         label = self._edited_label()
-        if change_is_away(self._terrain, terrain, self._robot, [loco.snapshot() for loco in self._locos()]):
+        same_robot = self._robot.for_terrain(terrain) is self._loco.robot  # a robot's stance follows the terrain's kind
+        if same_robot and change_is_away(self._terrain, terrain, self._robot,
+                                         [loco.snapshot() for loco in self._locos()]):
             self._loco.replace_terrain(terrain)
             if self._compare is not None:
                 self._compare.replace_terrain(terrain)
@@ -250,8 +252,9 @@ class SessionCommands:
         else:
             self._rebuild(terrain=(terrain, label))
             self._paused = True
-            self._notify(f"Terrain {what} near the robot: it restarted from the start and waits - press Run.",
-                         "warning")
+            why = "near the robot" if same_robot else (
+                "and the robot takes its stance for terrain " + ("with heights" if terrain.has_heights else "of one level"))
+            self._notify(f"Terrain {what} {why}: it restarted from the start and waits - press Run.", "warning")
 
     def _locos(self) -> list[Locomotion]:
         """The main robot's Locomotion, then compare mode's others."""

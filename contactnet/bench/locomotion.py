@@ -20,12 +20,13 @@ def run_case(case: dict) -> dict:
     from contactnet.sim.world import Push, SimConfig
     from contactnet.terrain import flat
 
-    robot = load_robot(case.get("robot", DEFAULT_ROBOT))
+    terrain = flat()
+    robot = load_robot(case.get("robot", DEFAULT_ROBOT)).for_terrain(terrain)
     gait = gait_for(case["gait"], robot)
     vx, vy = case["vel"]
     with Locomotion(
         robot,
-        flat(),
+        terrain,
         gait,
         HeuristicPlanner(gait),
         SimConfig(joint_vel_noise_var=case.get("noise", 0.0), seed=case.get("seed", 0)),

@@ -49,10 +49,11 @@ def walking_real_time_factor(gait_name: str, sim_seconds: float = STACK_SECONDS,
     from contactnet.sim.world import SimConfig
     from contactnet.terrain import resolve
 
-    robot = load_robot(robot_name)
+    terrain = resolve(terrain_name)
+    robot = load_robot(robot_name).for_terrain(terrain)
     gait = gait_for(gait_name, robot)
     planner = make_planner(planner_name, gait, robot)
-    with Locomotion(robot, resolve(terrain_name), gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx, 0.0)) as loco:
+    with Locomotion(robot, terrain, gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx, 0.0)) as loco:
         result = loco.run(sim_seconds)
     return {"rtf": result["sim_time_s"] / result["wall_time_s"], "fell": result["fell"],
             "trajopt_median_ms": result["trajopt_ms"]["median"], "planner_median_ms": result["planner_ms"]["median"]}

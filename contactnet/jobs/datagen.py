@@ -196,7 +196,8 @@ def shard_arrays(config: DatagenConfig, shard: int) -> tuple[np.ndarray, np.ndar
     gait = gait_for(config.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
     recorder = RecordingPlanner(make_oracle(gait, robot, config.oracle_evaluated_steps))
     us, vs, eps, falls = [], [], [], 0
-    # at the nominal height (the paper's data; a robot's default crouch is a choice of the walk, not of its data)
+    # at the nominal height and in the robot's own stance (the paper's data; a robot's default crouch and its stance on
+    # terrain of one level, Robot.for_terrain, are choices of the walk, not of its data)
     loop_config = LocomotionConfig(crouch_m=0.0)
     with Locomotion(robot, flat(), gait, recorder, SimConfig(seed=config.seed + shard, engine=config.sim),
                     config=loop_config) as loco:

@@ -119,9 +119,11 @@ def walk_check(robot, gait_name: str, engine: str, seconds: float = 20.0, vx_m_s
     from contactnet.sim.world import SimConfig
     from contactnet.terrain import flat
 
+    terrain = flat()
+    robot = robot.for_terrain(terrain)  # the robot's stance on flat ground (one_level_stance_abduction_rad)
     gait = gait_for(gait_name, robot)
     planner = make_planner("heuristic", gait, robot)
-    with Locomotion(robot, flat(), gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx_m_s, 0.0)) as loco:
+    with Locomotion(robot, terrain, gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx_m_s, 0.0)) as loco:
         summary = loco.run(seconds, stop_at_goal=False)
     vx, vy = summary["mean_velocity_xy"]
     name = f"{gait_name}s {seconds:g} s at {vx_m_s:g} m/s (heuristic planner)"

@@ -200,7 +200,7 @@ class FootholdChecker:
     @staticmethod
     def applies(terrain: Terrain) -> bool:
         """Whether the terrain has tops at more than one height (else every check passes)."""
-        return len(terrain.levels) > 1 or terrain.sloped
+        return terrain.has_heights
 
     def usable(
         self,

@@ -23,15 +23,18 @@ import hashlib
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from contactnet.atomic import atomic_write_bytes
 from contactnet.paths import default_cache_dir
+
+if TYPE_CHECKING:
+    from contactnet.terrain import Terrain
 
 #: The leg length (m) the paper's gaits are sized for: Solo12's hip flexion joint to knee to foot centre, 0.3245 m
 #: (``RobotDescription.leg_reach_m``; ``contactnet.motion.gait.SIZE_RULE``).
@@ -88,6 +91,10 @@ class RobotSpec:
     #: Each leg's abduction this much further out than the stance's (rad, SRDF pose or ``standing_leg_joints_rad``):
     #: the feet wider apart, sideways from under the hips. 0: the stance as given.
     stance_abduction_rad: float = 0.0
+    #: On terrain of one level (every top flat, at one height), each leg's abduction this much further out instead of
+    #: ``stance_abduction_rad`` (`Robot.for_terrain`): wider feet where no top is there for the legs to meet. 0: the
+    #: same stance on every terrain.
+    one_level_stance_abduction_rad: float = 0.0
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -373,6 +380,21 @@ class Robot:
 
         self._pin = pin
         self._foot_ids = [model.getFrameId(f) for f in spec.foot_frames]
+        self._one_level: Robot | None = None  # for_terrain's twin, built on first use
+
+    def for_terrain(self, terrain: Terrain) -> Robot:
+        """The robot that walks ``terrain``: this one, or on terrain of one level (``Terrain.has_heights`` False)
+        its twin with the stance ``spec.one_level_stance_abduction_rad`` wider (built once, then kept; the same
+        name, model files and URDF). Build the planner and `contactnet.locomotion.Locomotion` with it. A robot whose
+        spec has no such stance is its own robot on every terrain."""
+        if not self.spec.one_level_stance_abduction_rad or terrain.has_heights:
+            return self
+        if self._one_level is None:
+            twin = replace(self.spec, stance_abduction_rad=self.spec.one_level_stance_abduction_rad,
+                           one_level_stance_abduction_rad=0.0)
+            self._one_level = Robot(twin, self.files, self.model, describe(twin, self.files, self.model),
+                                    self.cache_dir)
+        return self._one_level
 
     @staticmethod
     def load(spec: RobotSpec, cache_dir: Path | None = None) -> Robot:
@@ -477,6 +499,10 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         q[7:] = standing_joint_positions(files.srdf, spec.joint_names, spec.standing_pose)
     if spec.standing_leg_joints_rad is not None:
         q[7:] = np.tile(spec.standing_leg_joints_rad, 4)
+    widen = spec.one_level_stance_abduction_rad  # used by Robot.for_terrain's twin: checked now, as the spec is read
+    if not (math.isfinite(widen) and 0.0 <= widen <= MAX_STANCE_ABDUCTION_RAD):
+        raise RobotDataError(f"{spec.name}: one_level_stance_abduction_rad must be from 0 to "
+                             f"{MAX_STANCE_ABDUCTION_RAD} rad, got {widen!r}")
     upright = q.copy()  # the stance before it is widened (the base at the origin): each leg's vertical plane
     if spec.stance_abduction_rad:
         q = widened_stance(model, q, spec)

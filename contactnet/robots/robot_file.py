@@ -21,6 +21,7 @@ read from them, as for the robots in modules::
     # size_scale = 1.3 (the gaits' size against the paper's Solo12; default: the leg's length over 0.3245 m),
     # walk_crouch_m = 0.02 (the walk's CoM reference this much lower on terrain of one level; default 0),
     # stance_abduction_rad = 0.1 (each leg's abduction this much further out than the stance's: wider feet; default 0),
+    # one_level_stance_abduction_rad = 0.1 (the same on terrain of one level only, instead; default 0),
     # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains)
 
 `contactnet robot init` drafts one from a description folder or a URDF; `contactnet robot check FILE.toml` says
@@ -45,7 +46,8 @@ ROBOT_FILES_ENV = "CONTACTNET_ROBOT_FILES"
 _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes", "foot_suffix", "foot_radius_m",
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
-             "controller_gains", "size_scale", "walk_crouch_m", "stance_abduction_rad")
+             "controller_gains", "size_scale", "walk_crouch_m", "stance_abduction_rad",
+             "one_level_stance_abduction_rad")
 _POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm", "size_scale")
 
 
@@ -108,9 +110,10 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
     crouch = values.get("walk_crouch_m", 0.0)
     if isinstance(crouch, bool) or not isinstance(crouch, int | float) or not 0.0 <= crouch < 1.0:
         raise bad("walk_crouch_m", f"expected a number from 0 to 1 (m), got {crouch!r}")
-    widen = values.get("stance_abduction_rad", 0.0)
-    if isinstance(widen, bool) or not isinstance(widen, int | float) or not 0.0 <= widen <= MAX_STANCE_ABDUCTION_RAD:
-        raise bad("stance_abduction_rad", f"expected a number from 0 to {MAX_STANCE_ABDUCTION_RAD} (rad), got {widen!r}")
+    widen, widen_one_level = values.get("stance_abduction_rad", 0.0), values.get("one_level_stance_abduction_rad", 0.0)
+    for name, angle in (("stance_abduction_rad", widen), ("one_level_stance_abduction_rad", widen_one_level)):
+        if isinstance(angle, bool) or not isinstance(angle, int | float) or not 0.0 <= angle <= MAX_STANCE_ABDUCTION_RAD:
+            raise bad(name, f"expected a number from 0 to {MAX_STANCE_ABDUCTION_RAD} (rad), got {angle!r}")
     stance = values.get("standing_leg_joints_rad")
     if stance is not None and not (isinstance(stance, list) and len(stance) == 3
                                    and all(isinstance(v, int | float) and not isinstance(v, bool) for v in stance)):
@@ -148,6 +151,7 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
         collision_recipe=recipe, recipe_version=f"file-{feet}-feet-v1",
         size_scale=None if "size_scale" not in values else float(values["size_scale"]),
         walk_crouch_m=float(crouch), stance_abduction_rad=float(widen),
+        one_level_stance_abduction_rad=float(widen_one_level),
     )
 
 
@@ -158,7 +162,7 @@ def spec_values(spec: RobotSpec) -> dict[str, Any]:
         value = getattr(spec, field.name)
         if field.name in ("collision_recipe", "recipe_version") or value is None or value == "" or value == ():
             continue
-        if field.name in ("walk_crouch_m", "stance_abduction_rad") and value == 0.0:  # the default: not written
+        if field.name in ("walk_crouch_m", "stance_abduction_rad", "one_level_stance_abduction_rad") and value == 0.0:  # the default: not written
             continue
         values[field.name] = list(value) if isinstance(value, tuple) and field.name != "controller_gains" else value
     values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"

@@ -176,6 +176,13 @@ class Terrain:
         """Read and validate a terrain JSON file; every problem raises TerrainError naming ``path``."""
         return cls.from_dict(read_terrain_json(path), source=str(path))
 
+    @property
+    def has_heights(self) -> bool:
+        """Whether the tops are at more than one height or sloped: the terrain the height checks, the swings over
+        tops and the adapted touchdown are for. A terrain of one level (every top flat at one height) takes the
+        flat-ground path everywhere."""
+        return len(self.levels) > 1 or self.sloped
+
     def to_dict(self) -> dict[str, Any]:
         """Plain JSON-ready dict; ``Terrain.from_dict(t.to_dict()) == t``."""
         data: dict[str, Any] = {"name": self.name}
