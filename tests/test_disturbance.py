@@ -345,3 +345,29 @@ def test_a_contact_the_torques_explain_is_not_taken_for_a_push(robot):
     record = run_trial(Trial("table2", "random", 110, 3, "walk", "contactnet"))
     assert record["success"], record["fall_reason"]
     assert record["max_external_force_n"] < ObserverConfig().threshold_m_s2 * robot.mass_kg
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("force_y_n", [10.0, -10.0])
+def test_standing_on_flat_ground_the_wider_stance_holds_a_side_push_that_tips_the_srdf_stance(force_y_n, capsys):
+    """Solo12 standing (vx 0) on flat ground, pushed 10 N from the side for 1 s: ``contactnet simulate`` walks the
+    robot its terrain gives it (``Robot.for_terrain``: feet 2.2 cm wider on terrain of one level) and it stands; the
+    same loop with the SRDF's stance (the robot as loaded, the reference) tips over its feet. 11 N tips both (measured:
+    docs/results.md, "A wider stance on terrain of one level")."""
+    import json
+
+    from contactnet import registry
+    from contactnet.cli import main
+    from contactnet.sim.world import Push
+
+    push = f"1,1,0,{force_y_n}"
+    assert main(["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "contactnet", "--vx", "0",
+                 "--duration", "4", "--push", push, "--json"]) == 0
+    wide = json.loads(capsys.readouterr().out)
+    assert wide["stance_abduction_rad"] == pytest.approx(0.1) and not wide["fell"], wide["fall_reason"]
+    robot = registry.load_robot("solo12")  # the SRDF's stance, not the one for this terrain
+    gait = registry.gait_for("walk", robot)
+    with Locomotion(robot, flat(), gait, registry.make_planner("contactnet", gait, robot)) as loco:
+        loco.push(Push.parse(push))
+        srdf = loco.run(4.0)
+    assert srdf["stance_abduction_rad"] == 0.0 and srdf["fell"] and "tilted" in srdf["fall_reason"]
