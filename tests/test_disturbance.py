@@ -353,7 +353,7 @@ def test_standing_on_flat_ground_the_wider_stance_holds_a_side_push_that_tips_th
     """Solo12 standing (vx 0) on flat ground, pushed 10 N from the side for 1 s: ``contactnet simulate`` walks the
     robot its terrain gives it (``Robot.for_terrain``: feet 2.2 cm wider on terrain of one level) and it stands; the
     same loop with the SRDF's stance (the robot as loaded, the reference) tips over its feet. 11 N tips both (measured:
-    docs/results.md, "A wider stance on terrain of one level")."""
+    docs/how-it-works.md, "A wider stance on terrain of one level")."""
     import json
 
     from contactnet import registry
