@@ -199,7 +199,8 @@ class FootholdChecker:
 
     @staticmethod
     def applies(terrain: Terrain) -> bool:
-        """Whether the terrain has tops at more than one height (else every check passes)."""
+        """Whether the terrain has heights (``Terrain.has_heights``: tops at more than one height, or sloped); else
+        every check passes."""
         return terrain.has_heights
 
     def usable(
