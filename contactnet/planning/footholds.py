@@ -199,8 +199,7 @@ class FootholdChecker:
 
     @staticmethod
     def applies(terrain: Terrain) -> bool:
-        """Whether the terrain has heights (``Terrain.has_heights``: tops at more than one height, or sloped); else
-        every check passes."""
+        """Whether the terrain has heights (``Terrain.has_heights``: tops at several heights, or sloped)."""
         return terrain.has_heights
 
     def usable(
