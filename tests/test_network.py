@@ -245,6 +245,30 @@ def test_the_compiled_pass_is_the_numpy_pass(hidden, dtype):
                                    atol=tolerance * np.abs(numpy_scores).max(), rtol=0)
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_the_compiled_pass_sums_input_by_input(dtype):
+    """The compiled pass (eight inputs a pass over the outputs) makes the same floats as the plainest form: each
+    output's sum started from its bias and grown one input at a time, in index order, each product and each sum
+    rounded to the dtype (layer widths that are and are not multiples of eight)."""
+    rng = np.random.default_rng(7)
+    sizes = (N_INPUTS, 19, 40, 8, 30)
+    weights = [rng.normal(0.0, 0.5, (n_out, n_in)) for n_in, n_out in zip(sizes[:-1], sizes[1:], strict=True)]
+    biases = [rng.normal(0.0, 0.1, n_out) for n_out in sizes[1:]]
+    net = NumpyContactNet(weights, biases, dtype=dtype)
+    layers = [(np.asarray(w, dtype), np.asarray(b, dtype)) for w, b in zip(weights, biases, strict=True)]
+    for u in rng.uniform(-1.0, 1.0, (5, N_INPUTS)).astype(dtype):
+        h = list(u)
+        for depth, (w, b) in enumerate(layers):
+            sums = []
+            for j in range(len(b)):
+                total = b[j]
+                for i, x in enumerate(h):
+                    total = total + x * w[j, i]  # numpy scalars of the dtype: rounded at each operation
+                sums.append(total if depth == len(layers) - 1 or total > 0 else dtype(0.0))
+            h = sums
+        np.testing.assert_array_equal(net.scores_unchecked(u), np.array(h, dtype=dtype))
+
+
 # ---- top-k -------------------------------------------------------------------------------------
 def test_topk_accuracy_hand_made():
     V = np.array([[0.0, 1, 2, 3, 4, 5, 6, 7]] * 4)
