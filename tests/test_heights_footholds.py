@@ -296,3 +296,38 @@ def test_a_cornered_hind_leg_swings_first(robot, checker, stairs):
         step = ContactNetPlanner(WALK, robot.description, _Ranked(WALK, seed)).plan(cornered)[0]
         swung.add(step.legs)
     assert swung == {(HL,)}
+
+
+
+def test_a_cornered_leg_is_not_promoted_to_step_in_place(robot, monkeypatch):
+    """The raised stones' trap (traced, docs/results.md "A cornered leg steps forward"): the hind-right foot on the low
+    disc (top -6 cm) 14 cm behind the 12 cm riser of the next stone, the body moving on over it. The leg is cornered,
+    but no landing it can reach yet is on that stone: with steps up to 1 cm back promoted (the rule before) the walk
+    steps it in place whatever the network prefers, and it stays cornered; with ``CORNERED_MIN_PROGRESS_M`` asked
+    forward no such step is promoted and the network's choice stands (here mostly another leg's step)."""
+    import contactnet.planning.planner as planner_module
+
+    terrain, desc = resolve("raised_stones", seed=0), robot.description
+    feet = np.array([[1.151, 0.109, 0.0], [1.357, -0.091, 0.0], [0.872, 0.097, 0.0], [0.836, -0.143, 0.0]])
+    feet[:, 2] = terrain.ground_z(feet[:, :2]) + desc.foot_radius_m
+    ctx = PlanningContext(
+        com_pos_world=np.array([1.08, 0.0, support_height(terrain, feet[:, :2]) + desc.com_height_nominal_m]),
+        com_vel_world=np.array([0.05, 0.0, 0.0]), yaw_rad=0.0, foot_pos_world=feet,
+        hip_ref_xy_base=desc.foot_nominal_base[:, :2], base_xy_world=np.array([1.08, 0.0]),
+        vel_cmd_xy=np.array([0.05, 0.0]), terrain=terrain, gait=WALK, com_height_ref_m=desc.com_height_nominal_m)
+
+    def first_steps() -> list[tuple[tuple[int, ...], float]]:
+        steps = []
+        for seed in range(4):
+            planner = ContactNetPlanner(WALK, desc, _Ranked(WALK, seed))
+            step = planner.plan(ctx)[0]
+            assert planner._heights_walk.cornered.tolist() == [False, False, False, True]
+            steps.append((step.legs, float(step.footholds_xy_world[0][0] - feet[step.legs[0], 0])))
+        return steps
+
+    def in_place(steps: list[tuple[tuple[int, ...], float]]) -> int:
+        return sum(legs == (HR,) and abs(progress) < 0.01 for legs, progress in steps)
+
+    assert in_place(first_steps()) <= 1  # (one of the four rankings puts that step first itself)
+    monkeypatch.setattr(planner_module, "CORNERED_MIN_PROGRESS_M", -0.01)
+    assert in_place(first_steps()) == 4

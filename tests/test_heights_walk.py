@@ -19,7 +19,7 @@ from contactnet.motion.gait import TROT, WALK
 from contactnet.planning import heights_lookup, heights_walk
 from contactnet.planning.footholds import FootholdChecker
 from contactnet.planning.heights_tables import CompiledHeights
-from contactnet.planning.planner import CORNERED_BACKSTEP_M, CORNERED_LOOKAHEAD_STEPS, touchdown_times_s
+from contactnet.planning.planner import CORNERED_LOOKAHEAD_STEPS, CORNERED_MIN_PROGRESS_M, touchdown_times_s
 from contactnet.planning.ranking import ActionCells, HeightsWalk
 from contactnet.terrain import Terrain, random_heights, resolve
 
@@ -142,7 +142,7 @@ def test_every_landing_is_decided_as_the_numpy_checks_decide(robot, gait, monkey
     for name, make in TERRAINS.items():
         terrain = make()
         walk = HeightsWalk(actions, terrain, margin, compiled, hip_xy_base, touchdown_s, lookahead_s,
-                           CORNERED_BACKSTEP_M)
+                           CORNERED_MIN_PROGRESS_M)
         for _ in range(10):
             base, yaw, feet, cmd = _random_state(robot, gait, terrain, rng)
             to_world = _rotation(yaw)

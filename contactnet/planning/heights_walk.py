@@ -348,13 +348,13 @@ def stance_clear(feet: np.ndarray, tops: np.ndarray, hips: np.ndarray, c: float,
     return result
 
 
-# The plan's numbers (``HeightsWalk.plan``): the cornered legs' backstep, ``surface_z``, the touchdown time and the
-# cornered legs' look-ahead (s) (a planner's constants); then the heading's cosine and sine (the C library's, as
+# The plan's numbers (``HeightsWalk.plan``): the cornered legs' least progress, ``surface_z``, the touchdown time and
+# the cornered legs' look-ahead (s) (a planner's constants); then the heading's cosine and sine (the C library's, as
 # ``FootholdChecker`` takes them), the forward direction (numpy's), the commanded velocity (world), the hips' offsets
 # from the base (world, 4 x 2, ``prepare`` turns them), the feet (4 x 2), the tops under them (4; NaN: not known yet);
 # then each step's base for the candidate grid, and each step's base for the hips (2 each).
-_BACKSTEP, _SURFACE, _TOUCHDOWN, _LOOKAHEAD, _COS, _SIN, _FORWARD_C, _FORWARD_S, _CMD_X, _CMD_Y = range(10)
-BACKSTEP, PER_PLAN = _BACKSTEP, _COS
+_MIN_PROGRESS, _SURFACE, _TOUCHDOWN, _LOOKAHEAD, _COS, _SIN, _FORWARD_C, _FORWARD_S, _CMD_X, _CMD_Y = range(10)
+MIN_PROGRESS, PER_PLAN = _MIN_PROGRESS, _COS
 _HIPS, FEET, TOPS, _BASES = 10, 18, 26, 30
 #: ``walk_step``'s question about the cornered legs (numpy's ``stance_clear`` decides: a leg too close to its limit).
 STANCE = CENTRE + 1
@@ -415,8 +415,8 @@ def walk_step(costs: np.ndarray, first: int, stop: int, step: int, fresh: int, m
     terrain's (``TerrainTables``); ``constants`` the checker's (``KernelConstants.floats``).
 
     The urgent actions are found lazily: an action is urgent when one of its cells on a cornered leg, placed, lies
-    at most the backstep behind the foot along the forward direction; the walk places such cells only for the
-    actions it needs to order (the cheapest ones, and those ranked before the choice)."""
+    at least the least progress ahead of the foot along the forward direction; the walk places such cells only for
+    the actions it needs to order (the cheapest ones, and those ranked before the choice)."""
     costs, action_flat, hips_world, offsets = borrow(costs), borrow(action_flat), borrow(hips_world), borrow(offsets)
     plan, flags, values = borrow(plan), borrow(flags), borrow(values)
     cover_codes, safe_codes, height_codes, upper_codes, coarse = code_views(borrow(ints), wide_codes, narrow_codes)
@@ -441,7 +441,8 @@ def walk_step(costs: np.ndarray, first: int, stop: int, step: int, fresh: int, m
     hip_x, hip_y = plan[_BASES + 2 * steps + 2 * step], plan[_BASES + 2 * steps + 2 * step + 1]
     feet = plan[FEET: FEET + 8].reshape((4, 2))
     tops = plan[TOPS: TOPS + 4]
-    c, s, forward_x, forward_y, backstep = plan[_COS], plan[_SIN], plan[_FORWARD_C], plan[_FORWARD_S], plan[_BACKSTEP]
+    c, s, forward_x, forward_y = plan[_COS], plan[_SIN], plan[_FORWARD_C], plan[_FORWARD_S]
+    min_progress = plan[_MIN_PROGRESS]
     if moved >= 0:  # the previous step's action was taken: its legs stand where it landed them
         for k in range(per_action):
             flat = action_flat[moved, k]
@@ -510,7 +511,7 @@ def walk_step(costs: np.ndarray, first: int, stop: int, step: int, fresh: int, m
                             return ASK, 0, a, PART, flat, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
                         progress = ((points[flat, 0] - feet[leg, 0]) * forward_x
                                     + (points[flat, 1] - feet[leg, 1]) * forward_y)
-                        if progress >= -backstep:
+                        if progress >= min_progress:
                             urgent[a] = 2
             if urgent[a] != (2 if phase == 0 else 1):
                 continue

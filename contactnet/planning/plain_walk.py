@@ -30,10 +30,10 @@ class PlainHeightsWalk:
 
     def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, checker: FootholdChecker,
                  hip_xy_base: np.ndarray, touchdown_s: float, lookahead_s: float = 0.0,
-                 backstep_m: float = 0.0) -> None:
+                 min_progress_m: float = 0.0) -> None:
         self.actions, self.terrain, self.margin_m, self.checker = actions, terrain, margin_m, checker
-        self.hip_xy_base, self.touchdown_s, self.lookahead_s, self.backstep_m = (
-            np.asarray(hip_xy_base, dtype=float), touchdown_s, lookahead_s, backstep_m)
+        self.hip_xy_base, self.touchdown_s, self.lookahead_s, self.min_progress_m = (
+            np.asarray(hip_xy_base, dtype=float), touchdown_s, lookahead_s, min_progress_m)
         self.compiled = None
         self.cornered: np.ndarray | None = None
         self._feet = np.zeros((4, 2))
@@ -127,7 +127,7 @@ class PlainHeightsWalk:
                 forward_x, forward_y = self.forward_xy
                 feet = self._feet[legs]
                 progress = (cells[:, 0] - feet[:, 0]) * forward_x + (cells[:, 1] - feet[:, 1]) * forward_y
-                promote = (progress >= -self.backstep_m) & self.cornered[legs]
+                promote = (progress >= self.min_progress_m) & self.cornered[legs]
                 urgent = np.logical_or.reduce(promote[flat], axis=1)
                 self._urgent = np.zeros(stop - first, dtype=bool)
                 self._urgent[order - first] = urgent
@@ -148,8 +148,8 @@ class PlainHeightsWalk:
         return rank, action, points.tolist(), tops.tolist()
 
     def urgent(self, span: tuple[int, int], grid: Callable[[], np.ndarray]) -> Callable[[], np.ndarray]:
-        """A function making step 0's urgent actions (bool per action of ``span``): those landing a cornered leg no
-        further back than the backstep (``HeightsWalk.urgent``)."""
+        """A function making step 0's urgent actions (bool per action of ``span``): those landing a cornered leg at
+        least the least progress ahead (``HeightsWalk.urgent``)."""
         known = self._urgent
         return lambda: known if known is not None else np.zeros(span[1] - span[0], dtype=bool)
 

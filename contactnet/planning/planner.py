@@ -66,7 +66,7 @@ from contactnet.terrain import Terrain
 
 #: Re-exported: choosing a step from a ranking lives in ``contactnet.planning.ranking``.
 __all__ = [
-    "CORNERED_BACKSTEP_M", "CORNERED_LOOKAHEAD_STEPS", "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking",
+    "CORNERED_LOOKAHEAD_STEPS", "CORNERED_MIN_PROGRESS_M", "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking",
     "ContactNetPlanner", "FixedGaitPlanner", "LandingCheck", "PlannedStep",
     "Planner", "PlanningContext", "cell_grid", "first_safe_step", "step_in_place", "touchdown_times_s",
 ]
@@ -128,11 +128,11 @@ def touchdown_times_s(gait: GaitSpec) -> np.ndarray:
 # A *cornered* leg (terrain with heights): one whose shank, knee or thigh would reach the terrain if it stood where it
 # is for CORNERED_LOOKAHEAD_STEPS more steps of the commanded motion (``FootholdChecker.stance_clear``: a hind foot
 # behind a higher top, the body moving on over it). The network knows nothing of heights and may keep such a leg
-# down until it touches, so the first step's ranking puts the actions that move a cornered leg forward first (each
-# part in its own order) and the robot does not stand. Actions that put a cornered leg more than
-# CORNERED_BACKSTEP_M further back are not promoted (that would corner it more). ``HeightsWalk`` does both.
-#: A cornered leg's step (``ContactNetPlanner``) is promoted only if it lands no further back than this (m).
-CORNERED_BACKSTEP_M = 0.01
+# down until it touches, so the first step's ranking puts the actions that move a cornered leg at least
+# CORNERED_MIN_PROGRESS_M forward first (each part in its own order; a step in place leaves it cornered:
+# docs/results.md, "A cornered leg steps forward") and the robot does not stand. ``HeightsWalk`` does both.
+#: A cornered leg's step (``ContactNetPlanner``) is promoted only if it lands at least this far ahead (m).
+CORNERED_MIN_PROGRESS_M = 0.02
 #: ... and a leg is cornered when its lower leg would reach the terrain this many steps of motion ahead.
 CORNERED_LOOKAHEAD_STEPS = 3.0
 
@@ -464,11 +464,11 @@ class ContactNetPlanner:
             if not isinstance(walk, PlainHeightsWalk) or walk.terrain is not terrain:
                 walk = self._heights_walk = PlainHeightsWalk(
                     self._actions, terrain, self.margin_m, self.footholds, self.hip_xy_base, self._touchdown_s,
-                    CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_BACKSTEP_M)
+                    CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_MIN_PROGRESS_M)
         elif walk is None or walk.terrain is not terrain or walk.compiled is not self._compiled_heights():
             walk = self._heights_walk = HeightsWalk(
                 self._actions, terrain, self.margin_m, self._compiled_heights(), self.hip_xy_base, self._touchdown_s,
-                CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_BACKSTEP_M)
+                CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_MIN_PROGRESS_M)
         # the tops under the feet: the support (contactnet.motion.ground)
         tops = walk.start(hips_world, offsets_world, grid_bases, ctx.yaw_rad, bases, cmd_world, feet,
                           (float(c), float(s)))

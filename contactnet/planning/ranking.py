@@ -349,18 +349,18 @@ class HeightsWalk:
     (``plan``). ``hip_xy_base`` (4, 2) are the hips (flexion joints) in the base frame; a step's hips at touchdown
     are its hip base + the hips turned into the world + the commanded velocity x ``touchdown_s``. On the first step
     the legs whose stance would corner them with the hips ``lookahead_s`` of motion further
-    (``FootholdChecker.stance_clear``) are ``cornered``, and the actions landing one of them at most ``backstep_m``
-    behind its foot along the heading go first."""
+    (``FootholdChecker.stance_clear``) are ``cornered``, and the actions landing one of them at least
+    ``min_progress_m`` ahead of its foot along the heading go first."""
 
     def __init__(self, actions: ActionCells, terrain: Terrain, margin_m: float, compiled: CompiledHeights,
                  hip_xy_base: np.ndarray, touchdown_s: float, lookahead_s: float = 0.0,
-                 backstep_m: float = 0.0) -> None:
+                 min_progress_m: float = 0.0) -> None:
         self.actions, self.terrain, self.margin_m, self.compiled = actions, terrain, margin_m, compiled
         self.checker, self.hip_xy_base = compiled.checker, hip_xy_base
         self.touchdown_s, self.lookahead_s = touchdown_s, lookahead_s
         self.tables, self.constants = compiled.tables(terrain), compiled.constants
         self._scratch = compiled.scratch(4 * actions.cells_per_leg, len(actions.flat))
-        self._constants = [backstep_m, terrain.surface_z, touchdown_s, lookahead_s]
+        self._constants = [min_progress_m, terrain.surface_z, touchdown_s, lookahead_s]
         self._legs_per_step = actions.legs_per_step
         self.plan = np.zeros(0)
         self.cornered: np.ndarray | None = None  # (4,) bool after step 0's walk, None when no leg is cornered
@@ -498,7 +498,7 @@ class HeightsWalk:
 
     def urgent(self, span: tuple[int, int], grid: Callable[[], np.ndarray]) -> Callable[[], np.ndarray]:
         """A function making step 0's urgent actions (bool per action of ``span``), which its ranking puts first:
-        those landing a cornered leg no further back than the backstep (numpy's arithmetic on the walk's numbers,
+        those landing a cornered leg at least the least progress ahead (numpy's arithmetic on the walk's numbers,
         read now; ``grid``: ``grid(0)``). Call after step 0's walk, with a leg cornered."""
         plan, cornered, (forward_x, forward_y), flat = self.plan.copy(), self.cornered, self.forward_xy, \
             self.actions.flat_array[span[0]: span[1]]
@@ -511,7 +511,7 @@ class HeightsWalk:
             feet = plan[heights_walk.FEET: heights_walk.FEET + 8].reshape(4, 2)
             progress = ((cells[:, :, 0] - feet[:, 0, None]) * forward_x
                         + (cells[:, :, 1] - feet[:, 1, None]) * forward_y)
-            promote = ((progress >= -plan[heights_walk.BACKSTEP]) & cornered[:, None]).ravel()
+            promote = ((progress >= plan[heights_walk.MIN_PROGRESS]) & cornered[:, None]).ravel()
             return np.logical_or.reduce(promote[flat], axis=1)
 
         return make
