@@ -298,7 +298,6 @@ def test_a_cornered_hind_leg_swings_first(robot, checker, stairs):
     assert swung == {(HL,)}
 
 
-
 def test_a_cornered_leg_is_not_promoted_to_step_in_place(robot, monkeypatch):
     """The raised stones' trap (traced, docs/results.md "A cornered leg steps forward"): the hind-right foot on the low
     disc (top -6 cm) 14 cm behind the 12 cm riser of the next stone, the body moving on over it. The leg is cornered,
