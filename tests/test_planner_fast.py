@@ -83,7 +83,8 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
                 ahead = base + planner.hip_xy_base @ to_world.T + cmd_world * (
                     CORNERED_LOOKAHEAD_STEPS * gait.step_duration_s)
                 clear = checker.stance_clear(terrain, feet, tops, ahead, ctx.yaw_rad)
-                urgent = [any(not clear[leg] and (cells[leg, cell] - feet[leg]) @ to_world[:, 0] >= CORNERED_MIN_PROGRESS_M
+                forward = to_world[:, 0]
+                urgent = [any(not clear[leg] and (cells[leg, cell] - feet[leg]) @ forward >= CORNERED_MIN_PROGRESS_M
                               for leg, cell in zip(action_legs[a], action_cells[a], strict=True)) for a in order]
                 order = [a for a, u in zip(order, urgent, strict=True) if u] + [
                     a for a, u in zip(order, urgent, strict=True) if not u]

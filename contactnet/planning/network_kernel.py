@@ -4,10 +4,11 @@
 eleven calls of a microsecond of dispatch each for 55,000 multiply-adds (Solo12's trot network, 14-128-128-128-162),
 9-10 us of the planner's three evaluations a plan. Here the layers are straight loops over the same float32
 weights, the inner loop along a weight row (which LLVM vectorizes), eight inputs per pass over a layer's outputs
-(one load and store of each partial sum per eight products instead of per product): about 3.3 us (4.2 us one input
-a pass, Go2's trot network, ``tests/test_network.py`` keeps that form as its reference and asks for the same
-floats). The sums run input by input, in index order, so the scores differ from numpy's (BLAS's order) by rounding
-only (a few 1e-7 relative; ``tests/test_network.py`` checks them against the numpy form). Compiled on first use, cached next to this file.
+(one load and store of each partial sum per eight products instead of per product): about 3.3 us a pass on Go2's
+trot network (4.2 us with one input a pass). Each sum still runs input by input, in index order
+(``tests/test_network.py`` asks for the very floats of that plainest form), so the scores differ from numpy's
+(BLAS's order) by rounding only (a few 1e-7 relative; checked against the numpy form as well). Compiled on first
+use, cached next to this file.
 """
 
 from __future__ import annotations
