@@ -27,6 +27,7 @@ import numpy as np
 from contactnet.frames import rotate_xy
 from contactnet.motion.active_plan import ActivePlan
 from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
+from contactnet.motion.foot_hold import FootHold, FootHoldConfig
 from contactnet.motion.gait import GaitSpec
 from contactnet.motion.ground import body_pitch, front_to_hind_m, ground_normals
 from contactnet.motion.swing import swing_over_terrain
@@ -44,7 +45,7 @@ from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, 
 from contactnet.planning.planner import Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
 from contactnet.planning.stand import StallWatch, stalled
-from contactnet.records import Snapshot, StepCounts, StepRecord, summary_stats
+from contactnet.records import Snapshot, StepCounts, StepRecord, records_summary, summary_stats
 from contactnet.robots.description import Robot
 from contactnet.sim.engines import make_simulator
 from contactnet.sim.world import Push, SimConfig, SimState
@@ -92,6 +93,8 @@ class LocomotionConfig:
     # robot's default for the gait and the terrain (RobotDescription.default_crouch_m: its walk_crouch_m for the walk
     # on terrain of one level, nothing on terrain with heights, where the legs would meet the tops; 0 for Solo12).
     crouch_m: float | None = None
+    # A stance foot off the ground held where it stood (contactnet.motion.foot_hold); None (the default): off.
+    foot_hold: FootHoldConfig | None = None
 
 
 class Locomotion:
@@ -168,6 +171,7 @@ class Locomotion:
         self._liftoff_tops: tuple[tuple[int, ...], np.ndarray, np.ndarray] | None = None
         self._contact_tick = -1
         self._contact = np.zeros(4, dtype=bool)
+        self._foot_hold = None if self.config.foot_hold is None else FootHold(self.config.foot_hold)
         if self.observer is not None:
             self.observer.reset()
         self._delivered, self._leg_sigma_m = np.zeros((4, 3)), np.full(4, np.inf)
@@ -471,6 +475,8 @@ class Locomotion:
             config = self.config  # touchdown as sensed (contactnet.motion.touchdown)
             adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel, self._landed, config.late_touchdown_speed_m_s,
                              config.late_touchdown_depth_m)
+        if self._foot_hold is not None:  # a stance foot off the ground
+            self._foot_hold.apply(stance, self._foot_contact(), self.controller.last_foot_pos, swing_pos, swing_vel)
         solution = plan.solution
         external_world = None if self.observer is None else self.observer.feedforward_world(
             None if solution is None else plan.solution_force_world)
@@ -559,7 +565,6 @@ class Locomotion:
         ``capture_steps`` the steps whose candidates moved towards the capture point after a push
         (``contactnet.planning.capture``); ``stall_plans`` the plans made while the CoM had stopped following a moving
         command, whose first step went on along it (``contactnet.planning.stand.StallWatch``)."""
-        ranks = [r.rank for r in self.records if r.rank is not None]
         sim_time = float(self.sim.t_s)
         displacement = self._state.base_pos_world[:2] - self.start_xy
         return {
@@ -569,25 +574,20 @@ class Locomotion:
             "sim_time_s": sim_time,
             "wall_time_s": float(self.wall_time_s),
             "steps": self.steps_taken,
-            **StepCounts.of_run(self.records, self.swing_retargets).as_dict(),
-            "gait_sequence": [list(r.legs) for r in self.records if r.legs],
+            **StepCounts.of_run(self.records, self.swing_retargets).as_dict(), **records_summary(self.records),
             "planner_ms": summary_stats(self.planner_times_s),
             "trajopt_ms": summary_stats(self.trajopt_times_s),
-            "rank_chosen": {"mean": float(np.mean(ranks)) if ranks else 0.0, "max": int(max(ranks)) if ranks else 0},
-            "unsafe_landings": sum(not r.safe_landing for r in self.records),
             "fall_reason": self.fall_reason,
             "mean_velocity_xy": (displacement / sim_time).tolist() if sim_time > 0 else [0.0, 0.0],
             "max_abs_yaw_rad": self.max_abs_yaw_rad,
             "trajopt_failures": self.trajopt_failures,
-            "max_height_change_m": max((r.height_change_m for r in self.records
-                                        if not math.isnan(r.height_change_m)), default=0.0),
             "max_external_force_n": 0.0 if self.observer is None else float(self.observer.max_estimate_n),
             "sim": self.sim.engine,
-            "brace_steps": sum(r.braced for r in self.records),
             "brace_touchdowns": self.brace_touchdowns,
             "crouch_m": self.crouch_m,
             "stance_abduction_rad": float(self.robot.spec.stance_abduction_rad),
             "stall_plans": self.stall_plans,
+            "foot_hold_ticks": 0 if self._foot_hold is None else self._foot_hold.held_ticks,
         }
 
     def close(self) -> None:

@@ -91,6 +91,21 @@ class Snapshot:
     candidates: Any = None  # the ranking planner's CandidateRanking of the current step (None: no ranking)
 
 
+def records_summary(records: list[StepRecord]) -> dict:
+    """The parts of a run's summary (``Locomotion.summary``) that its step records give: the legs of each step that
+    swung, the chosen actions' ranks, the landings known unsafe, the largest rise or drop of a step and the steps
+    braced."""
+    ranks = [r.rank for r in records if r.rank is not None]
+    return {
+        "gait_sequence": [list(r.legs) for r in records if r.legs],
+        "rank_chosen": {"mean": float(np.mean(ranks)) if ranks else 0.0, "max": int(max(ranks)) if ranks else 0},
+        "unsafe_landings": sum(not r.safe_landing for r in records),
+        "max_height_change_m": max((r.height_change_m for r in records if not math.isnan(r.height_change_m)),
+                                   default=0.0),
+        "brace_steps": sum(r.braced for r in records),
+    }
+
+
 def summary_stats(values_s: list[float]) -> dict[str, float]:
     """mean / median / p99 / max in milliseconds (zeros when empty)."""
     if not values_s:
@@ -104,4 +119,4 @@ def summary_stats(values_s: list[float]) -> dict[str, float]:
     }
 
 
-__all__ = ["USELESS_STEP_M", "Snapshot", "StepCounts", "StepRecord", "summary_stats"]
+__all__ = ["USELESS_STEP_M", "Snapshot", "StepCounts", "StepRecord", "records_summary", "summary_stats"]

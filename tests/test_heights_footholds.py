@@ -298,22 +298,28 @@ def test_a_cornered_hind_leg_swings_first(robot, checker, stairs):
     assert swung == {(HL,)}
 
 
+def _raised_stones_trap(terrain, desc) -> PlanningContext:  # noqa: ANN001
+    """The traced state of the raised stones' trap (docs/results.md "A cornered leg steps forward")."""
+    feet = np.array([[1.151, 0.109, 0.0], [1.357, -0.091, 0.0], [0.872, 0.097, 0.0], [0.836, -0.143, 0.0]])
+    feet[:, 2] = terrain.ground_z(feet[:, :2]) + desc.foot_radius_m
+    return PlanningContext(
+        com_pos_world=np.array([1.08, 0.0, support_height(terrain, feet[:, :2]) + desc.com_height_nominal_m]),
+        com_vel_world=np.array([0.05, 0.0, 0.0]), yaw_rad=0.0, foot_pos_world=feet,
+        hip_ref_xy_base=desc.foot_nominal_base[:, :2], base_xy_world=np.array([1.08, 0.0]),
+        vel_cmd_xy=np.array([0.05, 0.0]), terrain=terrain, gait=WALK, com_height_ref_m=desc.com_height_nominal_m)
+
+
 def test_a_cornered_leg_is_not_promoted_to_step_in_place(robot, monkeypatch):
     """The raised stones' trap (traced, docs/results.md "A cornered leg steps forward"): the hind-right foot on the low
     disc (top -6 cm) 14 cm behind the 12 cm riser of the next stone, the body moving on over it. The leg is cornered,
     but no landing it can reach yet is on that stone: with steps up to 1 cm back promoted (the rule before) the walk
     steps it in place whatever the network prefers, and it stays cornered; with ``CORNERED_MIN_PROGRESS_M`` asked
-    forward no such step is promoted and the network's choice stands (here mostly another leg's step)."""
-    import contactnet.planning.planner as planner_module
+    forward no such step is promoted (and the grid a cell further on then steps it onto the stone: the next test)."""
+    import contactnet.planning.cornered as cornered_module
 
     terrain, desc = resolve("raised_stones", seed=0), robot.description
-    feet = np.array([[1.151, 0.109, 0.0], [1.357, -0.091, 0.0], [0.872, 0.097, 0.0], [0.836, -0.143, 0.0]])
-    feet[:, 2] = terrain.ground_z(feet[:, :2]) + desc.foot_radius_m
-    ctx = PlanningContext(
-        com_pos_world=np.array([1.08, 0.0, support_height(terrain, feet[:, :2]) + desc.com_height_nominal_m]),
-        com_vel_world=np.array([0.05, 0.0, 0.0]), yaw_rad=0.0, foot_pos_world=feet,
-        hip_ref_xy_base=desc.foot_nominal_base[:, :2], base_xy_world=np.array([1.08, 0.0]),
-        vel_cmd_xy=np.array([0.05, 0.0]), terrain=terrain, gait=WALK, com_height_ref_m=desc.com_height_nominal_m)
+    ctx = _raised_stones_trap(terrain, desc)
+    feet = ctx.foot_pos_world
 
     def first_steps() -> list[tuple[tuple[int, ...], float]]:
         steps = []
@@ -328,5 +334,29 @@ def test_a_cornered_leg_is_not_promoted_to_step_in_place(robot, monkeypatch):
         return sum(legs == (HR,) and abs(progress) < 0.01 for legs, progress in steps)
 
     assert in_place(first_steps()) <= 1  # (one of the four rankings puts that step first itself)
-    monkeypatch.setattr(planner_module, "CORNERED_MIN_PROGRESS_M", -0.01)
+    monkeypatch.setattr(cornered_module, "CORNERED_MIN_PROGRESS_M", -0.01)
     assert in_place(first_steps()) == 4
+
+
+def test_a_cornered_leg_with_no_step_forward_gets_its_grid_a_cell_further_on(robot, monkeypatch):
+    """The same trap: the stone in front of the cornered hind-right foot lies just beyond its candidate grid, so no
+    ranking can step it forward and the thigh's window passes (the raised stones' fall at x = 1.0 m). The first step
+    is then planned again on the grid one cell (5 cm) along the heading, and taken because it moves that leg: every
+    ranking steps it up onto the stone. Without the shift (0 cells) none does."""
+    import contactnet.planning.cornered as cornered_module
+
+    terrain, desc = resolve("raised_stones", seed=0), robot.description
+    ctx = _raised_stones_trap(terrain, desc)
+    feet = ctx.foot_pos_world
+
+    def onto_the_stone() -> int:
+        count = 0
+        for seed in range(6):
+            step = ContactNetPlanner(WALK, desc, _Ranked(WALK, seed)).plan(ctx)[0]
+            rise = terrain.ground_z(step.footholds_xy_world)[0] - terrain.ground_z(feet[HR:, :2])[0]
+            count += step.legs == (HR,) and step.footholds_xy_world[0][0] - feet[HR, 0] >= 0.1 and rise > 0.1
+        return count
+
+    assert onto_the_stone() == 6
+    monkeypatch.setattr(cornered_module, "CORNERED_GRID_SHIFT_CELLS", 0)
+    assert onto_the_stone() == 0

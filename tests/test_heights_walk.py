@@ -17,9 +17,10 @@ import shapely
 
 from contactnet.motion.gait import TROT, WALK
 from contactnet.planning import heights_lookup, heights_walk
+from contactnet.planning.cornered import CORNERED_LOOKAHEAD_STEPS, CORNERED_MIN_PROGRESS_M
 from contactnet.planning.footholds import FootholdChecker
 from contactnet.planning.heights_tables import CompiledHeights
-from contactnet.planning.planner import CORNERED_LOOKAHEAD_STEPS, CORNERED_MIN_PROGRESS_M, touchdown_times_s
+from contactnet.planning.planner import touchdown_times_s
 from contactnet.planning.ranking import ActionCells, HeightsWalk
 from contactnet.terrain import Terrain, random_heights, resolve
 

@@ -16,11 +16,15 @@ from contactnet.bench.planner import planning_contexts
 from contactnet.motion.gait import TROT, WALK
 from contactnet.motion.ground import support_height
 from contactnet.planning import safe_walk
+from contactnet.planning.capture import capture_offset
+from contactnet.planning.cornered import (
+    CORNERED_GRID_SHIFT_CELLS,
+    CORNERED_LOOKAHEAD_STEPS,
+    CORNERED_MIN_PROGRESS_M,
+)
 from contactnet.planning.footholds import FootholdChecker
 from contactnet.planning.network_input import network_input_one
 from contactnet.planning.planner import (
-    CORNERED_LOOKAHEAD_STEPS,
-    CORNERED_MIN_PROGRESS_M,
     ContactNetPlanner,
     FixedGaitPlanner,
     PlannedStep,
@@ -47,14 +51,17 @@ def _rotation(yaw: float) -> np.ndarray:
 
 
 def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int | None = None,
-                   seen: dict[str, int] | None = None) -> list[tuple]:
+                   seen: dict[str, int] | None = None, first_grid_shift_xy: np.ndarray | None = None) -> list[tuple]:
     """The plan as the planner's docs define it, the slow and obvious way: numpy state, the network's stable
     ranking of minus its scores, every step's whole candidate grid (small tops' cells centred on terrain with
     heights), and one action at a time down the ranking until its landing points are all safe
     (``Terrain.is_safe``) and, with heights, pass every check of ``FootholdChecker.evaluate``; on terrain with
-    heights the first step's ranking puts the actions that move a cornered leg first. ``group``: the fixed
+    heights the first step's ranking puts the actions that move a cornered leg first, and when the first step moves
+    no cornered leg forward (and no push moved the grid) the plan made on a first grid one cell further on along
+    the heading is taken if its first step does (``first_grid_shift_xy``: that shift). ``group``: the fixed
     gait's first group. Returns (legs, action, rank, footholds) per step, (None, ...) for a step in place (and
-    stops there). ``seen["roomed"]`` counts the steps the room for the roll moved to another landing."""
+    stops there). ``seen["roomed"]`` counts the steps the room for the roll moved to another landing,
+    ``seen["shifted"]`` the plans taken on the shifted grid."""
     gait, terrain, checker = planner.gait, ctx.terrain, planner.footholds
     heights = checker.applies(terrain)
     to_world = _rotation(ctx.yaw_rad)
@@ -68,6 +75,7 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
     tops = terrain.ground_z(feet)
     hips_touchdown = planner.hip_xy_base @ to_world.T + cmd_world * touchdown_times_s(gait)[0]
     action_legs, action_cells = gait.action_cells
+    feet_now, clear = feet.copy(), np.ones(4, dtype=bool)
     steps = []
     for j in range(gait.steps_per_plan):
         scores = planner.model.scores(network_input_one(feet, com, vel, np.asarray(ctx.vel_cmd_xy, dtype=float),
@@ -76,7 +84,8 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
         if group is not None:
             own = gait.cyclic_order[(group + j) % len(gait.cyclic_order)]
             order = [a for a in order if a // gait.actions_per_group == own]
-        cells = (base + hips_world)[:, None, :] + offsets_world[None]
+        grid_base = base + first_grid_shift_xy if j == 0 and first_grid_shift_xy is not None else base
+        cells = (grid_base + hips_world)[:, None, :] + offsets_world[None]
         if heights:
             cells = checker.centred(terrain, cells.reshape(-1, 2)).reshape(cells.shape)
             if j == 0:  # a cornered leg: its shin would reach the terrain a few steps of motion ahead
@@ -170,7 +179,25 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
         com[2] = support_height(terrain, feet) + ctx.com_height_ref_m
         base += shift
         vel = np.array([cmd_world[0], cmd_world[1], 0.0])
-    return steps
+    if first_grid_shift_xy is not None or clear.all() or capture_offset(
+            ctx.com_vel_world, ctx.vel_cmd_xy, ctx.yaw_rad, planner.capture, ctx.external_force_xy_world,
+            planner._lean_m_per_n) is not None:
+        return steps
+
+    def moves_cornered(step: tuple) -> bool:
+        return step[0] is not None and any(
+            not clear[leg] and (point - feet_now[leg]) @ to_world[:, 0] >= CORNERED_MIN_PROGRESS_M
+            for leg, point in zip(step[0], step[3], strict=True))
+
+    own = gait.swing_groups if group is None else [gait.swing_groups[gait.cyclic_order[group % len(gait.cyclic_order)]]]
+    if moves_cornered(steps[0]) or not any(not clear[leg] for legs in own for leg in legs):
+        return steps  # (the fixed gait's turn may be another leg's: no step of a cornered leg to find)
+    shifted = reference_plan(planner, ctx, group, None, to_world[:, 0] * (CORNERED_GRID_SHIFT_CELLS * gait.grid_spacing_m))
+    if not moves_cornered(shifted[0]):
+        return steps
+    if seen is not None:
+        seen["shifted"] = seen.get("shifted", 0) + 1
+    return shifted
 
 
 def _compare(planner, contexts, fixed: bool = False) -> dict[str, int]:
@@ -495,7 +522,7 @@ def test_plans_with_heights_match_the_reference(robot, models, gait, name, room)
     """The compiled walk with the height checks (``HeightsWalk``) plans what the plain walk down the ranking plans:
     the same actions, ranks and landing points at all three steps, on 120 random states over five terrains with
     heights (the random field with 0 and 100 squares removed and with tops within +-12 cm, the stairs, the raised
-    stones), first steps with a cornered leg among them. ``room``: with the room for the roll on heights too
+    stones), first steps with a cornered leg among them, some planned again on the first grid a cell further on. ``room``: with the room for the roll on heights too
     (``RollConfig(heights=True)``, off by default)."""
     planner = make_planner(name, gait, robot, model=models[gait.name])
     assert isinstance(planner, FixedGaitPlanner) == (name == "fixed")
@@ -509,6 +536,7 @@ def test_plans_with_heights_match_the_reference(robot, models, gait, name, room)
                 seen[key] = seen.get(key, 0) + value
     assert seen["plans"] == 120 and seen["deep"] > 0, seen
     assert (seen["roomed"] > 0) == room, seen  # the room for the roll moved some landings
+    assert seen.get("shifted", 0) > 0, seen  # some plans taken on the grid a cell further on (a cornered leg)
 
 
 @pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)

@@ -128,7 +128,7 @@ def test_contactnet_stands_when_standing_outranks_the_first_usable_step_or_tops_
 
 def _cornered(planner, ctx) -> bool:  # noqa: ANN001
     """Whether a leg is cornered at step 1 (``ContactNetPlanner._swing_cornered_legs_first``'s test)."""
-    from contactnet.planning.planner import CORNERED_LOOKAHEAD_STEPS
+    from contactnet.planning.cornered import CORNERED_LOOKAHEAD_STEPS
 
     if not planner.footholds.applies(ctx.terrain):
         return False

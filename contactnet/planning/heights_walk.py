@@ -3,7 +3,7 @@ hot loop with the height checks (``contactnet.planning.ranking.HeightsWalk``), a
 
 ``walk_step`` finds the action ``first_safe_step`` finds with ``FootholdChecker.usable`` as its check: in the stable
 ascending order of the costs (NaN last), on a plan's first step with the actions that move a cornered leg forward
-first (see ``contactnet.planning.planner.CORNERED_LOOKAHEAD_STEPS``), the first action whose landing points are all
+first (see ``contactnet.planning.cornered``), the first action whose landing points are all
 placed (a small top's cell moved to its centre), safe and usable. It never sorts (the next action is a pass over the
 costs away, a heap's after the first few), an unusable cell rules out every action using it, and each grid cell is
 placed and checked at most once (the cheap checks of an action's cells before the rest of any of them)

@@ -23,6 +23,7 @@ import numpy as np
 
 from contactnet.frames import rotate_xy
 from contactnet.motion.gait import GaitSpec
+from contactnet.planning import cornered
 from contactnet.planning.capture import DEFAULT_CAPTURE, CaptureConfig, capture_offset
 from contactnet.planning.footholds import FootholdChecker, HeightChecks
 from contactnet.planning.heights_tables import CompiledHeights
@@ -43,7 +44,6 @@ from contactnet.planning.ranking import (
     first_safe_step,
     one_level_grid,
     step_in_place,
-    urgent_first,
 )
 from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, first_moving, left_behind
 from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy
@@ -66,8 +66,8 @@ from contactnet.terrain import Terrain
 
 #: Re-exported: choosing a step from a ranking lives in ``contactnet.planning.ranking``.
 __all__ = [
-    "CORNERED_LOOKAHEAD_STEPS", "CORNERED_MIN_PROGRESS_M", "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking",
-    "ContactNetPlanner", "FixedGaitPlanner", "LandingCheck", "PlannedStep",
+    "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking", "ContactNetPlanner", "FixedGaitPlanner",
+    "LandingCheck", "PlannedStep",
     "Planner", "PlanningContext", "cell_grid", "first_safe_step", "step_in_place", "touchdown_times_s",
 ]
 
@@ -124,17 +124,6 @@ def touchdown_times_s(gait: GaitSpec) -> np.ndarray:
     touchdown_in_step = (gait.n_stance_pre + gait.n_swing) * gait.node_dt_s
     return np.arange(gait.steps_per_plan) * gait.step_duration_s + touchdown_in_step
 
-
-# A *cornered* leg (terrain with heights): one whose shank, knee or thigh would reach the terrain if it stood where it
-# is for CORNERED_LOOKAHEAD_STEPS more steps of the commanded motion (``FootholdChecker.stance_clear``: a hind foot
-# behind a higher top, the body moving on over it). The network knows nothing of heights and may keep such a leg
-# down until it touches, so the first step's ranking puts the actions that move a cornered leg at least
-# CORNERED_MIN_PROGRESS_M forward first (each part in its own order; a step in place leaves it cornered:
-# docs/results.md, "A cornered leg steps forward") and the robot does not stand. ``HeightsWalk`` does both.
-#: A cornered leg's step (``ContactNetPlanner``) is promoted only if it lands at least this far ahead (m).
-CORNERED_MIN_PROGRESS_M = 0.02
-#: ... and a leg is cornered when its lower leg would reach the terrain this many steps of motion ahead.
-CORNERED_LOOKAHEAD_STEPS = 3.0
 
 # ----------------------------------------------------------------------------------------------------
 # ContactNet
@@ -260,12 +249,28 @@ class ContactNetPlanner:
         must_step = stalled(ctx.still_plans, self.idle)  # a stop with a moving command (StallWatch)
         if self.footholds.applies(ctx.terrain):
             steps = self._plan_with_heights(ctx, offset, idle, must_step)
+            walk = self._heights_walk
+            if (offset is None and walk.cornered is not None and not self._moves_cornered(ctx, steps[0])
+                    and cornered.may_step(walk.cornered, self.gait, self._group_range(0))):
+                candidates = self.last_candidates  # no forward step for it: once more a cell further on
+                shift_xy = cornered.grid_shift_xy(walk.forward_xy, self.gait.grid_spacing_m)
+                shifted = self._plan_with_heights(ctx, shift_xy, idle, must_step)
+                if self._moves_cornered(ctx, shifted[0]):
+                    steps = shifted
+                else:
+                    self.last_candidates = candidates
         else:
             steps = self._plan_one_level(ctx, offset, idle, must_step)
         if offset is not None:
             steps[0] = dataclasses.replace(steps[0], captured=True)
         self._advance()
         return steps
+
+    def _moves_cornered(self, ctx: PlanningContext, step: PlannedStep) -> bool:
+        """Whether ``step`` moves a leg cornered at the last plan forward (``contactnet.planning.cornered``)."""
+        walk = self._heights_walk
+        return cornered.moves_cornered_leg(step, walk.cornered, np.asarray(ctx.foot_pos_world, dtype=float)[:, :2],
+                                           walk.forward_xy, cornered.CORNERED_MIN_PROGRESS_M)
 
     def _plan_one_level(self, ctx: PlanningContext, capture_xy: tuple[float, float] | None = None,
                         idle: bool = False, must_step: bool = False) -> list[PlannedStep]:
@@ -435,7 +440,7 @@ class ContactNetPlanner:
                            idle: bool = False, must_step: bool = False) -> list[PlannedStep]:
         """``plan`` on a terrain with tops at several heights (see the class doc): ``first_safe_step`` with the
         height checks, the first step's ranking with the actions moving a cornered leg first (see
-        ``CORNERED_LOOKAHEAD_STEPS``), found faster (``HeightsWalk``, one per planner and terrain). ``capture_xy``:
+        ``contactnet.planning.cornered``), found faster (``HeightsWalk``, one per planner and terrain). ``capture_xy``:
         the first step's grid shift (the hips at touchdown, for the reach check, are not shifted), None for none;
         ``idle`` and ``must_step`` as in ``_plan_one_level``."""
         gait, terrain = self.gait, ctx.terrain
@@ -464,11 +469,11 @@ class ContactNetPlanner:
             if not isinstance(walk, PlainHeightsWalk) or walk.terrain is not terrain:
                 walk = self._heights_walk = PlainHeightsWalk(
                     self._actions, terrain, self.margin_m, self.footholds, self.hip_xy_base, self._touchdown_s,
-                    CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_MIN_PROGRESS_M)
+                    cornered.CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, cornered.CORNERED_MIN_PROGRESS_M)
         elif walk is None or walk.terrain is not terrain or walk.compiled is not self._compiled_heights():
             walk = self._heights_walk = HeightsWalk(
                 self._actions, terrain, self.margin_m, self._compiled_heights(), self.hip_xy_base, self._touchdown_s,
-                CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, CORNERED_MIN_PROGRESS_M)
+                cornered.CORNERED_LOOKAHEAD_STEPS * self._step_duration_s, cornered.CORNERED_MIN_PROGRESS_M)
         # the tops under the feet: the support (contactnet.motion.ground)
         tops = walk.start(hips_world, offsets_world, grid_bases, ctx.yaw_rad, bases, cmd_world, feet,
                           (float(c), float(s)))
@@ -492,7 +497,7 @@ class ContactNetPlanner:
                 if capture_xy is not None or walk.cornered is not None or must_step:
                     stand_cost = None  # a pushed robot steps, and so do one with a cornered leg and a stalled one
                     if walk.cornered is not None:
-                        order = functools.partial(_urgent_ranking, order, walk.urgent(span, grid), span[0])
+                        order = functools.partial(cornered.urgent_ranking, order, walk.urgent(span, grid), span[0])
             if self._stands(costs, stand_cost, found):
                 step, points, landing_tops = stand_step(gait, costs, stand_cost), [], []
             elif idle and found is not None and useless_swing(action_group[found[1]], found[2], feet,
@@ -560,12 +565,6 @@ class ContactNetPlanner:
                                          yaw_rad)
 
         return check
-
-
-def _urgent_ranking(ranking: Callable[[], np.ndarray], urgent: Callable[[], np.ndarray], first: int) -> np.ndarray:
-    """The first step's ranking with a cornered leg: ``ranking()`` with the ``urgent()`` actions (bool per action
-    from ``first``, ``HeightsWalk.urgent``) first, each part in its own order."""
-    return urgent_first(ranking(), urgent(), first)
 
 
 class FixedGaitPlanner(ContactNetPlanner):
