@@ -189,10 +189,12 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
             not clear[leg] and (point - feet_now[leg]) @ to_world[:, 0] >= CORNERED_MIN_PROGRESS_M
             for leg, point in zip(step[0], step[3], strict=True))
 
-    own = gait.swing_groups if group is None else [gait.swing_groups[gait.cyclic_order[group % len(gait.cyclic_order)]]]
+    own = gait.swing_groups if group is None else [
+        gait.swing_groups[gait.cyclic_order[group % len(gait.cyclic_order)]]]
     if moves_cornered(steps[0]) or not any(not clear[leg] for legs in own for leg in legs):
         return steps  # (the fixed gait's turn may be another leg's: no step of a cornered leg to find)
-    shifted = reference_plan(planner, ctx, group, None, to_world[:, 0] * (CORNERED_GRID_SHIFT_CELLS * gait.grid_spacing_m))
+    shift_m = CORNERED_GRID_SHIFT_CELLS * gait.grid_spacing_m
+    shifted = reference_plan(planner, ctx, group, None, to_world[:, 0] * shift_m)
     if not moves_cornered(shifted[0]):
         return steps
     if seen is not None:
@@ -522,8 +524,8 @@ def test_plans_with_heights_match_the_reference(robot, models, gait, name, room)
     """The compiled walk with the height checks (``HeightsWalk``) plans what the plain walk down the ranking plans:
     the same actions, ranks and landing points at all three steps, on 120 random states over five terrains with
     heights (the random field with 0 and 100 squares removed and with tops within +-12 cm, the stairs, the raised
-    stones), first steps with a cornered leg among them, some planned again on the first grid a cell further on. ``room``: with the room for the roll on heights too
-    (``RollConfig(heights=True)``, off by default)."""
+    stones), first steps with a cornered leg among them, some planned again on the first grid a cell further on.
+    ``room``: with the room for the roll on heights too (``RollConfig(heights=True)``, off by default)."""
     planner = make_planner(name, gait, robot, model=models[gait.name])
     assert isinstance(planner, FixedGaitPlanner) == (name == "fixed")
     if room:

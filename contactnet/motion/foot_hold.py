@@ -3,10 +3,10 @@
 The optimizer may plan a stance foot's force down to nothing (the body over the other feet during a swing), and a
 push can lift the body off a foot. Such a foot, still planned in stance, gets ``-J^T f`` with ``f`` about zero: no
 task holds its leg, which follows the body, and on a holed terrain it can drift over a gap while it is off the ground
-(docs/results.md, "A stance foot that lost its contact"). A foot planned in stance that had its contact in this stance and
-has lost it for ``lost_ticks`` ticks is tracked by the swing PD instead, to the point where it last stood pressed
-``press_m`` into the ground, until it touches again: it carries no force meanwhile and the body's wrench is spread
-over the others. Off by default: a foot unloaded by a body that tilts over it then stops pushing it back down
+(docs/results.md, "A stance foot that lost its contact"). A foot planned in stance that had its contact in this
+stance and has lost it for ``lost_ticks`` ticks is tracked by the swing PD instead, to the point where it last stood
+pressed ``press_m`` into the ground, until it touches again: it carries no force meanwhile and the body's wrench is
+spread over the others. Off by default: a foot unloaded by a body that tilts over it then stops pushing it back down
 (docs/results.md, "A stance foot that lost its contact": a standing robot leaning into its command falls with it).
 """
 
@@ -62,7 +62,8 @@ class FootHold:
             self.lost[leg] += 1
             if self.lost[leg] >= self.config.lost_ticks:
                 stance[leg] = False
-                swing_pos[leg] = self.anchors_world[leg] - np.array([0.0, 0.0, self.config.press_m])
+                swing_pos[leg] = self.anchors_world[leg]
+                swing_pos[leg, 2] -= self.config.press_m
                 swing_vel[leg] = 0.0
                 held = True
         self.held_ticks += held
