@@ -4,7 +4,7 @@ The main objects, importable from here (loaded on first use, so ``import contact
 
     from contactnet import Locomotion, registry, resolve_terrain
     terrain = resolve_terrain("stepping_stones")
-    robot = registry.load_robot("solo12").for_terrain(terrain)  # its stance for this terrain
+    robot = registry.load_robot("solo12").for_terrain(terrain, "walk")  # its stance for this terrain and gait
     gait = registry.gait_by_name("walk")
     planner = registry.make_planner("contactnet", gait, robot)
     with Locomotion(robot, terrain, gait, planner, vel_cmd_xy=(0.05, 0.0)) as loco:

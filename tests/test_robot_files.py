@@ -210,13 +210,46 @@ def test_on_terrain_of_one_level_a_robot_stands_in_its_wider_stance(tmp_path):
     np.testing.assert_array_equal(wide.description.q_standing, reference.q_standing)
     np.testing.assert_array_equal(wide.description.foot_upright_base, solo.description.foot_nominal_base)
     go2 = load_robot("go2", cache_dir=tmp_path)
-    assert go2.for_terrain(one_level) is go2  # no such stance: itself
+    assert go2.for_terrain(one_level) is go2 and go2.for_terrain(one_level, "walk") is go2  # the trot's stance only
+    assert go2.for_terrain(one_level, "trot") is not go2
     path = tmp_path / "a1.toml"
     path.write_text(A1.replace("fall_base_height_m = 0.12\n",
                                "fall_base_height_m = 0.12\none_level_stance_abduction_rad = 0.05\n")
                     .replace('name = "a1_file"', 'name = "a1_one_level"'))
     spec = load_robot_file(path)
     assert spec.one_level_stance_abduction_rad == 0.05 and spec_values(spec)["one_level_stance_abduction_rad"] == 0.05
-    assert "one_level_stance_abduction_rad" not in spec_values(robot_spec("go2"))  # 0: not written
+    plain = dataclasses.replace(robot_spec("go2"), one_level_stance_abduction_rad=0.0)
+    assert "one_level_stance_abduction_rad" not in spec_values(plain)  # 0: not written
+    assert spec_values(robot_spec("go2"))["one_level_stance_gaits"] == ["trot"]
     with pytest.raises(RobotDataError, match="one_level_stance_abduction_rad must be from 0 to 0.3"):
         Robot.load(dataclasses.replace(solo.spec, one_level_stance_abduction_rad=float("nan")), cache_dir=tmp_path)
+
+
+def test_a_wider_stance_for_some_gaits_only_is_taken_by_those_gaits(tmp_path):
+    """``one_level_stance_gaits``: on terrain of one level only the named gaits stand wider (``for_terrain(terrain,
+    gait)``); another gait, or no gait named, keeps the robot's own stance, as does every gait on terrain with heights.
+    The list reads from and writes to a robot file; a bad one is an error naming the field."""
+    import dataclasses
+
+    from contactnet.robots.description import Robot
+    from contactnet.terrain import resolve
+
+    solo = load_robot("solo12", cache_dir=tmp_path)
+    one_level, heights = resolve("push_field"), resolve("random_heights", removed=80, seed=0)
+    assert solo.for_terrain(one_level, "walk") is solo.for_terrain(one_level, "trot") is solo.for_terrain(one_level)
+    trot_only = Robot.load(dataclasses.replace(solo.spec, one_level_stance_gaits=("trot",)), cache_dir=tmp_path)
+    wide = trot_only.for_terrain(one_level, "trot")
+    assert wide is not trot_only and wide.spec.stance_abduction_rad == 0.1
+    assert trot_only.for_terrain(one_level, "walk") is trot_only and trot_only.for_terrain(one_level) is trot_only
+    assert trot_only.for_terrain(heights, "trot") is trot_only
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace("fall_base_height_m = 0.12\n", "fall_base_height_m = 0.12\n"
+                               "one_level_stance_abduction_rad = 0.05\none_level_stance_gaits = [\"trot\"]\n"))
+    spec = load_robot_file(path)
+    assert spec.one_level_stance_gaits == ("trot",) and spec_values(spec)["one_level_stance_gaits"] == ["trot"]
+    assert "one_level_stance_gaits" not in spec_values(robot_spec("solo12"))  # every gait: not written
+    path.write_text(A1.replace("fall_base_height_m = 0.12\n", "fall_base_height_m = 0.12\none_level_stance_gaits = 3\n"))
+    with pytest.raises(RobotDataError, match="one_level_stance_gaits: expected a list of gait names"):
+        load_robot_file(path)
+    with pytest.raises(RobotDataError, match="one_level_stance_gaits must be None"):
+        Robot.load(dataclasses.replace(solo.spec, one_level_stance_gaits=["trot"]), cache_dir=tmp_path)

@@ -202,7 +202,7 @@ class LiveSession(SessionCommands):
     def _build(self, publish: bool = True) -> None:
         """(Re)build the Locomotion (and its PyBullet world) for the current settings; ``publish=False``
         leaves publishing the new view to the caller (a command publishes once it is fully applied)."""
-        robot = self._robot.for_terrain(self._terrain)  # its stance for this terrain (Robot.for_terrain)
+        robot = self._robot.for_terrain(self._terrain, self._gait_name)  # its stance here (Robot.for_terrain)
         gait = registry.gait_for(self._gait_name, robot)
         planner, active, note = self._planner_factory(self._planner_name, gait, robot)
         sim_config = SimConfig(joint_vel_noise_var=NOISE_VARIANCE if self._noise else 0.0, engine=self._sim)

@@ -239,7 +239,7 @@ class SessionCommands:
         restarting the robot (paused, so several edits can be made before it walks again)."""
         terrain = to_terrain(data)
         label = self._edited_label()
-        same_robot = self._robot.for_terrain(terrain) is self._loco.robot  # a robot's stance follows the terrain's kind
+        same_robot = self._robot.for_terrain(terrain, self._gait_name) is self._loco.robot  # stance by terrain
         if same_robot and change_is_away(self._terrain, terrain, self._robot,
                                          [loco.snapshot() for loco in self._locos()]):
             self._loco.replace_terrain(terrain)

@@ -21,7 +21,7 @@ def run_case(case: dict) -> dict:
     from contactnet.terrain import flat
 
     terrain = flat()
-    robot = load_robot(case.get("robot", DEFAULT_ROBOT)).for_terrain(terrain)
+    robot = load_robot(case.get("robot", DEFAULT_ROBOT)).for_terrain(terrain, case["gait"])
     gait = gait_for(case["gait"], robot)
     vx, vy = case["vel"]
     with Locomotion(

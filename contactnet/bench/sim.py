@@ -50,7 +50,7 @@ def walking_real_time_factor(gait_name: str, sim_seconds: float = STACK_SECONDS,
     from contactnet.terrain import resolve
 
     terrain = resolve(terrain_name)
-    robot = load_robot(robot_name).for_terrain(terrain)
+    robot = load_robot(robot_name).for_terrain(terrain, gait_name)
     gait = gait_for(gait_name, robot)
     planner = make_planner(planner_name, gait, robot)
     with Locomotion(robot, terrain, gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx, 0.0)) as loco:

@@ -124,7 +124,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         _check_crouch(args.crouch, robot)
     terrain = registry.terrain_for(args.terrain, robot, removed=args.removed, seed=args.seed, height_m=args.height,
                                    scale=args.terrain_scale)
-    robot = robot.for_terrain(terrain)  # its stance for this terrain (a robot's one_level_stance_abduction_rad)
+    robot = robot.for_terrain(terrain, args.gait)  # its stance for this terrain and gait (Robot.for_terrain)
     gait = registry.gait_for(args.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
     planner = make_planner(args.planner, gait, robot, model=args.model)
     sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args),

@@ -249,7 +249,7 @@ def run_trial(trial: Trial) -> dict:
     t0 = time.perf_counter()
     terrain = _terrain(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m, trial.height_m,
                        trial.robot, trial.scale)
-    robot = load_robot(trial.robot).for_terrain(terrain)  # its stance for this terrain (Robot.for_terrain)
+    robot = load_robot(trial.robot).for_terrain(terrain, trial.gait)  # its stance here (Robot.for_terrain)
     gait = gait_for(trial.gait, robot)
     model = None if trial.model_dir is None else model_path(trial.robot, trial.gait, Path(trial.model_dir))
     planner = make_planner(trial.planner, gait, robot, model=model)

@@ -120,7 +120,7 @@ def walk_check(robot, gait_name: str, engine: str, seconds: float = 20.0, vx_m_s
     from contactnet.terrain import flat
 
     terrain = flat()
-    robot = robot.for_terrain(terrain)  # the robot's stance on flat ground (one_level_stance_abduction_rad)
+    robot = robot.for_terrain(terrain, gait_name)  # its stance on flat ground (one_level_stance_abduction_rad)
     gait = gait_for(gait_name, robot)
     planner = make_planner("heuristic", gait, robot)
     with Locomotion(robot, terrain, gait, planner, SimConfig(engine=engine), vel_cmd_xy=(vx_m_s, 0.0)) as loco:

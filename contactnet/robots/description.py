@@ -95,6 +95,8 @@ class RobotSpec:
     #: ``stance_abduction_rad`` (`Robot.for_terrain`): wider feet where no top is there for the legs to meet. 0: the
     #: same stance on every terrain.
     one_level_stance_abduction_rad: float = 0.0
+    #: The gaits (by name) that take ``one_level_stance_abduction_rad``; None: every gait. Go2: the trot only.
+    one_level_stance_gaits: tuple[str, ...] | None = None
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -382,12 +384,16 @@ class Robot:
         self._foot_ids = [model.getFrameId(f) for f in spec.foot_frames]
         self._one_level: Robot | None = None  # for_terrain's twin, built on first use
 
-    def for_terrain(self, terrain: Terrain) -> Robot:
-        """The robot that walks ``terrain``: this one, or on terrain of one level (``Terrain.has_heights`` False)
-        its twin with the stance ``spec.one_level_stance_abduction_rad`` wider (built once, then kept; the same
-        name, model files and URDF). Build the planner and `contactnet.locomotion.Locomotion` with it. A robot whose
-        spec has no such stance is its own robot on every terrain."""
-        if not self.spec.one_level_stance_abduction_rad or terrain.has_heights:
+    def for_terrain(self, terrain: Terrain, gait: str | None = None) -> Robot:
+        """The robot that walks ``terrain`` with ``gait`` (a gait's name): this one, or on terrain of one level
+        (``Terrain.has_heights`` False) its twin with the stance ``spec.one_level_stance_abduction_rad`` wider (built
+        once, then kept; the same name, model files and URDF), when ``spec.one_level_stance_gaits`` is None or names
+        ``gait``. Build the gait, the planner and `contactnet.locomotion.Locomotion` with it. A robot whose spec has
+        no such stance is its own robot on every terrain; with ``gait`` None only a stance for every gait applies."""
+        spec = self.spec
+        if not spec.one_level_stance_abduction_rad or terrain.has_heights:
+            return self
+        if spec.one_level_stance_gaits is not None and gait not in spec.one_level_stance_gaits:
             return self
         if self._one_level is None:
             twin = replace(self.spec, stance_abduction_rad=self.spec.one_level_stance_abduction_rad,
@@ -503,6 +509,10 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
     if not (math.isfinite(widen) and 0.0 <= widen <= MAX_STANCE_ABDUCTION_RAD):
         raise RobotDataError(f"{spec.name}: one_level_stance_abduction_rad must be from 0 to "
                              f"{MAX_STANCE_ABDUCTION_RAD} rad, got {widen!r}")
+    gaits = spec.one_level_stance_gaits
+    if gaits is not None and not (isinstance(gaits, tuple) and all(isinstance(g, str) and g for g in gaits)):
+        raise RobotDataError(f"{spec.name}: one_level_stance_gaits must be None (every gait) or gait names, "
+                             f"got {gaits!r}")
     upright = q.copy()  # the stance before it is widened (the base at the origin): each leg's vertical plane
     if spec.stance_abduction_rad:
         q = widened_stance(model, q, spec)

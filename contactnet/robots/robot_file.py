@@ -22,6 +22,7 @@ read from them, as for the robots in modules::
     # walk_crouch_m = 0.02 (the walk's CoM reference this much lower on terrain of one level; default 0),
     # stance_abduction_rad = 0.1 (each leg's abduction this much further out than the stance's: wider feet; default 0),
     # one_level_stance_abduction_rad = 0.1 (the same on terrain of one level only, instead; default 0),
+    # one_level_stance_gaits = ["trot"] (the gaits that take it; default: every gait),
     # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains)
 
 `contactnet robot init` drafts one from a description folder or a URDF; `contactnet robot check FILE.toml` says
@@ -47,7 +48,7 @@ _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes"
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
              "controller_gains", "size_scale", "walk_crouch_m", "stance_abduction_rad",
-             "one_level_stance_abduction_rad")
+             "one_level_stance_abduction_rad", "one_level_stance_gaits")
 _POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm", "size_scale")
 
 
@@ -114,6 +115,10 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
     for name, angle in (("stance_abduction_rad", widen), ("one_level_stance_abduction_rad", widen_one_level)):
         if isinstance(angle, bool) or not isinstance(angle, int | float) or not 0.0 <= angle <= MAX_STANCE_ABDUCTION_RAD:
             raise bad(name, f"expected a number from 0 to {MAX_STANCE_ABDUCTION_RAD} (rad), got {angle!r}")
+    stance_gaits = values.get("one_level_stance_gaits")
+    if stance_gaits is not None and not (isinstance(stance_gaits, list)
+                                         and all(isinstance(g, str) and g for g in stance_gaits)):
+        raise bad("one_level_stance_gaits", f"expected a list of gait names, got {stance_gaits!r}")
     stance = values.get("standing_leg_joints_rad")
     if stance is not None and not (isinstance(stance, list) and len(stance) == 3
                                    and all(isinstance(v, int | float) and not isinstance(v, bool) for v in stance)):
@@ -152,6 +157,7 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
         size_scale=None if "size_scale" not in values else float(values["size_scale"]),
         walk_crouch_m=float(crouch), stance_abduction_rad=float(widen),
         one_level_stance_abduction_rad=float(widen_one_level),
+        one_level_stance_gaits=None if stance_gaits is None else tuple(stance_gaits),
     )
 
 
