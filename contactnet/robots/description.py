@@ -396,8 +396,8 @@ class Robot:
         if spec.one_level_stance_gaits is not None and gait not in spec.one_level_stance_gaits:
             return self
         if self._one_level is None:
-            twin = replace(self.spec, stance_abduction_rad=self.spec.one_level_stance_abduction_rad,
-                           one_level_stance_abduction_rad=0.0)
+            twin = replace(spec, stance_abduction_rad=spec.one_level_stance_abduction_rad,
+                           one_level_stance_abduction_rad=0.0, one_level_stance_gaits=None)
             self._one_level = Robot(twin, self.files, self.model, describe(twin, self.files, self.model),
                                     self.cache_dir)
         return self._one_level
