@@ -118,6 +118,11 @@ def rank_of(costs: np.ndarray, first: int, stop: int, action: int) -> int:
     return rank
 
 
+#: How many of the cheapest actions not ruled out one pass over the span keeps (``first_safe``), tried in turn before
+#: the next pass: on a field with holes a step rules out several cells, and each pass costs the whole span.
+_CHEAPEST = 8
+
+
 @numba.njit(cache=True, nogil=True)
 def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray, leg_cell: np.ndarray,
                hips: np.ndarray, offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray,
@@ -130,31 +135,48 @@ def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray
     calls of one evaluation. ``ahead_x, ahead_y``: a landing point is safe only if the point that far on (world,
     metres) is safe too (``contactnet.planning.roll``); zero for the landing point alone.
 
-    No sort: the first of the cheapest actions not ruled out is tried; an unsafe landing point rules out every
-    action that uses its cell, and the next cheapest is tried, until one is safe."""
+    No sort: the cheapest action not ruled out is tried; an unsafe landing point rules out every action that uses
+    its cell, and the next cheapest is tried, until one is safe. One pass over the span keeps its ``_CHEAPEST``
+    cheapest actions not ruled out (below +inf, in the stable order), tried in turn (those ruled out meanwhile
+    skipped) before the next pass: every action left out costs at least as much as the last kept one (and comes
+    after it), so the actions are tried in the same order as one pass per try would try them. With no such action,
+    the actions of cost +inf in index order, then the NaNs."""
+    kept_cost = np.empty(_CHEAPEST)
+    kept = np.empty(_CHEAPEST, np.int64)
     while True:
-        best, best_cost, first_inf, first_nan = -1, np.inf, -1, -1
+        n, first_inf, first_nan = 0, -1, -1
         for a in range(first, stop):
             cost = costs[a]
-            if cost < best_cost:
-                if not _ruled_out(a, action_flat, known):
-                    best, best_cost = a, cost
-            elif best < 0 and (first_inf < 0 if cost == np.inf else (first_nan < 0 and cost != cost)):
+            if cost < np.inf:  # a number below +inf (not NaN)
+                if n < _CHEAPEST or cost < kept_cost[_CHEAPEST - 1]:
+                    if not _ruled_out(a, action_flat, known):
+                        at = min(n, _CHEAPEST - 1)  # after every kept one of a cost <= this one's (stable)
+                        while at > 0 and kept_cost[at - 1] > cost:
+                            kept_cost[at], kept[at] = kept_cost[at - 1], kept[at - 1]
+                            at -= 1
+                        kept_cost[at], kept[at] = cost, a
+                        n = min(n + 1, _CHEAPEST)
+            elif n == 0 and (first_inf < 0 if cost == np.inf else first_nan < 0):
                 if not _ruled_out(a, action_flat, known):
                     if cost == np.inf:
                         first_inf = a
                     else:
                         first_nan = a
-        if best < 0:
-            best = first_inf if first_inf >= 0 else first_nan
-        if best < 0:
-            return NONE, -1, -1
-        state = _all_safe(best, action_flat, known, leg_cell, hips, offsets, base_x, base_y, raster, codes, segments,
-                          row_first, row_segments, ahead_x, ahead_y)
-        if state < 0:
-            return ASK, 0, -1 - state
-        if state == SAFE:
-            return FOUND, rank_of(costs, first, stop, best), best
+        if n == 0:
+            kept[0] = first_inf if first_inf >= 0 else first_nan
+            if kept[0] < 0:
+                return NONE, -1, -1
+            n = 1
+        for i in range(n):
+            best = kept[i]
+            if i > 0 and _ruled_out(best, action_flat, known):
+                continue
+            state = _all_safe(best, action_flat, known, leg_cell, hips, offsets, base_x, base_y, raster, codes,
+                              segments, row_first, row_segments, ahead_x, ahead_y)
+            if state < 0:
+                return ASK, 0, -1 - state
+            if state == SAFE:
+                return FOUND, rank_of(costs, first, stop, best), best
 
 
 @numba.njit(cache=True, nogil=True)

@@ -34,11 +34,13 @@ def near_outline(x: float, y: float, row: int, segments: np.ndarray, row_first: 
         i = row_segments[k]
         x0, y0, x1, y1 = segments[i, 0], segments[i, 1], segments[i, 2], segments[i, 3]
         dx, dy = x1 - x0, y1 - y0
-        length2 = dx * dx + dy * dy
-        t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / length2))
-        ex, ey = x0 + t * dx - x, y0 + t * dy - y
-        if ex * ex + ey * ey <= _NEAR2:
-            return ON_OUTLINE
+        if (min(x0, x1) - NEAR_OUTLINE_M <= x <= max(x0, x1) + NEAR_OUTLINE_M
+                and min(y0, y1) - NEAR_OUTLINE_M <= y <= max(y0, y1) + NEAR_OUTLINE_M):  # else further than that
+            length2 = dx * dx + dy * dy
+            t = 0.0 if length2 == 0.0 else min(1.0, max(0.0, ((x - x0) * dx + (y - y0) * dy) / length2))
+            ex, ey = x0 + t * dx - x, y0 + t * dy - y
+            if ex * ex + ey * ey <= _NEAR2:
+                return ON_OUTLINE
         if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * dx / dy:
             inside = not inside
     return INSIDE if inside else OUTSIDE
