@@ -372,7 +372,7 @@ class ContactNetPlanner:
                                                               self.idle.min_swing_m):
                 step, points = idle_stand_step(gait, found[0]), []
             elif found is None:  # nothing safe: step in place
-                step = step_in_place(gait, order(), np.array(feet), terrain)
+                step = step_in_place(gait, order(), np.array(feet), terrain, self.margin_m)
                 points = step.footholds_xy_world.tolist()
             else:
                 rank, action, points = found
@@ -504,7 +504,7 @@ class ContactNetPlanner:
                                                               self.idle.min_swing_m):
                 step, points, landing_tops = idle_stand_step(gait, found[0]), [], []
             elif found is None:  # nothing usable: step in place
-                step = step_in_place(gait, order(), np.array(feet), terrain)
+                step = step_in_place(gait, order(), np.array(feet), terrain, self.margin_m)
                 points, landing_tops = [], []  # (the feet stay where they are)
             else:
                 rank, action, points, landing_tops = found
