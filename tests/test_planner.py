@@ -254,3 +254,44 @@ def test_oracle_continues_the_cyclic_order_past_its_evaluated_steps(robot):
             assert np.all(step.footholds_xy_world[:, 0] > hips[:, 0]) and np.allclose(step.footholds_xy_world[:, 1], hips[:, 1])
     with pytest.raises(ValueError, match="evaluated_steps"):
         OraclePlanner(WALK, robot.description, evaluated_steps=0)
+
+
+def test_a_step_in_place_puts_a_foot_at_an_edge_back_a_margin_in():
+    """``ranking.put_back``: a foot standing closer than twice the margin to its top's edge is put back at the
+    nearest point twice the margin in, else the margin in, at most twice the margin away (repeated steps in place
+    otherwise walk it off the edge); a foot further in, one in a gap, one whose nearest such point is further or on a
+    top of another height stays where it is."""
+    from contactnet.planning.ranking import put_back, step_in_place
+
+    margin = 0.008
+    terrain = Terrain.from_dict({"name": "two tops", "start": [0.1, 0.0], "goal_x": 0.5, "regions": [
+        {"shape": "rect", "center": [0.2, 0.0], "size": [0.2, 0.2]},  # x 0.1-0.3, y -0.1-0.1, at z 0
+        {"shape": "rect", "center": [0.305, 0.0], "size": [0.01, 0.2], "z": 0.03},  # a 1 cm strip, 3 cm higher
+        {"shape": "circle", "center": [0.2, 0.2], "radius": 0.006},  # a small stone 10 cm from the low top
+    ]})
+    feet = np.array([[0.297, 0.0],  # 3 mm from the edge at x = 0.1 + 0.2 (a riser to the strip beyond it)
+                     [0.2, -0.096],  # 4 mm from the edge at y = -0.1
+                     [0.2, 0.05],  # 5 cm in
+                     [0.2, 0.103],  # in the gap past y = 0.1
+                     [0.305, 0.05],  # on the strip: none of it is 8 mm from its edges; the low top is 13 mm away
+                     [0.2, 0.2]])  # on the small stone: no point of it is 8 mm in, the low top's nearest 11 cm away
+    moved = put_back(terrain, feet, margin)
+    # the riser is an edge of both tops: the foot goes 16 mm in from it, the other one 16 mm in from y = -0.1
+    np.testing.assert_allclose(moved[:2], [[0.3 - 2 * margin, 0.0], [0.2, -0.1 + 2 * margin]], atol=1e-6)
+    assert terrain.is_safe(moved[:2], 2 * margin - 1e-9).all()
+    np.testing.assert_array_equal(moved[2:], feet[2:])
+    np.testing.assert_array_equal(put_back(terrain, feet, 0.0), feet)  # no margin: where they stand
+    # a narrow top (2 cm): nothing 16 mm in, the foot goes 8 mm in
+    narrow = Terrain.from_dict({"name": "bar", "start": [0.2, 0.0], "goal_x": 0.5, "regions": [
+        {"shape": "rect", "center": [0.2, 0.0], "size": [0.02, 0.2]}]})
+    np.testing.assert_allclose(put_back(narrow, np.array([[0.208, 0.0]]), margin), [[0.21 - margin, 0.0]], atol=1e-6)
+
+    # step_in_place puts the chosen group's feet back with the planner's margin
+    standing = np.zeros((4, 3))
+    standing[:, :2] = [[0.297, 0.05], [0.297, -0.05], [0.15, 0.05], [0.15, -0.05]]
+    order = np.arange(WALK.n_actions)  # group 0 first
+    step = step_in_place(WALK, order, standing, terrain, margin)
+    legs = list(WALK.swing_groups[0])
+    assert step.safe and step.action_index is None
+    np.testing.assert_allclose(step.footholds_xy_world, put_back(terrain, standing[legs, :2], margin))
+    assert not np.array_equal(step.footholds_xy_world, standing[legs, :2])  # a front foot was at the riser
