@@ -45,7 +45,7 @@ from contactnet.planning.ranking import (
     one_level_grid,
     step_in_place,
 )
-from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, first_moving, left_behind
+from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, alone_step, first_moving, left_behind
 from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy
 from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
@@ -343,6 +343,8 @@ class ContactNetPlanner:
             found = first_moving(walk, costs, [s for leg in behind for s in self._spans_of_leg[leg]]) if (
                 j == 0 and behind) else None
             forced = found is not None
+            alone = alone_step(walk, costs, behind, self._spans_of_leg, self._actions, terrain, self.margin_m, ahead) if (
+                j == 0 and behind and not forced and self.reach.step_alone) else None
             if not forced and ahead is None:
                 found = walk.first_safe(j, costs, span)
             elif not forced:  # with room for the roll (contactnet.planning.roll), in one walk
@@ -363,7 +365,9 @@ class ContactNetPlanner:
                     and useless_swing(action_group[found[1]], found[2], feet, moving)):
                 found = first_step_that_moves(walk, costs, span, found, feet, ahead, moving, self._actions.flat_array,
                                               self._actions_per_group)
-            if forced:
+            if alone is not None:  # a leg left behind steps alone (contactnet.planning.reach)
+                step, points = alone, alone.footholds_xy_world.tolist()
+            elif forced:
                 rank, action, points = found
                 step = PlannedStep.ranked(action_group[action], np.array(points), action, rank)
             elif self._stands(costs, stand_cost, top):

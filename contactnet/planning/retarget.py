@@ -77,7 +77,8 @@ def retarget(planner: object, ctx: PlanningContext, step: PlannedStep, swings: d
     safe landing, or one within ``min_shift_m`` of the old."""
     replan = getattr(planner, "replan_swing", None)
     legs = tuple(step.legs)
-    if replan is None or not legs or any(leg not in swings for leg in legs):
+    if (replan is None or not legs or any(leg not in swings for leg in legs)
+            or legs not in planner.gait.swing_groups):  # a leg stepping alone (contactnet.planning.reach) keeps it
         return None
     if not all(swings[leg].t0_s <= t_s <= swings[leg].t1_s - config.min_remaining_s for leg in legs):
         return None
