@@ -295,3 +295,45 @@ def test_a_step_in_place_puts_a_foot_at_an_edge_back_a_margin_in():
     assert step.safe and step.action_index is None
     np.testing.assert_allclose(step.footholds_xy_world, put_back(terrain, standing[legs, :2], margin))
     assert not np.array_equal(step.footholds_xy_world, standing[legs, :2])  # a front foot was at the riser
+
+
+def test_a_trot_leg_left_behind_with_no_safe_pair_steps_alone(robot, models):
+    """``reach.alone_step``: the front-left foot 20 cm behind its hip reference (left behind), its pair's other leg
+    (hind right) with no safe cell, so no action of their swing group is safe: the front-left leg steps alone to its
+    one safe cell; with no safe cell in its own 3 x 3 grid, to the safe point of the grid widened by a spacing nearest
+    the grid's centre. With ``ReachConfig(step_alone=False)`` the plan is the plain one (another group's step)."""
+    from contactnet.planning.planner import PlanningContext
+    from contactnet.planning.reach import ReachConfig
+
+    fl, hr = 0, 3
+    assert (fl, hr) in TROT.swing_groups
+    base = np.array([0.5, 0.0])
+    hips = base + robot.description.foot_nominal_base[:, :2]  # the grids' centres (yaw 0, no capture)
+    feet = np.zeros((4, 3))
+    feet[:, :2] = hips
+    feet[fl, 0] -= 0.20  # left behind
+    feet[hr, :2] += 0.025  # between its cells: none of them is on ground
+    feet[:, 2] = robot.description.foot_radius_m
+
+    def context(fl_points):
+        terrain = Terrain.from_dict({"name": "stuck pair", "start": hips[1].tolist(), "goal_x": 1.5, "regions": [
+            *[{"shape": "circle", "center": foot[:2].tolist(), "radius": 0.012} for foot in feet],
+            *[{"shape": "rect", "center": hips[leg].tolist(), "size": [0.14, 0.14]} for leg in (1, 2)],
+            *[{"shape": "circle", "center": point, "radius": 0.03} for point in fl_points]]})
+        return PlanningContext(
+            com_pos_world=np.array([*base, robot.description.com_height_nominal_m]), com_vel_world=np.array([0.05, 0.0, 0.0]),
+            yaw_rad=0.0, foot_pos_world=feet.copy(), hip_ref_xy_base=robot.description.foot_nominal_base[:, :2],
+            base_xy_world=base.copy(), vel_cmd_xy=np.array([0.05, 0.0]), terrain=terrain, gait=TROT,
+            com_height_ref_m=robot.description.com_height_nominal_m)
+
+    planner = make_planner("contactnet", TROT, robot, model=models["trot"])
+    centre = hips[fl]
+    step = planner.plan(context([centre.tolist()]))[0]
+    assert step.legs == (fl,) and step.action_index is None and step.safe
+    np.testing.assert_allclose(step.footholds_xy_world, [centre], atol=1e-12)
+    # nothing in its own grid: the widened grid's safe point nearest the centre (10 cm ahead, not 10 cm diagonally)
+    step = planner.plan(context([(centre + [0.10, 0.0]).tolist(), (centre + [0.10, 0.10]).tolist()]))[0]
+    assert step.legs == (fl,)
+    np.testing.assert_allclose(step.footholds_xy_world, [centre + [0.10, 0.0]], atol=1e-9)
+    plain = ContactNetPlanner(TROT, robot.description, planner.model, reach=ReachConfig(step_alone=False))
+    assert plain.plan(context([centre.tolist()]))[0].legs != (fl,)

@@ -328,7 +328,9 @@ class ContactNetPlanner:
         feet = feet_xy.tolist()
         com = np.asarray(ctx.com_pos_world, dtype=float).tolist()
         vel = np.asarray(ctx.com_vel_world, dtype=float).tolist()
-        behind = self._left_behind(feet, bases[0], hips_world, cmd_world) if capture_xy is None else []
+        # the legs left behind at the plan's start (contactnet.planning.reach); none without a reach config
+        behind = left_behind(feet, [[bases[0][0] + x, bases[0][1] + y] for x, y in hips_world.tolist()],
+                             *self._reach_test(cmd_world)) if capture_xy is None else []
         walk = OneLevelWalk(self._actions, terrain, self.margin_m, hips_world, offsets_world, bases)
         costs_of, action_group = self._costs, self._actions.group
         steps = []
@@ -391,15 +393,6 @@ class ContactNetPlanner:
             com = [com[0] + shift_x, com[1] + shift_y, com_z]
             vel = [cmd_world[0], cmd_world[1], 0.0]
         return steps
-
-    def _left_behind(self, feet: list[list[float]], base_xy: list[float], hips_world: np.ndarray,
-                     cmd_world: list[float]) -> list[int]:
-        """The legs left behind at the plan's start (``contactnet.planning.reach``); none without a ``reach`` config."""
-        shift_x, shift_y, threshold = self._reach_test(cmd_world)
-        if threshold == 0.0:
-            return []
-        hips = [[base_xy[0] + x, base_xy[1] + y] for x, y in hips_world.tolist()]
-        return left_behind(feet, hips, (shift_x, shift_y), threshold)
 
     def _reach_test(self, cmd_world: list[float]) -> tuple[float, float, float]:
         """``left_behind``'s shift of the hips (world x, y, m) and threshold (m), a threshold 0 without ``reach``."""

@@ -56,15 +56,18 @@ class ReachConfig:
 DEFAULT_REACH = ReachConfig()
 
 
-def left_behind(feet_xy_world: list[list[float]], hips_xy_world: list[list[float]], shift_xy: tuple[float, float],
+def left_behind(feet_xy_world: list[list[float]], hips_xy_world: list[list[float]], shift_x: float, shift_y: float,
                 threshold_m: float) -> list[int]:
     """The legs whose foot ``feet_xy_world`` is further than ``threshold_m`` from its hip reference ``hips_xy_world``
-    moved by ``shift_xy`` (the commanded motion over the look-ahead, world metres). Python floats; the squared
-    distances are compared, as ``contactnet.planning.plan_kernel`` compares them (the same floats there)."""
+    moved by ``shift_x, shift_y`` (the commanded motion over the look-ahead, world metres); none for a threshold 0
+    (no reach test). Python floats; the squared distances are compared, as ``contactnet.planning.plan_kernel``
+    compares them (the same floats there)."""
+    if threshold_m == 0.0:
+        return []
     limit = threshold_m * threshold_m
     out = []
     for leg, ((fx, fy), (hx, hy)) in enumerate(zip(feet_xy_world, hips_xy_world, strict=True)):
-        dx, dy = fx - hx - shift_xy[0], fy - hy - shift_xy[1]
+        dx, dy = fx - hx - shift_x, fy - hy - shift_y
         if dx * dx + dy * dy > limit:
             out.append(leg)
     return out
