@@ -154,7 +154,8 @@ class ContactNetPlanner:
     (``contactnet.planning.roll``); ``roll=None`` turns this off. On terrain with heights, with
     ``RollConfig(heights=True)`` (off by default), the room is asked the same way (the point ahead safe too: with
     the margin on both sides of a riser it lies on the same top), except on a first step that moves a cornered leg
-    first, whose order the room would undo.
+    first, whose order the room would undo. With no safe step at all it steps in place, a foot at an edge put back
+    in (``contactnet.planning.ranking.put_back``); ``put_back=False``: where it stands, as the fixed gait does.
 
     ``model``: a ``contactnet.planning.network.LoadedModel`` of this gait.
     """
@@ -164,7 +165,7 @@ class ContactNetPlanner:
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE,
                  idle: IdleConfig | None = DEFAULT_IDLE, roll: RollConfig | None = DEFAULT_ROLL,
-                 reach: ReachConfig | None = DEFAULT_REACH) -> None:
+                 reach: ReachConfig | None = DEFAULT_REACH, put_back: bool = True) -> None:
         if model.gait != gait.name or model.n_actions not in (gait.n_actions, gait.n_choices):
             raise ValueError(f"model {model.path} is for {model.gait} ({model.n_actions} outputs), "
                              f"not {gait.name} ({gait.n_choices} choices: {gait.n_actions} actions and standing)")
@@ -174,6 +175,7 @@ class ContactNetPlanner:
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
         self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
         self.capture, self.idle, self.roll, self.reach = capture, idle, roll, reach
+        self._put_back_m = self.margin_m if put_back else 0.0  # a step in place's feet (ranking.put_back)
         self.footholds = FootholdChecker(robot, HeightChecks().scaled(robot.size_scale))
         self._compiled: CompiledHeights | None = None  # the compiled height checks (``_compiled_heights``)
         self._heights_walk: HeightsWalk | PlainHeightsWalk | None = None  # and the walk with them on the last terrain
@@ -378,7 +380,7 @@ class ContactNetPlanner:
                                                               self.idle.min_swing_m):
                 step, points = idle_stand_step(gait, found[0]), []
             elif found is None:  # nothing safe: step in place
-                step = step_in_place(gait, order(), np.array(feet), terrain, self.margin_m)
+                step = step_in_place(gait, order(), np.array(feet), terrain, self._put_back_m)
                 points = step.footholds_xy_world.tolist()
             else:
                 rank, action, points = found
@@ -501,7 +503,7 @@ class ContactNetPlanner:
                                                               self.idle.min_swing_m):
                 step, points, landing_tops = idle_stand_step(gait, found[0]), [], []
             elif found is None:  # nothing usable: step in place
-                step = step_in_place(gait, order(), np.array(feet), terrain, self.margin_m)
+                step = step_in_place(gait, order(), np.array(feet), terrain, self._put_back_m)
                 points, landing_tops = [], []  # (the feet stay where they are)
             else:
                 rank, action, points, landing_tops = found
@@ -567,8 +569,8 @@ class ContactNetPlanner:
 class FixedGaitPlanner(ContactNetPlanner):
     """The paper's fixed-gait baseline: the same network, restricted to a prescribed cyclic leg order (walk:
     HL, FL, HR, FR; trot: alternating diagonal pairs). Only the footholds are chosen (the best safe cell of
-    the leg whose turn it is); with no safe cell that leg swings in place. The baseline as measured: no room for the
-    foot's roll by default (``roll=DEFAULT_ROLL`` gives it; on Table II's seeds 0-29 it then crossed 26 / 30, against
+    the leg whose turn it is); with no safe cell that leg swings in place, its foot put back where it stands. The
+    baseline as measured: no room for the foot's roll by default (``roll=DEFAULT_ROLL`` gives it; on Table II's seeds 0-29 it then crossed 26 / 30, against
     27 / 30 without)."""
 
     name = "fixed"
@@ -576,7 +578,7 @@ class FixedGaitPlanner(ContactNetPlanner):
     def __init__(self, gait: GaitSpec, robot: RobotDescription, model,  # noqa: ANN001
                  margin_m: float | None = None, capture: CaptureConfig | None = DEFAULT_CAPTURE,
                  roll: RollConfig | None = None) -> None:
-        super().__init__(gait, robot, model, margin_m, capture, idle=None, roll=roll, reach=None)
+        super().__init__(gait, robot, model, margin_m, capture, idle=None, roll=roll, reach=None, put_back=False)
         self._next_group = 0
         self._may_stand = False  # the cyclic baseline always steps
 

@@ -101,7 +101,7 @@ def first_safe_step(
         safe = (gait.action_cell_incidence @ cell_safe == gait.legs_per_step)[order]
     rank = int(safe.argmax()) if len(safe) else 0
     if not len(safe) or not safe[rank]:
-        return step_in_place(gait, order, foot_pos_world, terrain, margin_m)
+        return step_in_place(gait, order, foot_pos_world, terrain)
     index = int(order[rank])
     return PlannedStep(legs=gait.swing_groups[index // gait.actions_per_group],
                        footholds_xy_world=cells_xy[action_legs[index], action_cells[index]], action_index=index,
