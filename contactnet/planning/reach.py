@@ -99,7 +99,7 @@ def alone_step(walk: OneLevelWalk, costs: np.ndarray, behind: list[int], spans_o
     walk's 5 x 5 for the trot's 3 x 3) nearest its centre. None if none of those is safe either.
 
     Traced on the trot at n = 200 (seed 17): the front-left/hind-right pair had no safe pair of landings for 3.3 s,
-    the other pair stepped ten times in a row, and the hind-right foot, left behind, slid off its square's edge."""
+    the other pair stepped eleven times in a row, and the hind-right foot, left behind, slid off its square's edge."""
     if actions.legs_per_step < 2 or not behind:
         return None
     grid = walk.grid(0)()  # (4, cells per leg, 2) world
