@@ -321,7 +321,8 @@ def test_a_trot_leg_left_behind_with_no_safe_pair_steps_alone(robot, models):
             *[{"shape": "rect", "center": hips[leg].tolist(), "size": [0.14, 0.14]} for leg in (1, 2)],
             *[{"shape": "circle", "center": point, "radius": 0.03} for point in fl_points]]})
         return PlanningContext(
-            com_pos_world=np.array([*base, robot.description.com_height_nominal_m]), com_vel_world=np.array([0.05, 0.0, 0.0]),
+            com_pos_world=np.array([*base, robot.description.com_height_nominal_m]),
+            com_vel_world=np.array([0.05, 0.0, 0.0]),
             yaw_rad=0.0, foot_pos_world=feet.copy(), hip_ref_xy_base=robot.description.foot_nominal_base[:, :2],
             base_xy_world=base.copy(), vel_cmd_xy=np.array([0.05, 0.0]), terrain=terrain, gait=TROT,
             com_height_ref_m=robot.description.com_height_nominal_m)

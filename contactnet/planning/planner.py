@@ -347,8 +347,9 @@ class ContactNetPlanner:
             found = first_moving(walk, costs, [s for leg in behind for s in self._spans_of_leg[leg]]) if (
                 j == 0 and behind) else None
             forced = found is not None
-            alone = alone_step(walk, costs, behind, self._spans_of_leg, self._actions, terrain, self.margin_m, ahead) if (
-                j == 0 and behind and not forced and self.reach.step_alone) else None
+            alone = None
+            if j == 0 and behind and not forced and self.reach.step_alone:  # no safe action: a leg steps alone?
+                alone = alone_step(walk, costs, behind, self._spans_of_leg, self._actions, terrain, self.margin_m, ahead)
             if not forced and ahead is None:
                 found = walk.first_safe(j, costs, span)
             elif not forced:  # with room for the roll (contactnet.planning.roll), in one walk
@@ -570,8 +571,8 @@ class FixedGaitPlanner(ContactNetPlanner):
     """The paper's fixed-gait baseline: the same network, restricted to a prescribed cyclic leg order (walk:
     HL, FL, HR, FR; trot: alternating diagonal pairs). Only the footholds are chosen (the best safe cell of
     the leg whose turn it is); with no safe cell that leg swings in place, its foot put back where it stands. The
-    baseline as measured: no room for the foot's roll by default (``roll=DEFAULT_ROLL`` gives it; on Table II's seeds 0-29 it then crossed 26 / 30, against
-    27 / 30 without)."""
+    baseline as measured: no room for the foot's roll by default (``roll=DEFAULT_ROLL`` gives it; on Table II's
+    seeds 0-29 it then crossed 26 / 30, against 27 / 30 without)."""
 
     name = "fixed"
 
