@@ -105,10 +105,7 @@ def alone_step(walk: OneLevelWalk, costs: np.ndarray, behind: list[int], spans_o
     grid = walk.grid(0)()  # (4, cells per leg, 2) world
     best = None
     for leg in behind:
-        cells = grid[leg]
-        safe = terrain.is_safe(cells, margin_m)
-        if ahead_xy is not None and safe.any():
-            safe &= terrain.is_safe(cells + np.asarray(ahead_xy, dtype=float), margin_m)
+        safe = _safe_with_room(terrain, grid[leg], margin_m, ahead_xy)
         if not safe.any():
             continue
         for first, stop in spans_of_leg[leg]:
@@ -132,10 +129,7 @@ def alone_step(walk: OneLevelWalk, costs: np.ndarray, behind: list[int], spans_o
     for leg in behind:
         centre = grid[leg].mean(axis=0)
         points = centre + wider
-        safe = terrain.is_safe(points, margin_m)
-        if ahead_xy is not None and safe.any():
-            safe &= terrain.is_safe(points + np.asarray(ahead_xy, dtype=float), margin_m)
-        for i in np.flatnonzero(safe).tolist():
+        for i in np.flatnonzero(_safe_with_room(terrain, points, margin_m, ahead_xy)).tolist():
             key = (float(np.hypot(*(points[i] - centre))), leg, i)
             if nearest is None or key < nearest[0]:
                 nearest = (key, points[i])
@@ -143,6 +137,16 @@ def alone_step(walk: OneLevelWalk, costs: np.ndarray, behind: list[int], spans_o
         return None
     (_, leg, _), point = nearest
     return PlannedStep(legs=(leg,), footholds_xy_world=point[None].copy())
+
+
+def _safe_with_room(terrain: Terrain, points: np.ndarray, margin_m: float,
+                    ahead_xy: tuple[float, float] | None) -> np.ndarray:
+    """(N,) which landing points (N, 2) are safe with ``margin_m``, and the point ``ahead_xy`` further on too (None:
+    the point alone), as the compiled walk asks them (``safe_walk._cell_state``)."""
+    safe = terrain.is_safe(points, margin_m)
+    if ahead_xy is not None and safe.any():
+        safe &= terrain.is_safe(points + np.asarray(ahead_xy, dtype=float), margin_m)
+    return safe
 
 
 __all__ = ["DEFAULT_REACH", "ReachConfig", "alone_step", "first_moving", "left_behind"]
