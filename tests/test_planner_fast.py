@@ -10,6 +10,7 @@ import dataclasses
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 from helpers import FixedScores, save_random_models
 
 from contactnet.bench.planner import planning_contexts
@@ -36,6 +37,7 @@ from contactnet.planning.roll import roll_ahead_xy
 from contactnet.planning.stand import is_idle
 from contactnet.registry import make_planner
 from contactnet.terrain import Terrain, random_field, random_heights, resolve
+from contactnet.terrain.locate import PointLocator
 
 
 @pytest.fixture(scope="module")
@@ -419,8 +421,8 @@ def test_the_compiled_outline_test_is_shapely_s_and_asks_on_the_outline(margin, 
                                                                                  - outline.segments[:, :2])
     points = np.concatenate([rng.uniform((-0.1, -0.35), (1.9, 0.35), (20000, 2)), vertices, along,
                              along + rng.normal(0.0, 2e-9, along.shape)])
-    got = np.array([safe_walk._lookup(x, y, locator.raster, locator.codes, outline.segments, outline.row_first,
-                                      outline.row_segments) for x, y in points])
+    got = np.array([safe_walk._lookup(x, y, locator.raster, locator.codes, outline.entries, outline.row_first)
+                    for x, y in points])
     distance = shapely.distance(locator.geometry.boundary, shapely.points(points))
     asked = got < 0
     assert not asked[distance > 1e-9].any()
@@ -596,6 +598,57 @@ def test_the_batched_height_checks_are_the_checks_one_by_one(robot, knees):
             checked += len(legs)
             usable_seen += int(expected.sum())
     assert usable_seen > 0.1 * checked and usable_seen < 0.9 * checked
+
+
+def test_the_outline_test_holds_for_slanted_long_and_many_segments():
+    """``crossings.near_outline`` looks only at a row's segments that may reach the stretch of the ray up to the next
+    cell not near the outline: on outlines of every kind (a long slanted edge across many rows and columns, a star's
+    spikes, a circle's many short segments, a rotated square hole, holes side by side in one row) its answers are
+    shapely's, or ask within 1 nm of the outline; and the cost of a point does not depend on how many segments its
+    row has: on the holed field a point near an outline looks at a few of its row's segments."""
+    terrain = Terrain.from_dict({"name": "slanted", "start": [0.0, 0.0], "goal_x": 1.0, "regions": [
+        {"shape": "polygon", "vertices": [[-0.2, -0.4], [1.3, -0.37], [1.1, 0.41], [-0.17, 0.3]]},
+        {"shape": "star", "center": [1.6, 0.0], "outer_radius": 0.3, "inner_radius": 0.08, "points": 7, "yaw": 0.1},
+        {"shape": "circle", "center": [2.3, 0.1], "radius": 0.25},
+    ]})
+    holes = shapely.union_all([shapely.box(0.1 + 0.07 * k, -0.1, 0.13 + 0.07 * k, 0.1) for k in range(12)])
+    tilted = shapely.affinity.rotate(shapely.box(2.2, 0.0, 2.35, 0.15), 30.0)
+    rng = np.random.default_rng(3)
+    for geometry in (terrain.safe_region(0.0), terrain.safe_region(0.0).difference(holes).difference(tilted)):
+        locator = PointLocator.build(geometry)
+        outline = locator.outline
+        along = outline.segments[:, :2] + rng.uniform(0, 1, (len(outline.segments), 1)) * (
+            outline.segments[:, 2:] - outline.segments[:, :2])
+        b = geometry.bounds
+        points = np.concatenate([rng.uniform(b[:2], b[2:], (20000, 2)), outline.segments[:, :2], along,
+                                 along + rng.normal(0.0, 1e-6, along.shape),
+                                 along + rng.normal(0.0, 2e-9, along.shape)])
+        got = np.array([safe_walk._lookup(x, y, locator.raster, locator.codes, outline.entries, outline.row_first)
+                        for x, y in points])
+        distance = shapely.distance(geometry.boundary, shapely.points(points))
+        asked = got < 0
+        assert not asked[distance > 1e-9].any()
+        exact = shapely.intersects_xy(geometry, points[:, 0], points[:, 1])
+        assert np.array_equal(got[~asked] == safe_walk.SAFE, exact[~asked])
+        near = (_raster_codes(locator, points) == 2) & ~asked
+        assert near.sum() > 200, near.sum()
+    # on the field with 100 holes, the entries a point near an outline may look at: far fewer than its row has
+    locator = random_field(100, 0).safe_locator(0.008)
+    entries, row_first = locator.outline.entries, locator.outline.row_first
+    looked, in_row = [], []
+    for x, y in rng.uniform((0.0, -0.3), (2.0, 0.3), (20000, 2)):
+        col, row = int(x * locator.raster[0] - locator.raster[1]), int(y * locator.raster[0] - locator.raster[2])
+        if locator.codes[col + row * int(locator.raster[4])] != 2:
+            continue
+        row_entries = entries[row_first[row]:row_first[row + 1]]
+        end = col + 1
+        while locator.codes[end + row * int(locator.raster[4])] == 2:
+            end += 1
+        x_end = (end + locator.raster[1]) / locator.raster[0]
+        looked.append(int(np.count_nonzero((row_entries[:, 4] <= x_end + 1e-9) & (row_entries[:, 5] >= x - 1e-9))))
+        in_row.append(len(row_entries))
+    assert len(looked) > 100 and np.median(in_row) >= 10 and np.median(looked) <= 4, (np.median(in_row),
+                                                                                       np.median(looked))
 
 
 def test_scalar_and_raster_lookups_are_the_exact_answers():

@@ -58,8 +58,8 @@ def plan_steps(feet: np.ndarray, com: np.ndarray, vel: np.ndarray, cmd: np.ndarr
                bases: np.ndarray, spans: np.ndarray, n_actions: int, may_stand: bool, stand_first: bool,
                weights: tuple, biases: tuple, u: np.ndarray, costs_out: np.ndarray, per_group: int,
                ahead_x: float, ahead_y: float, with_room: bool, action_flat: np.ndarray, leg_cell: np.ndarray,
-               hips: np.ndarray, offsets: np.ndarray, raster: np.ndarray, codes: np.ndarray, segments: np.ndarray,
-               row_first: np.ndarray, row_segments: np.ndarray, behind_x: float, behind_y: float,
+               hips: np.ndarray, offsets: np.ndarray, raster: np.ndarray, codes: np.ndarray, entries: np.ndarray,
+               row_first: np.ndarray, behind_x: float, behind_y: float,
                behind_threshold: float, result: np.ndarray, points: np.ndarray) -> int:
     """The plan's steps, as ``ContactNetPlanner._plan_one_level`` makes them on its common path; returns how many it
     made (all ``bases.shape[0]``, or fewer where it stopped: the caller then plans in Python).
@@ -102,11 +102,10 @@ def plan_steps(feet: np.ndarray, com: np.ndarray, vel: np.ndarray, cmd: np.ndarr
         elif with_room:
             status, rank, action = first_safe_with_room(
                 costs, first, stop, per_group, action_flat, leg_cell, hips, offsets, base_x, base_y, raster, codes,
-                segments, row_first, row_segments, np.zeros(cells, np.int8), np.zeros(cells, np.int8), ahead_x,
-                ahead_y)
+                entries, row_first, np.zeros(cells, np.int8), np.zeros(cells, np.int8), ahead_x, ahead_y)
         else:
             status, rank, action = first_safe(costs, first, stop, action_flat, leg_cell, hips, offsets, base_x,
-                                              base_y, raster, codes, segments, row_first, row_segments,
+                                              base_y, raster, codes, entries, row_first,
                                               np.zeros(cells, np.int8), 0.0, 0.0)
         if status == ASK:
             return j
@@ -169,7 +168,7 @@ class CompiledOneLevel:
                           np.array(bases), spans, n_actions, may_stand, stand_first, self.weights, self.biases,
                           np.empty(14, dtype=self.dtype), costs, self.per_group, ahead_x, ahead_y,
                           ahead is not None, actions.flat_array, actions.leg_cell_array, hips_world, offsets_world,
-                          locator.raster, locator.codes, outline.segments, outline.row_first, outline.row_segments,
+                          locator.raster, locator.codes, outline.entries, outline.row_first,
                           behind_x, behind_y, behind_threshold, result, points)
         if made < steps:
             return None

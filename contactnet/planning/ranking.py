@@ -326,13 +326,12 @@ class OneLevelWalk:
             if room is None:
                 status, rank, index = safe_walk.first_safe(
                     costs, first, stop, self.action_flat, self.leg_cell_array, self.hips_world, self.offsets_world,
-                    base_x, base_y, locator.raster, locator.codes, outline.segments, outline.row_first,
-                    outline.row_segments, known)
+                    base_x, base_y, locator.raster, locator.codes, outline.entries, outline.row_first, known)
             else:
                 status, rank, index = safe_walk.first_safe_with_room(
                     costs, first, stop, room[2], self.action_flat, self.leg_cell_array, self.hips_world,
-                    self.offsets_world, base_x, base_y, locator.raster, locator.codes, outline.segments,
-                    outline.row_first, outline.row_segments, known[:cells], known[cells:], room[0], room[1])
+                    self.offsets_world, base_x, base_y, locator.raster, locator.codes, outline.entries,
+                    outline.row_first, known[:cells], known[cells:], room[0], room[1])
             if status != safe_walk.ASK:
                 break
             # a point on an outline: shapely answers (PointLocator.covers_xy); a cell past ``cells`` is asked with

@@ -8,10 +8,10 @@ is safe); an unsafe landing point rules out every action using its cell, and the
 Each grid cell is looked up at most once (``known``).
 A landing point is ``(base + hip reference) + cell offset``, the same float64 operations in the same order as in
 Python, so the same numbers; its cell of the raster of ``contactnet.terrain.locate.PointLocator`` says inside,
-outside, or near an outline. Near an outline the outline's segments in that raster row decide (a ray's crossings,
-``contactnet.terrain.crossings.near_outline``), unless the point lies within ``NEAR_OUTLINE_M`` (1 nm) of one of
-them, where only shapely's exact predicates can answer: the walk then stops and asks (``ASK``), the caller sets
-that cell's answer in ``known`` and calls again. Because of that the compiled code needs nothing but arrays.
+outside, or near an outline. Near an outline the outline's segments in that raster row decide (a ray's crossings
+up to the next cell that is not near it, ``contactnet.terrain.crossings.near_outline``), unless the point lies
+within ``NEAR_OUTLINE_M`` (1 nm) of one of them, where only shapely's exact predicates can answer: the walk then
+stops and asks (``ASK``), the caller sets that cell's answer in ``known`` and calls again. Because of that the compiled code needs nothing but arrays.
 
 Why compiled: in Python each unsafe cell cost about 1.5 us of interpreter work (and the rank 2 us more), so the
 planner's time grew with the number of holes (``contactnet bench planner``: the trot's plan took 1.36 times as long
@@ -23,19 +23,19 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from contactnet.terrain.crossings import CELL_BOUNDARY as _BOUNDARY
+from contactnet.terrain.crossings import CELL_INSIDE as _INSIDE
 from contactnet.terrain.crossings import INSIDE, OUTSIDE, near_outline
 
 #: ``known`` per grid cell (leg * cells_per_leg + cell): not looked up yet, safe, unsafe (``near_outline``'s answers).
 UNKNOWN, SAFE, UNSAFE = 0, INSIDE, OUTSIDE
 #: ``first_safe``'s status: an action found, none is safe, a cell near an outline must be asked of shapely.
 FOUND, NONE, ASK = 0, 1, 2
-#: The raster's codes (``contactnet.terrain.locate``).
-_INSIDE, _BOUNDARY = 1, 2
 
 
 @numba.njit(cache=True, nogil=True)
-def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray,
-            row_segments: np.ndarray) -> int:
+def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray, entries: np.ndarray,
+            row_first: np.ndarray) -> int:
     """SAFE or UNSAFE from the raster for the point (x, y), in a cell near an outline from the outline itself
     (``near_outline``), or -1 when it lies on the outline within ``NEAR_OUTLINE_M``."""
     col = x * raster[0] - raster[1]
@@ -50,24 +50,24 @@ def _lookup(x: float, y: float, raster: np.ndarray, codes: np.ndarray, segments:
         row = raster[3]
     code = codes[int(col) + int(row) * int(raster[4])]
     if code == _BOUNDARY:
-        return near_outline(x, y, int(row), segments, row_first, row_segments)
+        return near_outline(x, y, int(col), int(row), raster, codes, entries, row_first)
     return SAFE if code == _INSIDE else UNSAFE
 
 
 @numba.njit(cache=True, nogil=True)
 def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.ndarray, base_x: float,
-                base_y: float, raster: np.ndarray, codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray,
-                row_segments: np.ndarray, ahead_x: float, ahead_y: float) -> int:
+                base_y: float, raster: np.ndarray, codes: np.ndarray, entries: np.ndarray, row_first: np.ndarray,
+                ahead_x: float, ahead_y: float) -> int:
     """SAFE or UNSAFE from the raster (and the outline, ``_lookup``), or -1 when the landing point (or the point
     ``ahead``) lies on the outline. ``raster``: (inv_cell, first_col, first_row, clamp_hi, side) as ``PointLocator.covers_xy`` uses them.
     With ``ahead`` not zero the point that far on must be safe too (``contactnet.planning.roll``)."""
     leg, cell = leg_cell[flat, 0], leg_cell[flat, 1]
     x = (base_x + hips[leg, 0]) + offsets[cell, 0]
     y = (base_y + hips[leg, 1]) + offsets[cell, 1]
-    state = _lookup(x, y, raster, codes, segments, row_first, row_segments)
+    state = _lookup(x, y, raster, codes, entries, row_first)
     if state == UNSAFE or (ahead_x == 0.0 and ahead_y == 0.0):
         return state
-    further = _lookup(x + ahead_x, y + ahead_y, raster, codes, segments, row_first, row_segments)
+    further = _lookup(x + ahead_x, y + ahead_y, raster, codes, entries, row_first)
     if further == UNSAFE:
         return UNSAFE
     return -1 if further < 0 else state
@@ -76,16 +76,15 @@ def _cell_state(flat: int, leg_cell: np.ndarray, hips: np.ndarray, offsets: np.n
 @numba.njit(cache=True, nogil=True)
 def _all_safe(action: int, action_flat: np.ndarray, known: np.ndarray, leg_cell: np.ndarray, hips: np.ndarray,
               offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray, codes: np.ndarray,
-              segments: np.ndarray, row_first: np.ndarray, row_segments: np.ndarray, ahead_x: float,
-              ahead_y: float) -> int:
+              entries: np.ndarray, row_first: np.ndarray, ahead_x: float, ahead_y: float) -> int:
     """SAFE if every landing point of ``action`` is safe, UNSAFE if one is not, ``-1 - flat`` to ask about cell
     ``flat`` first."""
     for k in range(action_flat.shape[1]):
         flat = action_flat[action, k]
         state = known[flat]
         if state == UNKNOWN:
-            state = _cell_state(flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, segments, row_first,
-                                row_segments, ahead_x, ahead_y)
+            state = _cell_state(flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, entries, row_first,
+                                ahead_x, ahead_y)
             if state < 0:
                 return -1 - flat
             known[flat] = state
@@ -126,7 +125,7 @@ _CHEAPEST = 8
 @numba.njit(cache=True, nogil=True)
 def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray, leg_cell: np.ndarray,
                hips: np.ndarray, offsets: np.ndarray, base_x: float, base_y: float, raster: np.ndarray,
-               codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray, row_segments: np.ndarray,
+               codes: np.ndarray, entries: np.ndarray, row_first: np.ndarray,
                known: np.ndarray, ahead_x: float = 0.0, ahead_y: float = 0.0) -> tuple[int, int, int]:
     """(status, rank, action or the cell to ask about) of the first safe action of ``first..stop - 1`` in the stable
     ascending order of their ``costs``. ``action_flat`` (N_a, legs per step): each action's grid cells;
@@ -172,7 +171,7 @@ def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray
             if i > 0 and _ruled_out(best, action_flat, known):
                 continue
             state = _all_safe(best, action_flat, known, leg_cell, hips, offsets, base_x, base_y, raster, codes,
-                              segments, row_first, row_segments, ahead_x, ahead_y)
+                              entries, row_first, ahead_x, ahead_y)
             if state < 0:
                 return ASK, 0, -1 - state
             if state == SAFE:
@@ -182,8 +181,8 @@ def first_safe(costs: np.ndarray, first: int, stop: int, action_flat: np.ndarray
 @numba.njit(cache=True, nogil=True)
 def first_safe_with_room(costs: np.ndarray, first: int, stop: int, per_group: int, action_flat: np.ndarray,
                          leg_cell: np.ndarray, hips: np.ndarray, offsets: np.ndarray, base_x: float, base_y: float,
-                         raster: np.ndarray, codes: np.ndarray, segments: np.ndarray, row_first: np.ndarray,
-                         row_segments: np.ndarray, known: np.ndarray, known_room: np.ndarray, ahead_x: float,
+                         raster: np.ndarray, codes: np.ndarray, entries: np.ndarray, row_first: np.ndarray,
+                         known: np.ndarray, known_room: np.ndarray, ahead_x: float,
                          ahead_y: float) -> tuple[int, int, int]:
     """``first_safe``'s action with room for the foot's roll (``contactnet.planning.roll``), in one call: the first
     safe action of ``first..stop - 1``; if a landing point of it lacks the room ``ahead`` (world, metres: the point
@@ -192,20 +191,20 @@ def first_safe_with_room(costs: np.ndarray, first: int, stop: int, per_group: in
     ``known_room`` caches the cells' answers with the room as ``known`` does without it. With the status ASK the
     third value is a cell of ``known`` (0..cells - 1) or of ``known_room`` (cells..2 cells - 1, less cells)."""
     status, rank, found = first_safe(costs, first, stop, action_flat, leg_cell, hips, offsets, base_x, base_y,
-                                     raster, codes, segments, row_first, row_segments, known, 0.0, 0.0)
+                                     raster, codes, entries, row_first, known, 0.0, 0.0)
     if status != FOUND:
         return status, rank, found
     cells = known.shape[0]
     state = _all_safe(found, action_flat, known_room, leg_cell, hips, offsets, base_x, base_y, raster, codes,
-                      segments, row_first, row_segments, ahead_x, ahead_y)
+                      entries, row_first, ahead_x, ahead_y)
     if state < 0:
         return ASK, 0, cells - 1 - state
     if state == SAFE:  # it has the room (most plans)
         return FOUND, rank, found
     group = found // per_group
     status, _, better = first_safe(costs, max(first, group * per_group), min(stop, (group + 1) * per_group),
-                                   action_flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, segments,
-                                   row_first, row_segments, known_room, ahead_x, ahead_y)
+                                   action_flat, leg_cell, hips, offsets, base_x, base_y, raster, codes, entries,
+                                   row_first, known_room, ahead_x, ahead_y)
     if status == ASK:
         return ASK, 0, cells + better
     if status == NONE or better == found:

@@ -19,11 +19,19 @@ import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
 
-from contactnet.terrain.crossings import INSIDE, ON_OUTLINE, near_outline
+from contactnet.terrain.crossings import (
+    CELL_BOUNDARY,
+    CELL_INSIDE,
+    CELL_OUTSIDE,
+    INSIDE,
+    ON_OUTLINE,
+    near_outline,
+    running_reach,
+)
 from contactnet.terrain.regions import label_components
 
 RASTER_TARGET_CELLS = 1 << 20  # capped by max_side=1000 per axis: 1.5 mm cells on the paper's field
-_OUTSIDE, _INSIDE, _BOUNDARY = 0, 1, 2
+_OUTSIDE, _INSIDE, _BOUNDARY = CELL_OUTSIDE, CELL_INSIDE, CELL_BOUNDARY
 _intersects_xy = getattr(shapely.lib, "intersects_xy", shapely.intersects_xy)
 """shapely's ufunc without its Python wrapper (saves ~2 us per call); same semantics, uses preparation."""
 _FEW_BOUNDARY_POINTS = 8
@@ -82,26 +90,26 @@ class _Frame:
 
 @dataclass(frozen=True)
 class OutlineRows:
-    """A region's outline for an exact point test in compiled code (``contactnet.planning.safe_walk``): every segment
-    of its rings (``segments`` (S, 4): x0, y0, x1, y1) listed by the `PointLocator` raster's rows it may reach
-    (``row_segments[row_first[r]:row_first[r + 1]]`` for row r, one row of padding each side, so a point whose
-    computed row is off by one still finds them). A point in row r is inside when a ray from it towards +x crosses
-    an odd number of the row's segments (each ring's segments together: exteriors and holes alike), unless it lies
-    within ``NEAR_OUTLINE_M`` of one of them, where only shapely's exact predicates can answer."""
+    """A region's outline for an exact point test in compiled code (``contactnet.terrain.crossings.near_outline``):
+    every segment of its rings (``segments``) listed by the `PointLocator` raster's rows it may reach
+    (``entries[row_first[r]:row_first[r + 1]]`` for row r, one row of padding each side, so a point whose computed row
+    is off by one still finds them), each row's sorted by the segment's lowest x. An entry (``crossings.X0`` ... ``REACH_X``) is the
+    segment (x0, y0, x1, y1), its lowest x, and the highest x of it and of the row's entries before it: a point's
+    test looks only at the entries that may reach the stretch of its ray, found by bisection."""
 
-    segments: np.ndarray  # (S, 4) float64
+    segments: np.ndarray  # (S, 4) float64: x0, y0, x1, y1, every segment once
+    entries: np.ndarray  # (K, 6) float64
     row_first: np.ndarray  # (side + 1,) int64
-    row_segments: np.ndarray  # (K,) int64
 
     @classmethod
     def of(cls, geometry: BaseGeometry, raster: np.ndarray) -> OutlineRows:
         """``raster``: `PointLocator.raster` (inv_cell, col0, row0, clamp_hi, side)."""
         side = 0 if geometry.is_empty else int(raster[4])
         if side == 0:
-            return cls(np.zeros((0, 4)), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64))
+            return cls(np.zeros((0, 4)), np.zeros((0, 6)), np.zeros(1, dtype=np.int64))
         xy, ring = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(geometry)), return_index=True)
         same = ring[1:] == ring[:-1]
-        segments = np.ascontiguousarray(np.column_stack([xy[:-1][same], xy[1:][same]]), dtype=np.float64)
+        segments = np.column_stack([xy[:-1][same], xy[1:][same]]).astype(np.float64)
         low = np.minimum(segments[:, 1], segments[:, 3]) * raster[0] - raster[2]
         high = np.maximum(segments[:, 1], segments[:, 3]) * raster[0] - raster[2]
         first = np.clip(np.floor(low).astype(np.int64) - 1, 0, side - 1)
@@ -109,10 +117,14 @@ class OutlineRows:
         counts = last - first + 1
         index = np.repeat(np.arange(len(segments), dtype=np.int64), counts)
         rows = np.repeat(first, counts) + (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts))
-        order = np.argsort(rows, kind="stable")
+        low_x = np.minimum(segments[:, 0], segments[:, 2])
+        order = np.lexsort((low_x[index], rows))  # by row, then by lowest x
         row_first = np.zeros(side + 1, dtype=np.int64)
         np.cumsum(np.bincount(rows, minlength=side), out=row_first[1:])
-        return cls(segments, row_first, np.ascontiguousarray(index[order]))
+        index = index[order]
+        reach = running_reach(row_first, np.maximum(segments[index, 0], segments[index, 2]))
+        entries = np.ascontiguousarray(np.column_stack([segments[index], low_x[index], reach]))
+        return cls(segments, entries, row_first)
 
 
 @dataclass(frozen=True)
@@ -194,11 +206,12 @@ class PointLocator:
 def _scalar_covers(locator: PointLocator) -> Callable[[float, float], bool]:
     """``PointLocator.covers_xy``: ``covers`` of one point given as two Python floats, without numpy arrays (a
     fraction of a microsecond; about a microsecond in a BOUNDARY cell, where the outline's segments in the point's
-    raster row decide, ``contactnet.terrain.crossings.near_outline``, and shapely only within ``NEAR_OUTLINE_M`` of
-    the outline): the planner's walk down a ranking, one candidate at a time. The same cell as ``covers``, so the
+    raster row that may reach the point's stretch of the row decide, ``contactnet.terrain.crossings.near_outline``,
+    and shapely only within ``NEAR_OUTLINE_M`` of the outline): the planner's walk down a ranking, one candidate at a time. The same cell as ``covers``, so the
     same answer."""
     code_bytes, geometry = locator.code_bytes, locator.geometry
-    segments, row_first, row_segments = locator.outline.segments, locator.outline.row_first, locator.outline.row_segments
+    raster, codes = locator.raster, locator.codes
+    entries, row_first = locator.outline.entries, locator.outline.row_first
     if not code_bytes:
         return lambda x, y: False
     inv_cell, clamp_hi = float(locator.inv_cell), float(locator.clamp_hi)
@@ -218,7 +231,7 @@ def _scalar_covers(locator: PointLocator) -> Callable[[float, float], bool]:
             row = clamp_hi
         code = code_bytes[int(col) + int(row) * side]
         if code == _BOUNDARY:
-            state = near_outline(x, y, int(row), segments, row_first, row_segments)
+            state = near_outline(x, y, int(col), int(row), raster, codes, entries, row_first)
             return bool(_intersects_xy(geometry, x, y)) if state == ON_OUTLINE else state == INSIDE
         return code == _INSIDE
 
