@@ -243,3 +243,27 @@ class FixedScores:
 
     def scores(self, u):  # noqa: ANN001, ANN201
         return self._scores
+
+
+def slid_back(points_xy_world, terrain, planner, ahead_xy) -> np.ndarray:  # noqa: ANN001
+    """The obvious slide of landing points (``contactnet.planning.roll.slide_back``): for each point without the room
+    ``ahead_xy``, every point 1 mm apart back along it up to the planner's limit asked of ``Terrain.is_safe`` at once;
+    the first with the room among those whose every point so far and the point behind it are safe, else the last of
+    those. Returns the (k, 2) points."""
+    ahead = np.asarray(ahead_xy, dtype=float)
+    radius, roll, margin = planner.robot.foot_radius_m, planner.roll, planner.margin_m
+    unit = ahead / np.linalg.norm(ahead)
+    count = round(roll.slide_back_radii * radius / 0.001)
+    points = np.array(points_xy_world, dtype=float).reshape(-1, 2)
+    for k, point in enumerate(points.copy()):
+        if terrain.is_safe(point[None] + ahead, margin)[0]:
+            continue
+        back = np.array([point - i * 0.001 * unit for i in range(1, count + 1)])
+        usable = np.logical_and.accumulate(terrain.is_safe(back, margin) & terrain.is_safe(
+            back - roll.slide_behind_radii * radius * unit, margin))
+        roomy = usable & terrain.is_safe(back + ahead, margin)
+        if roomy.any():
+            points[k] = back[np.argmax(roomy)]
+        elif usable.any():
+            points[k] = back[np.flatnonzero(usable)[-1]]
+    return points

@@ -5,8 +5,11 @@ is_safe query per action)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
+from helpers import slid_back
 
 from contactnet.bench.planner import planning_contexts
 from contactnet.frames import rotate_xy
@@ -96,7 +99,11 @@ def reference_plan(planner: ContactNetPlanner, ctx, restrict_group=None) -> list
             break
         steps.append(chosen)
         state = predicted_state(state, chosen.footholds_xy_world, chosen.legs, gait.step_duration_s)
+    if steps and steps[0] is not None and ahead is not None and planner.roll.slide_back_radii > 0.0:
+        steps[0] = dataclasses.replace(steps[0], footholds_xy_world=slid_back(  # the first step only, after the plan
+            steps[0].footholds_xy_world, ctx.terrain, planner, ahead))
     return steps
+
 
 
 def test_network_input_of_state_matches_network_input(robot):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import shapely
 import shapely.affinity
-from helpers import FixedScores, save_random_models
+from helpers import FixedScores, save_random_models, slid_back
 
 from contactnet.bench.planner import planning_contexts
 from contactnet.motion.gait import TROT, WALK
@@ -53,7 +53,22 @@ def _rotation(yaw: float) -> np.ndarray:
 
 
 def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int | None = None,
-                   seen: dict[str, int] | None = None, first_grid_shift_xy: np.ndarray | None = None) -> list[tuple]:
+                   seen: dict[str, int] | None = None) -> list[tuple]:
+    """``_reference_steps``, then on terrain of one level the first step's landing points without the room for the
+    roll slid back (``helpers.slid_back``), as the planner does after its plan."""
+    steps = _reference_steps(planner, ctx, group, seen)
+    ahead = roll_ahead_xy(planner.robot.foot_radius_m, ctx.vel_cmd_world(), planner.roll)
+    if (steps[0][0] is not None and ahead is not None and planner.roll.slide_back_radii > 0.0
+            and not planner.footholds.applies(ctx.terrain)):
+        points = slid_back(steps[0][3], ctx.terrain, planner, ahead)
+        if seen is not None and np.any(points != steps[0][3]):
+            seen["slid"] = seen.get("slid", 0) + 1
+        steps[0] = (*steps[0][:3], points)
+    return steps
+
+
+def _reference_steps(planner: ContactNetPlanner, ctx: PlanningContext, group: int | None = None,
+                     seen: dict[str, int] | None = None, first_grid_shift_xy: np.ndarray | None = None) -> list[tuple]:
     """The plan as the planner's docs define it, the slow and obvious way: numpy state, the network's stable
     ranking of minus its scores, every step's whole candidate grid (small tops' cells centred on terrain with
     heights), and one action at a time down the ranking until its landing points are all safe
@@ -196,7 +211,7 @@ def reference_plan(planner: ContactNetPlanner, ctx: PlanningContext, group: int 
     if moves_cornered(steps[0]) or not any(not clear[leg] for legs in own for leg in legs):
         return steps  # (the fixed gait's turn may be another leg's: no step of a cornered leg to find)
     shift_m = CORNERED_GRID_SHIFT_CELLS * gait.grid_spacing_m
-    shifted = reference_plan(planner, ctx, group, None, to_world[:, 0] * shift_m)
+    shifted = _reference_steps(planner, ctx, group, None, to_world[:, 0] * shift_m)
     if not moves_cornered(shifted[0]):
         return steps
     if seen is not None:
@@ -313,6 +328,7 @@ def test_one_level_plans_match_the_reference(robot, models, gait, name):
                 seen[key] = seen.get(key, 0) + value
     assert seen["plans"] == 150 and seen["deep"] > 0, seen  # some choices lie deep in the ranking
     assert (seen["roomed"] > 0) == (name == "contactnet"), seen  # the room for the roll moved some landings
+    assert (seen.get("slid", 0) > 0) == (name == "contactnet"), seen  # and slid some back (the fixed gait: no room)
 
 
 #: Nominal foot XY in the base frame of a Solo12-sized robot (the walk only needs four points).

@@ -51,3 +51,66 @@ def test_room_ahead_where_there_is_some_else_the_plain_margin(robot, gait):
             if not has_room:  # no action had room: the plain choice
                 assert a.action_index == b.action_index
     assert moved > 0, "the allowance should change some choices"
+
+
+def _bar_terrain(bar_width_m: float):
+    """A platform to x = 0.3 m, a gap, and one bar from x = 0.40 m, ``bar_width_m`` wide, 0.5 m long."""
+    from contactnet.terrain import Terrain
+
+    return Terrain.from_dict({"name": "bar", "start": [0.0, 0.0], "goal_x": 1.0, "regions": [
+        {"shape": "rect", "center": [0.0, 0.0], "size": [0.6, 0.5]},
+        {"shape": "rect", "center": [0.40 + bar_width_m / 2, 0.0], "size": [bar_width_m, 0.5]}]})
+
+
+def test_a_landing_without_room_slides_back_to_it_keeping_room_behind():
+    """``slide_back``: on a 5 cm bar a landing 8 mm from the edge ahead (the margin) slides back to the first point
+    with 12 mm of room (to 20 mm from the edge); on a 3 cm bar there is no such point with 8 mm of safe ground behind
+    it, and it slides as far as that allows (16 mm from the bar's back edge: the margin and the room behind); a
+    landing with the room, a step with no legs and a robot without a command stay."""
+    from contactnet.planning.ranking import PlannedStep
+    from contactnet.planning.roll import SLIDE_STEP_M, slide_back
+
+    margin, ahead, most, behind = 0.008, (0.012, 0.0), 0.016, 0.008
+    for width, expected_x in ((0.05, 0.45 - 0.020), (0.03, 0.40 + 0.016)):
+        terrain = _bar_terrain(width)
+        covers = terrain.safe_locator(margin).covers_xy
+        at_edge = 0.40 + width - margin
+        step = PlannedStep(legs=(0, 3), footholds_xy_world=np.array([[at_edge, 0.1], [0.0, -0.1]]))
+        slid = slide_back(step, ahead, covers, most, behind)
+        x, y = slid.footholds_xy_world[0]
+        assert y == 0.1 and abs(x - expected_x) <= SLIDE_STEP_M + 1e-12, (width, x)
+        assert covers(x, y) and covers(x - behind, y)
+        assert covers(x + ahead[0], y) == (width == 0.05)
+        assert slid.footholds_xy_world[1].tolist() == [0.0, -0.1]  # it had the room: it stays
+        assert slid.legs == step.legs and step.footholds_xy_world[0, 0] == at_edge  # the step itself unchanged
+        for unchanged in (slide_back(step, None, covers, most, behind), slide_back(step, ahead, covers, 0.0, behind),
+                          slide_back(PlannedStep(legs=(), footholds_xy_world=np.zeros((0, 2))), ahead, covers, most,
+                                     behind)):
+            assert unchanged.footholds_xy_world.tolist() in (step.footholds_xy_world.tolist(), [])
+    # landing 9 mm past the back edge of the 3 cm bar: no room behind, it stays
+    terrain = _bar_terrain(0.03)
+    step = PlannedStep(legs=(1,), footholds_xy_world=np.array([[0.409, 0.0]]))
+    assert slide_back(step, ahead, terrain.safe_locator(margin).covers_xy, most, behind) is step
+
+
+@pytest.mark.parametrize("gait", [WALK, TROT], ids=lambda g: g.name)
+def test_the_planner_slides_its_first_landing_back_on_the_same_cell(robot, gait):
+    """With the slide (on by default) the planner makes the same choices as without it (legs and action); only a
+    first step's landing point lacking the room may move, back against the command by at most a foot radius, on safe
+    ground; on the narrow stones some do."""
+    sliding, still = (make_planner("contactnet", gait, robot) for _ in range(2))
+    still.roll = RollConfig(slide_back_radii=0.0)
+    slid = 0
+    for terrain in (random_field(140, 5), resolve("narrow_stones")):
+        for ctx in planning_contexts(gait, terrain, robot.description, 60, seed=2):
+            a, b = sliding.plan(ctx)[0], still.plan(ctx)[0]
+            assert (a.legs, a.action_index, a.rank) == (b.legs, b.action_index, b.rank)
+            shift = a.footholds_xy_world - b.footholds_xy_world
+            if not np.any(shift):
+                continue
+            slid += 1
+            command = rotate_xy(np.asarray(ctx.vel_cmd_xy, dtype=float), ctx.yaw_rad)
+            assert np.all(shift @ command <= 0.0)
+            assert np.all(np.hypot(*shift.T) <= robot.description.foot_radius_m + 1e-9)
+            assert terrain.is_safe(a.footholds_xy_world, sliding.margin_m).all()
+    assert slid > 0

@@ -46,7 +46,7 @@ from contactnet.planning.ranking import (
     step_in_place,
 )
 from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, alone_step, first_moving, left_behind
-from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy
+from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy, slide_back
 from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
@@ -65,11 +65,9 @@ from contactnet.robots.description import RobotDescription
 from contactnet.terrain import Terrain
 
 #: Re-exported: choosing a step from a ranking lives in ``contactnet.planning.ranking``.
-__all__ = [
-    "SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking", "ContactNetPlanner", "FixedGaitPlanner",
-    "LandingCheck", "PlannedStep",
-    "Planner", "PlanningContext", "cell_grid", "first_safe_step", "step_in_place", "touchdown_times_s",
-]
+__all__ = ["SAFETY_CHUNK", "WHOLE_GRID_MAX_POINTS", "CandidateRanking", "ContactNetPlanner", "FixedGaitPlanner",
+           "LandingCheck", "PlannedStep", "Planner", "PlanningContext", "cell_grid", "first_safe_step", "step_in_place",
+           "touchdown_times_s"]
 
 
 @dataclass(frozen=True)
@@ -125,11 +123,6 @@ def touchdown_times_s(gait: GaitSpec) -> np.ndarray:
     return np.arange(gait.steps_per_plan) * gait.step_duration_s + touchdown_in_step
 
 
-# ----------------------------------------------------------------------------------------------------
-# ContactNet
-# ----------------------------------------------------------------------------------------------------
-
-
 class ContactNetPlanner:
     """The paper's planner: the network ranks every candidate action and the best safe one is taken.
 
@@ -151,7 +144,7 @@ class ContactNetPlanner:
     ``capture=None`` turns this off. With a zero command and a balanced state it stands instead of a swing that
     barely moves its feet (``contactnet.planning.stand.IdleConfig``, any model); ``idle=None`` turns this off.
     The chosen legs land, where one of their cells allows it, with room ahead for the foot's roll while it stands
-    (``contactnet.planning.roll``); ``roll=None`` turns this off. On terrain with heights, with
+    (``contactnet.planning.roll``), else slide back on their top to it (``roll.slide_back``); ``roll=None`` turns both off. On terrain with heights, with
     ``RollConfig(heights=True)`` (off by default), the room is asked the same way (the point ahead safe too: with
     the margin on both sides of a riser it lies on the same top), except on a first step that moves a cornered leg
     first, whose order the room would undo. With no safe step at all it steps in place, a foot at an edge put back
@@ -263,6 +256,12 @@ class ContactNetPlanner:
                     self.last_candidates = candidates
         else:
             steps = self._plan_one_level(ctx, offset, idle, must_step)
+            roll = self.roll  # a landing without the room for the roll slides back to it (contactnet.planning.roll)
+            if roll is not None and roll.slide_back_radii > 0.0:
+                radius = self.robot.foot_radius_m
+                steps[0] = slide_back(steps[0], roll_ahead_xy(radius, ctx.vel_cmd_world(), roll),
+                                      ctx.terrain.safe_locator(self.margin_m).covers_xy, roll.slide_back_radii * radius,
+                                      roll.slide_behind_radii * radius)
         if offset is not None:
             steps[0] = dataclasses.replace(steps[0], captured=True)
         self._advance()

@@ -19,12 +19,26 @@ choice of legs stands: asking every action for the room first (a first version) 
 rather than step onto narrow bars, and `narrow_map` fell from 84 to 57 / 100. Where those legs have no cell with
 room (3 cm bars) the plain choice stands. A command below ``min_speed_m_s`` (standing, turning on the spot) has no
 direction and no allowance. ``ContactNetPlanner(roll=None)`` turns it off.
+
+Where the chosen cells have no room (a bar narrower than the grid's 5 cm spacing), the first step's landing point
+slides back against the command, on its top, to the first point that has it, at most a foot radius
+(``slide_back``, ``RollConfig.slide_back_radii``), keeping half a foot radius of safe ground behind it
+(``slide_behind_radii``): traced on ``narrow_map`` (bars 3 cm wide, last gap 24 cm, seed 1), a front foot landed
+8 mm from the front edge of its bar and rolled forward 9 mm in the 2.5 s it stood while the body went on, into the
+gap; a slide with no room behind put a hind foot 10 mm past the back edge of a 3 cm bar, and it clipped that edge
+coming down. The network's choice of legs and cells stands: only the landing point moves, within the cell's top.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+
+import numpy as np
+
+from contactnet.planning.ranking import PlannedStep
 
 
 @dataclass(frozen=True)
@@ -32,13 +46,18 @@ class RollConfig:
     """How much room ahead a landing keeps for its foot's roll."""
 
     allowance_radii: float = 0.75  # the point this many foot radii ahead must be safe (12 mm for Solo12)
+    #: a chosen landing point still without the room slides back (against the command) up to this many foot radii,
+    #: on safe ground, to the first point with it (``slide_back``); 0: it stays
+    slide_back_radii: float = 1.0
+    #: ... keeping this many foot radii behind it on safe ground too (a foot landing just past an edge clips it)
+    slide_behind_radii: float = 0.5
     min_speed_m_s: float = 0.005  # below this command speed: no direction, no allowance
     #: on terrain with tops at several heights too (off: measured, it helped MuJoCo's walk on the raised stones
     #: and hurt PyBullet's, docs/results.md "The room for the roll on terrain with heights")
     heights: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("allowance_radii", "min_speed_m_s"):
+        for name in ("allowance_radii", "min_speed_m_s", "slide_back_radii", "slide_behind_radii"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"RollConfig.{name} must be a finite number >= 0, got {value!r}")
@@ -63,4 +82,40 @@ def roll_ahead_xy(foot_radius_m: float, cmd_world_xy: tuple[float, float] | list
     return ahead * vx, ahead * vy
 
 
-__all__ = ["DEFAULT_ROLL", "RollConfig", "roll_ahead_xy"]
+#: The steps (m) in which ``slide_back`` looks for the room.
+SLIDE_STEP_M = 0.001
+
+
+def slide_back(step: PlannedStep, ahead_xy: tuple[float, float] | None, covers_xy: Callable[[float, float], bool],
+               max_slide_m: float, behind_m: float) -> PlannedStep:
+    """``step`` with each landing point that lacks the room ``ahead_xy`` (world, metres: the point that far on is not
+    covered, ``covers_xy`` the safe region's test with the landing margin) moved back against ``ahead_xy``, in steps
+    of ``SLIDE_STEP_M`` up to ``max_slide_m``, as long as the point ``behind_m`` behind it is covered too: to the
+    first point with the room, else as far as it went (more room than it had). The ranking chose the cell; this
+    only moves its landing point on the top it is on: on a bar narrower than the grid's spacing no cell may have the
+    room, and a foot that lands at the margin from the edge ahead rolls over it while it stands; the room behind
+    keeps a foot coming from behind from landing just past the edge it passes (it clipped it, traced)."""
+    if ahead_xy is None or not step.legs or max_slide_m <= 0.0:
+        return step
+    ahead_x, ahead_y = ahead_xy
+    length = math.hypot(ahead_x, ahead_y)
+    unit_x, unit_y = ahead_x / length, ahead_y / length
+    moved = None
+    for k, (x, y) in enumerate(step.footholds_xy_world.tolist()):
+        if covers_xy(x + ahead_x, y + ahead_y):
+            continue
+        best = None
+        for i in range(1, int(max_slide_m / SLIDE_STEP_M + 1e-9) + 1):
+            px, py = x - i * SLIDE_STEP_M * unit_x, y - i * SLIDE_STEP_M * unit_y
+            if not (covers_xy(px, py) and covers_xy(px - behind_m * unit_x, py - behind_m * unit_y)):
+                break
+            best = px, py
+            if covers_xy(px + ahead_x, py + ahead_y):
+                break
+        if best is not None:
+            moved = np.array(step.footholds_xy_world, dtype=float) if moved is None else moved
+            moved[k] = best
+    return step if moved is None else dataclasses.replace(step, footholds_xy_world=moved)
+
+
+__all__ = ["DEFAULT_ROLL", "SLIDE_STEP_M", "RollConfig", "roll_ahead_xy", "slide_back"]
