@@ -114,3 +114,16 @@ def test_the_planner_slides_its_first_landing_back_on_the_same_cell(robot, gait)
             assert np.all(np.hypot(*shift.T) <= robot.description.foot_radius_m + 1e-9)
             assert terrain.is_safe(a.footholds_xy_world, sliding.margin_m).all()
     assert slid > 0
+
+
+def test_the_allowance_of_a_heading_command_is_the_rotated_command_s_to_the_bit():
+    """``roll_ahead_heading`` (scalars, a plan's hot path) gives exactly ``roll_ahead_xy`` of ``rotate_xy``'s world
+    command, bit for bit, over random headings and commands (the slide's landing points depend on it)."""
+    from contactnet.planning.roll import roll_ahead_heading
+
+    rng = np.random.default_rng(4)
+    for k in range(20000):
+        yaw = float(rng.uniform(-4.0, 4.0) if k % 2 else rng.normal(0.0, 0.05))
+        cmd = np.array([rng.choice([0.05, rng.uniform(-0.3, 0.3)]), rng.choice([0.0, rng.uniform(-0.3, 0.3)])])
+        assert roll_ahead_heading(0.016, cmd, yaw, DEFAULT_ROLL) == roll_ahead_xy(0.016, rotate_xy(cmd, yaw),
+                                                                                  DEFAULT_ROLL), (yaw, cmd)

@@ -46,7 +46,7 @@ from contactnet.planning.ranking import (
     step_in_place,
 )
 from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, alone_step, first_moving, left_behind
-from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_xy, slide_back
+from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_heading, roll_ahead_xy, slide_back
 from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
@@ -259,7 +259,7 @@ class ContactNetPlanner:
             roll = self.roll  # a landing without the room for the roll slides back to it (contactnet.planning.roll)
             if roll is not None and roll.slide_back_radii > 0.0:
                 radius = self.robot.foot_radius_m
-                steps[0] = slide_back(steps[0], roll_ahead_xy(radius, ctx.vel_cmd_world(), roll),
+                steps[0] = slide_back(steps[0], roll_ahead_heading(radius, ctx.vel_cmd_xy, ctx.yaw_rad, roll),
                                       ctx.terrain.safe_locator(self.margin_m).covers_xy, roll.slide_back_radii * radius,
                                       roll.slide_behind_radii * radius)
         if offset is not None:

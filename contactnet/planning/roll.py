@@ -82,6 +82,16 @@ def roll_ahead_xy(foot_radius_m: float, cmd_world_xy: tuple[float, float] | list
     return ahead * vx, ahead * vy
 
 
+def roll_ahead_heading(foot_radius_m: float, cmd_xy: np.ndarray, yaw_rad: float,
+                       config: RollConfig | None) -> tuple[float, float] | None:
+    """``roll_ahead_xy`` of a command in the heading frame (``cmd_xy``, m/s) turned into the world by ``yaw_rad`` with
+    ``frames.rotate_xy``'s float operations (the same numbers, ``tests/test_roll.py``) on scalars: a plan's, without
+    that function's arrays (5 us)."""
+    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+    x, y = cmd_xy[0], cmd_xy[1]
+    return roll_ahead_xy(foot_radius_m, (c * x - s * y, s * x + c * y), config)
+
+
 #: The steps (m) in which ``slide_back`` looks for the room.
 SLIDE_STEP_M = 0.001
 
@@ -118,4 +128,4 @@ def slide_back(step: PlannedStep, ahead_xy: tuple[float, float] | None, covers_x
     return step if moved is None else dataclasses.replace(step, footholds_xy_world=moved)
 
 
-__all__ = ["DEFAULT_ROLL", "SLIDE_STEP_M", "RollConfig", "roll_ahead_xy", "slide_back"]
+__all__ = ["DEFAULT_ROLL", "SLIDE_STEP_M", "RollConfig", "roll_ahead_heading", "roll_ahead_xy", "slide_back"]
