@@ -144,9 +144,10 @@ class ContactNetPlanner:
     ``capture=None`` turns this off. With a zero command and a balanced state it stands instead of a swing that
     barely moves its feet (``contactnet.planning.stand.IdleConfig``, any model); ``idle=None`` turns this off.
     The chosen legs land, where one of their cells allows it, with room ahead for the foot's roll while it stands
-    (``contactnet.planning.roll``), else slide back on their top to it (``roll.slide_back``); ``roll=None`` turns both off. On terrain with heights, with
-    ``RollConfig(heights=True)`` (off by default), the room is asked the same way (the point ahead safe too: with
-    the margin on both sides of a riser it lies on the same top), except on a first step that moves a cornered leg
+    (``contactnet.planning.roll``), else the first step's slide back on their top to it (``roll.slide_back``);
+    ``roll=None`` turns both off. On terrain with heights, with ``RollConfig(heights=True)`` (off by default), the
+    room is asked the same way (the point ahead safe too: with the margin on both sides of a riser it lies on the
+    same top), except on a first step that moves a cornered leg
     first, whose order the room would undo. With no safe step at all it steps in place, a foot at an edge put back
     in (``contactnet.planning.ranking.put_back``); ``put_back=False``: where it stands, as the fixed gait does.
 

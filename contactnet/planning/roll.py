@@ -85,8 +85,8 @@ def roll_ahead_xy(foot_radius_m: float, cmd_world_xy: tuple[float, float] | list
 def roll_ahead_heading(foot_radius_m: float, cmd_xy: np.ndarray, yaw_rad: float,
                        config: RollConfig | None) -> tuple[float, float] | None:
     """``roll_ahead_xy`` of a command in the heading frame (``cmd_xy``, m/s) turned into the world by ``yaw_rad`` with
-    ``frames.rotate_xy``'s float operations (the same numbers, ``tests/test_roll.py``) on scalars: a plan's, without
-    that function's arrays (5 us)."""
+    ``frames.rotate_xy``'s float operations on scalars (the same numbers, bit for bit: ``tests/test_roll.py``),
+    without that function's arrays (about 5 us, in every plan)."""
     c, s = np.cos(yaw_rad), np.sin(yaw_rad)
     x, y = cmd_xy[0], cmd_xy[1]
     return roll_ahead_xy(foot_radius_m, (c * x - s * y, s * x + c * y), config)

@@ -11,7 +11,8 @@ Python, so the same numbers; its cell of the raster of ``contactnet.terrain.loca
 outside, or near an outline. Near an outline the outline's segments in that raster row decide (a ray's crossings
 up to the next cell that is not near it, ``contactnet.terrain.crossings.near_outline``), unless the point lies
 within ``NEAR_OUTLINE_M`` (1 nm) of one of them, where only shapely's exact predicates can answer: the walk then
-stops and asks (``ASK``), the caller sets that cell's answer in ``known`` and calls again. Because of that the compiled code needs nothing but arrays.
+stops and asks (``ASK``), the caller sets that cell's answer in ``known`` and calls again. Because of that the
+compiled code needs nothing but arrays.
 
 Why compiled: in Python each unsafe cell cost about 1.5 us of interpreter work (and the rank 2 us more), so the
 planner's time grew with the number of holes (``contactnet bench planner``: the trot's plan took 1.36 times as long

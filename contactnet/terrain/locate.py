@@ -93,9 +93,9 @@ class OutlineRows:
     """A region's outline for an exact point test in compiled code (``contactnet.terrain.crossings.near_outline``):
     every segment of its rings (``segments``) listed by the `PointLocator` raster's rows it may reach
     (``entries[row_first[r]:row_first[r + 1]]`` for row r, one row of padding each side, so a point whose computed row
-    is off by one still finds them), each row's sorted by the segment's lowest x. An entry (``crossings.X0`` ... ``REACH_X``) is the
-    segment (x0, y0, x1, y1), its lowest x, and the highest x of it and of the row's entries before it: a point's
-    test looks only at the entries that may reach the stretch of its ray, found by bisection."""
+    is off by one still finds them), each row's sorted by the segment's lowest x. An entry (``crossings.X0`` ...
+    ``REACH_X``) is the segment (x0, y0, x1, y1), its lowest x, and the highest x of it and of the row's entries
+    before it: a point's test looks only at the entries that may reach the stretch of its ray, found by bisection."""
 
     segments: np.ndarray  # (S, 4) float64: x0, y0, x1, y1, every segment once
     entries: np.ndarray  # (K, 6) float64
@@ -207,8 +207,8 @@ def _scalar_covers(locator: PointLocator) -> Callable[[float, float], bool]:
     """``PointLocator.covers_xy``: ``covers`` of one point given as two Python floats, without numpy arrays (a
     fraction of a microsecond; about a microsecond in a BOUNDARY cell, where the outline's segments in the point's
     raster row that may reach the point's stretch of the row decide, ``contactnet.terrain.crossings.near_outline``,
-    and shapely only within ``NEAR_OUTLINE_M`` of the outline): the planner's walk down a ranking, one candidate at a time. The same cell as ``covers``, so the
-    same answer."""
+    and shapely only within ``NEAR_OUTLINE_M`` of the outline): the planner's walk down a ranking, one candidate at
+    a time. The same cell as ``covers``, so the same answer."""
     code_bytes, geometry = locator.code_bytes, locator.geometry
     raster, codes = locator.raster, locator.codes
     entries, row_first = locator.outline.entries, locator.outline.row_first
