@@ -25,7 +25,7 @@ slides back against the command, on its top, to the first point that has it, at 
 (``slide_back``, ``RollConfig.slide_back_radii``), keeping half a foot radius of safe ground behind it
 (``slide_behind_radii``): traced on ``narrow_map`` (bars 3 cm wide, last gap 24 cm, seed 1), a front foot landed
 8 mm from the front edge of its bar and rolled forward 9 mm in the 2.5 s it stood while the body went on, into the
-gap; a slide with no room behind put a hind foot 10 mm past the back edge of a 3 cm bar, and it clipped that edge
+gap; a slide with no room behind put a hind foot 10 mm in from the back edge of a 3 cm bar, and it clipped that edge
 coming down. The network's choice of legs and cells stands: only the landing point moves, within the cell's top.
 """
 
