@@ -30,7 +30,7 @@ from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTr
 from contactnet.motion.foot_hold import FootHold, FootHoldConfig
 from contactnet.motion.gait import GaitSpec
 from contactnet.motion.ground import body_pitch, front_to_hind_m, ground_normals
-from contactnet.motion.swing import swing_over_terrain
+from contactnet.motion.swing import swing_over_terrain, swing_past_holes
 from contactnet.motion.touchdown import adapt_to_contact
 from contactnet.motion.trajopt import (
     SrbdModel,
@@ -70,13 +70,13 @@ class LocomotionConfig:
     mu: float = 0.6
     trajopt: TrajoptConfig = TrajoptConfig()
     trajopt_weights: TrajoptWeights | None = None  # None: the robot's (TrajoptWeights.for_robot; Solo12: the defaults)
-    # Terrain with heights (tops at several heights; a single-height terrain takes the flat-ground path):
-    # swings pass this far above the tops they travel over (contactnet.motion.swing) ...
+    # One level: a swing leaves (lands) vertically for this share of its time on a top too short for the roll next to a
+    # hole; heights (tops at several heights): swings pass this far above the tops they travel over (motion.swing) ...
+    hole_vertical_fraction: float = 0.2
     swing_clearance_m: float = 0.015
-    # ... and touchdown adapts to the contact sensed: a swinging foot that touches down in the last quarter
-    # of its swing near its landing point becomes a stance foot; one that has not touched at the planned
-    # time keeps descending at this speed, at most this far below its planned landing height, before it is
-    # counted as stance anyway.
+    # ... and touchdown adapts to the contact sensed: a swinging foot that touches down in the last quarter of its
+    # swing near its landing point becomes a stance foot; one that has not touched at the planned time keeps
+    # descending at this speed, at most this far below its planned landing height, before it is stance anyway.
     late_touchdown_speed_m_s: float = 0.2
     late_touchdown_depth_m: float = 0.03
     # An early contact counts as touchdown only this close (horizontally) to the planned landing point (farther
@@ -345,9 +345,9 @@ class Locomotion:
             if self._heights:
                 swings[leg] = swing_over_terrain(terrain, start, end, t0_s, t1_s, self._swing_height_m,
                                                  self.foot_radius_m, self.config.swing_clearance_m)
-            else:
-                swings[leg] = SwingTrajectory(start_world=start, end_world=end, t0_s=t0_s, t1_s=t1_s,
-                                              height_m=self._swing_height_m)
+            else:  # one level: vertical at an end on a top too short for the roll, next to a hole (motion.swing)
+                swings[leg] = swing_past_holes(terrain, start, end, t0_s, t1_s, self._swing_height_m, self.foot_radius_m,
+                                               self.config.hole_vertical_fraction, ctx.vel_cmd_xy, ctx.yaw_rad)
         self._liftoff_tops = (tuple(first.legs), tops[0, list(first.legs)].copy(),
                               ctx.foot_pos_world[list(first.legs), :2].copy())
         landing_safe = bool(terrain.is_safe(first.footholds_xy_world).all())

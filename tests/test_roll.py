@@ -35,7 +35,7 @@ def test_room_ahead_where_there_is_some_else_the_plain_margin(robot, gait):
     """On the random field the allowance moves some landings back from the edge ahead, keeping the legs the network
     chose; on the narrow stones (bars of 4-4.5 cm: often no cell with room) the plain choice stands."""
     roomy, plain = (make_planner("contactnet", gait, robot) for _ in range(2))
-    plain.roll = None
+    plain.roll, roomy.roll = None, RollConfig(reseat=False)  # (a re-seat replaces a stand: below)
     moved = 0
     for terrain in (random_field(140, 5), resolve("narrow_stones")):
         for ctx in planning_contexts(gait, terrain, robot.description, 60, seed=2):
@@ -127,3 +127,36 @@ def test_the_allowance_of_a_heading_command_is_the_rotated_command_s_to_the_bit(
         cmd = np.array([rng.choice([0.05, rng.uniform(-0.3, 0.3)]), rng.choice([0.0, rng.uniform(-0.3, 0.3)])])
         assert roll_ahead_heading(0.016, cmd, yaw, DEFAULT_ROLL) == roll_ahead_xy(0.016, rotate_xy(cmd, yaw),
                                                                                   DEFAULT_ROLL), (yaw, cmd)
+
+
+def test_a_plan_that_stands_first_puts_a_foot_rolled_to_the_edge_of_a_short_top_back_in():
+    """``reseat_step``: a foot 3 mm from the front edge of a 3 cm bar (closer than the 8 mm margin, the edge ahead of
+    the command; no point of the bar has the room) is lifted with its swing group and put back in, instead of a
+    plan's first step that stands; not on a 6 cm bar (a top with room: the slide gives the room there), not a foot
+    near the bar's back edge (its roll takes it away from that edge), not when the first step moves legs, not
+    without a command."""
+    from contactnet.planning.ranking import PlannedStep
+    from contactnet.planning.roll import lacks_room, reseat_step
+
+    margin, ahead, behind, reach = 0.008, (0.012, 0.0), 0.008, 0.032
+    stand = PlannedStep(legs=(), footholds_xy_world=np.zeros((0, 2)))
+    for width in (0.03, 0.06):
+        terrain = _bar_terrain(width)
+        feet = np.array([[0.40 + width - 0.003, 0.15], [0.0, -0.15], [-0.2, 0.15], [-0.2, -0.15]])
+        covers = terrain.safe_locator(margin).covers_xy
+        assert lacks_room(covers, *feet[0], ahead, behind, reach) == (width == 0.03)
+        for gait, legs in ((WALK, (0,)), (TROT, (0, 3))):
+            step = reseat_step(gait, stand, feet, terrain, margin, ahead, behind, reach)
+            if width > 0.03:
+                assert step is None
+                continue
+            assert step.legs == legs
+            x, y = step.footholds_xy_world[0]
+            assert y == pytest.approx(0.15) and x == pytest.approx(0.40 + width - margin, abs=1e-6)  # the margin in
+            assert step.footholds_xy_world[1:].tolist() == feet[list(legs[1:])].tolist()  # its partner stays
+            moving = PlannedStep(legs=(1,), footholds_xy_world=np.array([[0.05, -0.15]]))
+            assert reseat_step(gait, moving, feet, terrain, margin, ahead, behind, reach) is None
+            assert reseat_step(gait, stand, feet, terrain, margin, None, behind, reach) is None
+            at_back = feet.copy()
+            at_back[0, 0] = 0.403  # 3 mm from the back edge: its roll takes it away from that one
+            assert reseat_step(gait, stand, at_back, terrain, margin, ahead, behind, reach) is None

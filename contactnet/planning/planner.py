@@ -46,7 +46,7 @@ from contactnet.planning.ranking import (
     step_in_place,
 )
 from contactnet.planning.reach import DEFAULT_REACH, ReachConfig, alone_step, first_moving, left_behind
-from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, roll_ahead_heading, roll_ahead_xy, slide_back
+from contactnet.planning.roll import DEFAULT_ROLL, RollConfig, first_step_with_room, roll_ahead_xy
 from contactnet.planning.safe_walk import rank_of
 from contactnet.planning.stand import (
     DEFAULT_IDLE,
@@ -144,8 +144,9 @@ class ContactNetPlanner:
     ``capture=None`` turns this off. With a zero command and a balanced state it stands instead of a swing that
     barely moves its feet (``contactnet.planning.stand.IdleConfig``, any model); ``idle=None`` turns this off.
     The chosen legs land, where one of their cells allows it, with room ahead for the foot's roll while it stands
-    (``contactnet.planning.roll``), else the first step's slide back on their top to it (``roll.slide_back``);
-    ``roll=None`` turns both off. On terrain with heights, with ``RollConfig(heights=True)`` (off by default), the
+    (``contactnet.planning.roll``), else the first step's slide back on their top to it (``roll.slide_back``), and a
+    foot rolled to the edge of a top too short for its roll steps back in first (``roll.reseat_step``); ``roll=None``
+    turns these off. On terrain with heights, with ``RollConfig(heights=True)`` (off by default), the
     room is asked the same way (the point ahead safe too: with the margin on both sides of a riser it lies on the
     same top), except on a first step that moves a cornered leg
     first, whose order the room would undo. With no safe step at all it steps in place, a foot at an edge put back
@@ -257,12 +258,10 @@ class ContactNetPlanner:
                     self.last_candidates = candidates
         else:
             steps = self._plan_one_level(ctx, offset, idle, must_step)
-            roll = self.roll  # a landing without the room for the roll slides back to it (contactnet.planning.roll)
-            if roll is not None and roll.slide_back_radii > 0.0:
-                radius = self.robot.foot_radius_m
-                steps[0] = slide_back(steps[0], roll_ahead_heading(radius, ctx.vel_cmd_xy, ctx.yaw_rad, roll),
-                                      ctx.terrain.safe_locator(self.margin_m).covers_xy, roll.slide_back_radii * radius,
-                                      roll.slide_behind_radii * radius)
+            if self.roll is not None:  # the roll's rules: a rolled foot back in, a landing slid back (planning.roll)
+                steps[0] = first_step_with_room(steps[0], self.gait, ctx.foot_pos_world, ctx.terrain, ctx.vel_cmd_xy,
+                                                ctx.yaw_rad, self.margin_m, self.robot.foot_radius_m, self.roll,
+                                                offset is None and self._put_back_m > 0.0)
         if offset is not None:
             steps[0] = dataclasses.replace(steps[0], captured=True)
         self._advance()

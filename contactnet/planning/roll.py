@@ -38,7 +38,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from contactnet.planning.ranking import PlannedStep
+from contactnet.motion.gait import GaitSpec
+from contactnet.planning.ranking import PlannedStep, put_back
+from contactnet.terrain import Terrain
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,9 @@ class RollConfig:
     #: on terrain with tops at several heights too (off: measured, it helped MuJoCo's walk on the raised stones
     #: and hurt PyBullet's, docs/results.md "The room for the roll on terrain with heights")
     heights: bool = False
+    #: a plan that would stand first lifts a foot standing on a top too short for its roll, closer than the landing
+    #: margin to the edge ahead, and puts it back in (``reseat_step``)
+    reseat: bool = True
 
     def __post_init__(self) -> None:
         for name in ("allowance_radii", "min_speed_m_s", "slide_back_radii", "slide_behind_radii"):
@@ -128,4 +133,64 @@ def slide_back(step: PlannedStep, ahead_xy: tuple[float, float] | None, covers_x
     return step if moved is None else dataclasses.replace(step, footholds_xy_world=moved)
 
 
-__all__ = ["DEFAULT_ROLL", "SLIDE_STEP_M", "RollConfig", "roll_ahead_heading", "roll_ahead_xy", "slide_back"]
+def lacks_room(covers_xy: Callable[[float, float], bool], x: float, y: float, ahead_xy: tuple[float, float],
+               behind_m: float, reach_m: float) -> bool:
+    """Whether the top at (x, y) is too short along ``ahead_xy`` for the roll: no point within ``reach_m`` of it along
+    the command, in steps of ``SLIDE_STEP_M``, is covered with the point ``ahead_xy`` further on and the point
+    ``behind_m`` back covered too (``covers_xy``: the safe region's test with the landing margin). A bar narrower
+    than the foot ball is such a top; a square of the random field is not."""
+    ahead_x, ahead_y = ahead_xy
+    length = math.hypot(ahead_x, ahead_y)
+    unit_x, unit_y = ahead_x / length, ahead_y / length
+    count = int(reach_m / SLIDE_STEP_M + 1e-9)
+    for i in range(-count, count + 1):
+        px, py = x + i * SLIDE_STEP_M * unit_x, y + i * SLIDE_STEP_M * unit_y
+        if (covers_xy(px, py) and covers_xy(px + ahead_x, py + ahead_y)
+                and covers_xy(px - behind_m * unit_x, py - behind_m * unit_y)):
+            return False
+    return True
+
+
+def reseat_step(gait: GaitSpec, first: PlannedStep, feet_xy_world: np.ndarray, terrain: Terrain, margin_m: float,
+                ahead_xy: tuple[float, float] | None, behind_m: float, reach_m: float) -> PlannedStep | None:
+    """Instead of ``first``, a plan's first step that stands, the step in place of the swing group of a standing foot
+    on a top too short for its roll (``lacks_room``) that has rolled closer than ``margin_m`` to the edge ahead
+    (``ahead_xy``: the point that far on is not safe either), put back in (``ranking.put_back``; the slide then moves
+    it back further where it can); None: no such foot, no room on its top to put it back (it would move less than a
+    quarter of the margin), a first step that moves legs, no direction. Traced on ``narrow_map`` (3 cm bars, last gap
+    24 cm): a front foot waiting on its bar for the next one to come in reach rolled over the edge ahead while the
+    planner stood five times."""
+    if first.legs or ahead_xy is None:
+        return None
+    covers, on_top = terrain.safe_locator(margin_m).covers_xy, terrain.safe_locator(0.0).covers_xy
+    feet = np.asarray(feet_xy_world, dtype=float)[:, :2]
+    for leg, (x, y) in enumerate(feet.tolist()):
+        if (on_top(x, y) and not covers(x, y) and not covers(x + ahead_xy[0], y + ahead_xy[1])
+                and lacks_room(covers, x, y, ahead_xy, behind_m, reach_m)):
+            legs = next(group for group in gait.swing_groups if leg in group)
+            landing = put_back(terrain, feet[list(legs)], margin_m)
+            if math.dist(landing[legs.index(leg)], (x, y)) >= 0.25 * margin_m:
+                return PlannedStep(legs=legs, footholds_xy_world=landing)
+    return None
+
+
+def first_step_with_room(step: PlannedStep, gait: GaitSpec, feet_xy_world: np.ndarray, terrain: Terrain,
+                         cmd_xy: np.ndarray, yaw_rad: float, margin_m: float, foot_radius_m: float,
+                         config: RollConfig | None, may_reseat: bool) -> PlannedStep:
+    """A plan's first step on terrain of one level after the roll's rules: a foot rolled to the edge of a top too short
+    for it goes first (``reseat_step``, when ``config.reseat`` and ``may_reseat``), and a landing without the room
+    slides back (``slide_back``); ``step`` itself when neither applies (``config`` None: no roll rules)."""
+    ahead = roll_ahead_heading(foot_radius_m, cmd_xy, yaw_rad, config)
+    if ahead is None:
+        return step
+    behind_m = config.slide_behind_radii * foot_radius_m
+    if config.reseat and may_reseat:
+        step = reseat_step(gait, step, feet_xy_world, terrain, margin_m, ahead, behind_m, 2.0 * foot_radius_m) or step
+    if config.slide_back_radii > 0.0:
+        step = slide_back(step, ahead, terrain.safe_locator(margin_m).covers_xy,
+                          config.slide_back_radii * foot_radius_m, behind_m)
+    return step
+
+
+__all__ = ["DEFAULT_ROLL", "SLIDE_STEP_M", "RollConfig", "first_step_with_room", "lacks_room", "reseat_step",
+           "roll_ahead_heading", "roll_ahead_xy", "slide_back"]
