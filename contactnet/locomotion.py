@@ -44,6 +44,7 @@ from contactnet.planning.brace import BraceConfig, braces, standing_horizon, tou
 from contactnet.planning.observer import DEFAULT_OBSERVER, DisturbanceObserver, ObserverConfig
 from contactnet.planning.planner import Planner, PlanningContext
 from contactnet.planning.retarget import RetargetConfig, retarget
+from contactnet.planning.roll import short_top_test
 from contactnet.planning.stand import StallWatch, stalled
 from contactnet.records import Snapshot, StepCounts, StepRecord, records_summary, summary_stats
 from contactnet.robots.description import Robot
@@ -57,15 +58,14 @@ class LocomotionConfig:
     """Settings of the loop (the gait, planner, world and controller have their own)."""
 
     swing_height_m: float = 0.05  # for the paper's Solo12: times the robot's size_scale (gait.SIZE_RULE)
-    # Re-solve the optimizer from the measured state every this many nodes between plans (2: every
-    # 80 ms, 12.5 Hz); 0: only after each touchdown, as in the paper.
+    # Re-solve the optimizer from the measured state every this many nodes between plans (2: every 80 ms, 12.5 Hz);
+    # 0: only after each touchdown, as in the paper.
     reoptimize_every_nodes: int = 2
-    # At those re-solves a swing may get a new landing (contactnet.planning.retarget); None: never, as in the paper (the
-    # default until retargeting is shown to help: issue 14).
+    # At those re-solves a swing may get a new landing (contactnet.planning.retarget); None: never, as in the paper.
     retarget: RetargetConfig | None = None
     fall_check_every_ticks: int = 10
     # The CoM reference integrates the commanded velocity within this distance of the measured CoM: after a push the
-    # optimizer brings the robot back toward its path (a little) instead of only stopping it where the push left it.
+    # optimizer brings the robot back toward its path (a little), not only stopping it where the push left it.
     ref_leash_m: float = 0.05
     mu: float = 0.6
     trajopt: TrajoptConfig = TrajoptConfig()
@@ -335,9 +335,8 @@ class Locomotion:
                 foot_pos[touchdown_node:, leg, :2] = xy
                 foot_pos[touchdown_node:, leg, 2] = z
                 tops[touchdown_node:, leg] = z
-        t_now = self.sim.t_s
-        first = steps[0]
-        swings = {}
+        t_now, first, swings = self.sim.t_s, steps[0], {}
+        short_top = short_top_test(terrain, ctx.vel_cmd_xy, ctx.yaw_rad, self.foot_radius_m)  # (planning.roll)
         for leg, xy in zip(first.legs, first.footholds_xy_world, strict=True):
             end = np.array([xy[0], xy[1], foot_pos[gait.n_stance_pre + gait.n_swing, leg, 2] + self.foot_radius_m])
             t0_s, t1_s = t_now + gait.liftoff_s, t_now + gait.liftoff_s + gait.swing_duration_s
@@ -347,7 +346,7 @@ class Locomotion:
                                                  self.foot_radius_m, self.config.swing_clearance_m)
             else:  # one level: vertical at an end on a top too short for the roll, next to a hole (motion.swing)
                 swings[leg] = swing_past_holes(terrain, start, end, t0_s, t1_s, self._swing_height_m, self.foot_radius_m,
-                                               self.config.hole_vertical_fraction, ctx.vel_cmd_xy, ctx.yaw_rad)
+                                               self.config.hole_vertical_fraction, short_top)
         self._liftoff_tops = (tuple(first.legs), tops[0, list(first.legs)].copy(),
                               ctx.foot_pos_world[list(first.legs), :2].copy())
         landing_safe = bool(terrain.is_safe(first.footholds_xy_world).all())

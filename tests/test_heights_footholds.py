@@ -368,17 +368,22 @@ def test_a_swing_next_to_a_hole_onto_a_short_top_lands_vertically():
     higher than the plain swing where it reaches the bar's edge; onto a 6 cm bar (with room) it is the plain swing,
     and so it is with a fraction 0 and with no command. A swing leaving a 3 cm bar across a gap lifts off vertically."""
     from contactnet.motion.swing import swing_past_holes
+    from contactnet.planning.roll import short_top_test
 
     r, cmd = 0.016, np.array([0.05, 0.0])
     for width in (0.03, 0.06):
         terrain = Terrain.from_dict({"name": "bar", "start": [0.0, 0.0], "goal_x": 1.0, "regions": [
             {"shape": "rect", "center": [0.1, 0.0], "size": [0.4, 0.5]},  # to x = 0.30
             {"shape": "rect", "center": [0.50 + width / 2, 0.0], "size": [width, 0.5]}]})  # from x = 0.50
+        short = short_top_test(terrain, cmd, 0.0, r)
+        assert short_top_test(terrain, np.zeros(2), 0.0, r) is None  # no command, no direction
         start, end = np.array([0.20, 0.1, r]), np.array([0.516, 0.1, r])
-        across = swing_past_holes(terrain, start, end, 1.0, 1.2, 0.05, r, 0.2, cmd, 0.0)
-        plain = swing_past_holes(terrain, start, end, 1.0, 1.2, 0.05, r, 0.0, cmd, 0.0)
+        across = swing_past_holes(terrain, start, end, 1.0, 1.2, 0.05, r, 0.2, short)
+        plain = swing_past_holes(terrain, start, end, 1.0, 1.2, 0.05, r, 0.0, short)
         assert (plain.liftoff_fraction, plain.touchdown_fraction) == (0.0, 0.0)
-        assert swing_past_holes(terrain, start, end, 1.0, 1.2, 0.05, r, 0.2, np.zeros(2), 0.0).touchdown_fraction == 0
+        assert swing_past_holes(terrain, start, end, 1.0, 1.2, 0.05, r, 0.2, None).touchdown_fraction == 0
+        in_gap = swing_past_holes(terrain, start, np.array([0.45, 0.1, r]), 1.0, 1.2, 0.05, r, 0.2, short)
+        assert in_gap.touchdown_fraction == 0  # a foot put into the gap itself: the plain swing
         if width > 0.03:
             assert (across.liftoff_fraction, across.touchdown_fraction) == (0.0, 0.0)
             continue
@@ -389,5 +394,5 @@ def test_a_swing_next_to_a_hole_onto_a_short_top_lands_vertically():
                 assert pos[2] >= r - 1e-9 and (pos[0] < 0.50 - r or pos[2] >= r + 0.01), (t, pos)
         assert across.height_at_progress(np.array([0.94]))[0] > plain.height_at_progress(np.array([0.94]))[0] + 0.01
         back = swing_past_holes(terrain, np.array([0.516, 0.1, r]), np.array([0.75, 0.1, r]), 1.0, 1.2, 0.05, r, 0.2,
-                                cmd, 0.0)
+                                short)
         assert back.liftoff_fraction == 0.2

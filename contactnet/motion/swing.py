@@ -24,6 +24,7 @@ foot radius of it, as the ball is that wide):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -86,44 +87,40 @@ def swing_over_terrain(
     return swing
 
 
-#: ``swing_past_holes``: how far past the foot ball (foot radii) along the path a hole makes an end vertical, the
-#: spacing (foot radii) of the points asked, and how far (foot radii) an end's top is searched for the room.
-HOLE_ZONE_RADII, HOLE_SAMPLE_RADII, ROOM_REACH_RADII = 2.5, 0.25, 2.0
+#: ``swing_past_holes``: how far past the foot ball (foot radii) along the path a hole makes an end vertical, and
+#: the spacing (foot radii) of the points asked.
+HOLE_ZONE_RADII, HOLE_SAMPLE_RADII = 2.5, 0.25
 
 
 def swing_past_holes(terrain: Terrain, start_world: np.ndarray, end_world: np.ndarray, t0_s: float, t1_s: float,
-                     height_m: float, foot_radius_m: float, fraction: float, cmd_xy: np.ndarray,
-                     yaw_rad: float) -> SwingTrajectory:
+                     height_m: float, foot_radius_m: float, fraction: float,
+                     too_short: Callable[[float, float], bool] | None) -> SwingTrajectory:
     """The swing on terrain of one level (``SwingTrajectory``, apex ``height_m`` over its ends) that lifts off (lands)
-    vertically for ``fraction`` of its time when its lift-off (landing) point is on a top too short for the foot's
-    roll along the command (``cmd_xy`` in the heading frame, ``yaw_rad``; ``contactnet.planning.roll.lacks_room``
-    with the default room and the planner's default margin, half a foot radius) and a hole lies on its path within
-    ``HOLE_ZONE_RADII`` foot radii past the ball there. Traced on ``narrow_map`` (3 cm bars): a hind foot's 20 cm
-    swing onto a bar came down over the gap, 1.7 cm short of the bar's edge. On wider tops it is the plain swing:
-    made vertical there too, a front foot's 27 cm step across a 24 cm gap, its horizontal motion in 80 % of the
-    time, came down short of a 6 cm bar (measured: docs/results.md)."""
-    from contactnet.planning.roll import DEFAULT_ROLL, lacks_room, roll_ahead_heading  # the room: the layer above
-
+    vertically for ``fraction`` of its time when its lift-off (landing) point is on a top that is too short for the
+    foot's roll (``too_short(x, y)``: ``contactnet.planning.roll.short_top_test``; None: no such top, no command) and
+    a hole lies on its path within ``HOLE_ZONE_RADII`` foot radii past the ball there. Traced on ``narrow_map`` (3 cm
+    bars): a hind foot's 20 cm swing onto a bar came down over the gap, 1.7 cm short of the bar's edge. Elsewhere it
+    is the plain swing: made vertical on wider tops too, a front foot's 27 cm step across a 24 cm gap, its horizontal
+    motion in 80 % of the time, came down short of a 6 cm bar (measured: docs/results.md)."""
     start, end = np.asarray(start_world, dtype=float), np.asarray(end_world, dtype=float)
     liftoff = touchdown = 0.0
     along = end[:2] - start[:2]
     length = float(np.hypot(*along))
     distances = foot_radius_m * np.arange(1.0, 1.0 + HOLE_ZONE_RADII + 1e-9, HOLE_SAMPLE_RADII)
     distances = distances[distances <= 0.5 * length]
-    ahead = roll_ahead_heading(foot_radius_m, cmd_xy, yaw_rad, DEFAULT_ROLL)
-    if fraction > 0.0 and distances.size and ahead is not None:
+    if fraction > 0.0 and distances.size and too_short is not None:
         unit = along / length
-        on_top = terrain.is_safe(np.concatenate([start[:2] + distances[:, None] * unit,
-                                                 end[:2] - distances[:, None] * unit]), 0.0)
-        covers = terrain.safe_locator(0.5 * foot_radius_m).covers_xy
-        behind, reach = DEFAULT_ROLL.slide_behind_radii * foot_radius_m, ROOM_REACH_RADII * foot_radius_m
-        if not on_top[:distances.size].all() and lacks_room(covers, start[0], start[1], ahead, behind, reach):
+        ends = np.array([start[:2], end[:2]])
+        points = np.concatenate([ends, start[:2] + distances[:, None] * unit, end[:2] - distances[:, None] * unit])
+        on_top = terrain.is_safe(points, 0.0)  # the ends on a top (a foot put in a hole is not made vertical)
+        next_to_hole = ~on_top[2:2 + distances.size].all(), ~on_top[2 + distances.size:].all()
+        if on_top[0] and next_to_hole[0] and too_short(float(start[0]), float(start[1])):
             liftoff = fraction
-        if not on_top[distances.size:].all() and lacks_room(covers, end[0], end[1], ahead, behind, reach):
+        if on_top[1] and next_to_hole[1] and too_short(float(end[0]), float(end[1])):
             touchdown = fraction
     return SwingTrajectory(start_world=start, end_world=end, t0_s=t0_s, t1_s=t1_s, height_m=height_m,
                            liftoff_fraction=liftoff, touchdown_fraction=touchdown)
 
 
-__all__ = ["END_ZONE_MARGIN_M", "HOLE_SAMPLE_RADII", "HOLE_ZONE_RADII", "LEVEL_TOLERANCE_M", "ROOM_REACH_RADII",
+__all__ = ["END_ZONE_MARGIN_M", "HOLE_SAMPLE_RADII", "HOLE_ZONE_RADII", "LEVEL_TOLERANCE_M",
            "SAMPLE_SPACING_M", "STEP_FRACTION", "VERTICAL_FRACTIONS", "swing_over_terrain", "swing_past_holes"]

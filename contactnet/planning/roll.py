@@ -151,6 +151,20 @@ def lacks_room(covers_xy: Callable[[float, float], bool], x: float, y: float, ah
     return True
 
 
+def short_top_test(terrain: Terrain, cmd_xy: np.ndarray, yaw_rad: float, foot_radius_m: float,
+                   config: RollConfig | None = DEFAULT_ROLL) -> Callable[[float, float], bool] | None:
+    """``lacks_room`` at a point, with the room of ``config`` along the command (``cmd_xy`` in the heading frame,
+    ``yaw_rad``), the planner's default margin (half a foot radius), half a radius behind and a reach of two radii
+    (as the re-seat asks it): the test the swing asks of its ends (``motion.swing.swing_past_holes``); None without
+    a command or a config."""
+    ahead = roll_ahead_heading(foot_radius_m, cmd_xy, yaw_rad, config)
+    if ahead is None:
+        return None
+    covers = terrain.safe_locator(0.5 * foot_radius_m).covers_xy
+    behind_m = config.slide_behind_radii * foot_radius_m
+    return lambda x, y: lacks_room(covers, x, y, ahead, behind_m, 2.0 * foot_radius_m)
+
+
 def reseat_step(gait: GaitSpec, first: PlannedStep, feet_xy_world: np.ndarray, terrain: Terrain, margin_m: float,
                 ahead_xy: tuple[float, float] | None, behind_m: float, reach_m: float) -> PlannedStep | None:
     """Instead of ``first``, a plan's first step that stands, the step in place of the swing group of a standing foot
@@ -193,4 +207,4 @@ def first_step_with_room(step: PlannedStep, gait: GaitSpec, feet_xy_world: np.nd
 
 
 __all__ = ["DEFAULT_ROLL", "SLIDE_STEP_M", "RollConfig", "first_step_with_room", "lacks_room", "reseat_step",
-           "roll_ahead_heading", "roll_ahead_xy", "slide_back"]
+           "roll_ahead_heading", "roll_ahead_xy", "short_top_test", "slide_back"]
