@@ -11,7 +11,13 @@ import numpy as np
 from contactnet.frames import rotate_xy
 from contactnet.motion.gait import GaitSpec
 from contactnet.planning.planner import PlanningContext
-from contactnet.planning.ranking import CandidateRanking, PlannedStep, cell_grid, first_safe_step
+from contactnet.planning.ranking import (
+    LANDING_MARGIN_RADII,
+    CandidateRanking,
+    PlannedStep,
+    cell_grid,
+    first_safe_step,
+)
 from contactnet.planning.stand import prefer_stand, split_stand
 from contactnet.robots.description import RobotDescription
 from contactnet.terrain import Terrain
@@ -63,7 +69,7 @@ class OraclePlanner:
         self.gait = gait
         self.robot = robot
         self.weights = weights if weights is not None else gait.cost_weights
-        self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
+        self.margin_m = LANDING_MARGIN_RADII * robot.foot_radius_m if margin_m is None else float(margin_m)
         self.cost = RankingCost(gait, robot, self.weights, model=model)
         self.evaluated_steps = gait.steps_per_plan if evaluated_steps is None else int(evaluated_steps)
         if not 1 <= self.evaluated_steps <= gait.steps_per_plan:

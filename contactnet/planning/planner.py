@@ -32,6 +32,7 @@ from contactnet.planning.network_input import network_input_one, network_input_v
 from contactnet.planning.plain_walk import PlainHeightsWalk
 from contactnet.planning.plan_kernel import CompiledOneLevel
 from contactnet.planning.ranking import (
+    LANDING_MARGIN_RADII,
     SAFETY_CHUNK,
     WHOLE_GRID_MAX_POINTS,
     ActionCells,
@@ -168,7 +169,7 @@ class ContactNetPlanner:
         self.robot = robot
         self.model = model
         self.hip_ref_xy_base = np.array(robot.foot_nominal_base[:, :2], dtype=float)
-        self.margin_m = 0.5 * robot.foot_radius_m if margin_m is None else float(margin_m)
+        self.margin_m = LANDING_MARGIN_RADII * robot.foot_radius_m if margin_m is None else float(margin_m)
         self.capture, self.idle, self.roll, self.reach = capture, idle, roll, reach
         self._put_back_m = self.margin_m if put_back else 0.0  # a step in place's feet (ranking.put_back)
         self.footholds = FootholdChecker(robot, HeightChecks().scaled(robot.size_scale))

@@ -44,6 +44,8 @@ class PlannedStep:
         return step
 
 
+#: The landing margin of the ranking planners and the oracle by default, in foot radii (half the ball: 8 mm on Solo12).
+LANDING_MARGIN_RADII = 0.5
 SAFETY_CHUNK = 8  # the best actions checked on their own before the whole candidate grid ...
 WHOLE_GRID_MAX_POINTS = 48  # ... unless the grid is this small (trot: 36 cells): then the grid at once
 

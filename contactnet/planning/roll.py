@@ -39,7 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from contactnet.motion.gait import GaitSpec
-from contactnet.planning.ranking import PlannedStep, put_back
+from contactnet.planning.ranking import LANDING_MARGIN_RADII, PlannedStep, put_back
 from contactnet.terrain import Terrain
 
 
@@ -97,8 +97,16 @@ def roll_ahead_heading(foot_radius_m: float, cmd_xy: np.ndarray, yaw_rad: float,
     return roll_ahead_xy(foot_radius_m, (c * x - s * y, s * x + c * y), config)
 
 
-#: The steps (m) in which ``slide_back`` looks for the room.
+#: The steps (m) in which ``slide_back`` looks for the room, and how far along the command (foot radii) ``lacks_room``
+#: looks for a point with it.
 SLIDE_STEP_M = 0.001
+SHORT_TOP_REACH_RADII = 2.0
+
+
+def _unit(ahead_xy: tuple[float, float]) -> tuple[float, float]:
+    """The direction of ``ahead_xy`` (not zero)."""
+    length = math.hypot(*ahead_xy)
+    return ahead_xy[0] / length, ahead_xy[1] / length
 
 
 def slide_back(step: PlannedStep, ahead_xy: tuple[float, float] | None, covers_xy: Callable[[float, float], bool],
@@ -113,8 +121,7 @@ def slide_back(step: PlannedStep, ahead_xy: tuple[float, float] | None, covers_x
     if ahead_xy is None or not step.legs or max_slide_m <= 0.0:
         return step
     ahead_x, ahead_y = ahead_xy
-    length = math.hypot(ahead_x, ahead_y)
-    unit_x, unit_y = ahead_x / length, ahead_y / length
+    unit_x, unit_y = _unit(ahead_xy)
     moved = None
     for k, (x, y) in enumerate(step.footholds_xy_world.tolist()):
         if covers_xy(x + ahead_x, y + ahead_y):
@@ -138,10 +145,10 @@ def lacks_room(covers_xy: Callable[[float, float], bool], x: float, y: float, ah
     """Whether the top at (x, y) is too short along ``ahead_xy`` for the roll: no point within ``reach_m`` of it along
     the command, in steps of ``SLIDE_STEP_M``, is covered with the point ``ahead_xy`` further on and the point
     ``behind_m`` back covered too (``covers_xy``: the safe region's test with the landing margin). A bar narrower
-    than the foot ball is such a top; a square of the random field is not."""
+    than the foot ball is such a top; a square of the random field is not, except for a point closer than the margin
+    to one of its edges along the command (no point on that line is covered)."""
     ahead_x, ahead_y = ahead_xy
-    length = math.hypot(ahead_x, ahead_y)
-    unit_x, unit_y = ahead_x / length, ahead_y / length
+    unit_x, unit_y = _unit(ahead_xy)
     count = int(reach_m / SLIDE_STEP_M + 1e-9)
     for i in range(-count, count + 1):
         px, py = x + i * SLIDE_STEP_M * unit_x, y + i * SLIDE_STEP_M * unit_y
@@ -160,9 +167,9 @@ def short_top_test(terrain: Terrain, cmd_xy: np.ndarray, yaw_rad: float, foot_ra
     ahead = roll_ahead_heading(foot_radius_m, cmd_xy, yaw_rad, config)
     if ahead is None:
         return None
-    covers = terrain.safe_locator(0.5 * foot_radius_m).covers_xy
-    behind_m = config.slide_behind_radii * foot_radius_m
-    return lambda x, y: lacks_room(covers, x, y, ahead, behind_m, 2.0 * foot_radius_m)
+    covers = terrain.safe_locator(LANDING_MARGIN_RADII * foot_radius_m).covers_xy
+    behind_m, reach_m = config.slide_behind_radii * foot_radius_m, SHORT_TOP_REACH_RADII * foot_radius_m
+    return lambda x, y: lacks_room(covers, x, y, ahead, behind_m, reach_m)
 
 
 def reseat_step(gait: GaitSpec, first: PlannedStep, feet_xy_world: np.ndarray, terrain: Terrain, margin_m: float,
@@ -199,12 +206,13 @@ def first_step_with_room(step: PlannedStep, gait: GaitSpec, feet_xy_world: np.nd
         return step
     behind_m = config.slide_behind_radii * foot_radius_m
     if config.reseat and may_reseat:
-        step = reseat_step(gait, step, feet_xy_world, terrain, margin_m, ahead, behind_m, 2.0 * foot_radius_m) or step
+        step = reseat_step(gait, step, feet_xy_world, terrain, margin_m, ahead, behind_m,
+                           SHORT_TOP_REACH_RADII * foot_radius_m) or step
     if config.slide_back_radii > 0.0:
         step = slide_back(step, ahead, terrain.safe_locator(margin_m).covers_xy,
                           config.slide_back_radii * foot_radius_m, behind_m)
     return step
 
 
-__all__ = ["DEFAULT_ROLL", "SLIDE_STEP_M", "RollConfig", "first_step_with_room", "lacks_room", "reseat_step",
-           "roll_ahead_heading", "roll_ahead_xy", "short_top_test", "slide_back"]
+__all__ = ["DEFAULT_ROLL", "SHORT_TOP_REACH_RADII", "SLIDE_STEP_M", "RollConfig", "first_step_with_room", "lacks_room",
+           "reseat_step", "roll_ahead_heading", "roll_ahead_xy", "short_top_test", "slide_back"]
