@@ -280,19 +280,21 @@ def reference_torques(controller: WholeBodyController, q: np.ndarray, v: np.ndar
     swing = np.array(g.kp_swing) * (target.swing_pos - feet) + np.array(g.kd_swing) * (target.swing_vel - jac @ v)
     push = np.where(stance[:, None], -forces, swing)
     tau = sum(jac[leg][:, 6:].T @ push[leg] for leg in range(4)) - g.kd_joint * v[6:]
+    tau = tau + g.leg_gravity * pin.computeGeneralizedGravity(model, data, q)[6:]  # the legs' weight (a share of it)
     return np.clip(tau, -controller.torque_limit_nm, controller.torque_limit_nm), forces
 
 
-@pytest.mark.parametrize("seed, unload_rounds, cop_margin_m",
-                         [(0, 0, None), (1, 0, None), (2, 0, None), (3, 0, None), (4, 3, None), (5, 3, None),
-                          (6, 0, 0.01), (7, 3, 0.02)])
-def test_the_compiled_controller_is_the_plain_formulas(robot, seed, unload_rounds, cop_margin_m):
+@pytest.mark.parametrize("seed, unload_rounds, cop_margin_m, leg_gravity",
+                         [(0, 0, None, 0.0), (1, 0, None, 0.0), (2, 0, None, 1.0), (3, 0, None, 0.0),
+                          (4, 3, None, 0.0), (5, 3, None, 0.5), (6, 0, 0.01, 0.0), (7, 3, 0.02, 1.0)])
+def test_the_compiled_controller_is_the_plain_formulas(robot, seed, unload_rounds, cop_margin_m, leg_gravity):
     """Random configurations, velocities and targets (stance sets, pushes): the compiled steps 1-5 give the plain
     numpy form's torques and forces to rounding, and some torques saturate; with and without the unloading
-    rounds and the centre-of-pressure limit."""
+    rounds, the centre-of-pressure limit and the legs' weight."""
     rng = np.random.default_rng(seed)
     controller = WholeBodyController(robot, dataclasses.replace(ControllerGains.for_robot(robot.description),
-                                                                unload_rounds=unload_rounds, cop_margin_m=cop_margin_m))
+                                                                unload_rounds=unload_rounds, cop_margin_m=cop_margin_m,
+                                                                leg_gravity=leg_gravity))
     saturated = unloaded = 0
     for k in range(50):
         q = robot.q_standing.copy()
@@ -364,6 +366,41 @@ def test_the_cop_share_keeps_the_centre_of_pressure_in_the_stance_polygon():
 def test_a_bad_cop_margin_is_refused_by_name(margin):
     with pytest.raises(ValueError, match="cop_margin_m"):
         ControllerGains(cop_margin_m=margin)
+
+
+@pytest.mark.parametrize("share", [-0.1, 1.5, float("nan"), "all"])
+def test_a_bad_leg_gravity_share_is_refused_by_name(share):
+    with pytest.raises(ValueError, match="leg_gravity"):
+        ControllerGains(leg_gravity=share)
+
+
+def test_with_the_legs_weight_held_a_still_leg_gives_the_ground_the_commanded_force(robot):
+    """``leg_gravity`` = 1: each still stance leg's static balance, ``tau_leg = g_leg - J_leg^T f`` solved for ``f``
+    (numpy, undamped), is the commanded force; without it the ground also gets the leg's weight (``J^-T g_leg``),
+    more than a tenth of a newton on some leg."""
+    import pinocchio as pin
+
+    rng = np.random.default_rng(3)
+    errors = {}
+    for share in (0.0, 1.0):
+        controller = WholeBodyController(robot, dataclasses.replace(ControllerGains.for_robot(robot.description),
+                                                                    leg_gravity=share))
+        data, worst = controller.model.createData(), 0.0
+        for _ in range(20):
+            q = robot.q_standing.copy()
+            q[7:] += rng.normal(0.0, 0.1, 12)
+            tau = controller.torques(q, np.zeros(18), standing_target(controller, q, np.zeros(18), robot.mass_kg))
+            assert (np.abs(tau) < controller.torque_limit_nm).all()
+            gravity = pin.computeGeneralizedGravity(controller.model, data, q)[6:]
+            pin.computeJointJacobians(controller.model, data, q)
+            pin.updateFramePlacements(controller.model, data)
+            for leg, frame in enumerate(controller.foot_ids):
+                jac = pin.getFrameJacobian(controller.model, data, frame, pin.LOCAL_WORLD_ALIGNED)[:3]
+                legs = slice(3 * leg, 3 * leg + 3)
+                given = np.linalg.solve(jac[:, 6 + 3 * leg:9 + 3 * leg].T, gravity[legs] - tau[legs])
+                worst = max(worst, float(np.abs(given - controller.last_forces[leg]).max()))
+        errors[share] = worst
+    assert errors[1.0] < 1e-6 and errors[0.0] > 0.1, errors
 
 
 def reference_delivered_forces(controller: WholeBodyController, q: np.ndarray, tau: np.ndarray,

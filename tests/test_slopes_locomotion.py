@@ -48,7 +48,7 @@ def _clip(normal: np.ndarray, force: np.ndarray, mu: float = 0.6) -> np.ndarray:
     tau, forces, foot = np.zeros(12), np.zeros((4, 3)), np.zeros((4, 3))
     wbc_torques(zeros, zeros, (jacobian,) * 4, (zeros,) * 4, np.eye(3), np.zeros(18), zeros, zeros, zeros, zeros,
                 forces_ref, stance, np.zeros((4, 3)), np.zeros((4, 3)), zeros, gains, np.full(12, 10.0), tau, forces,
-                foot, normals)
+                foot, normals, np.zeros(12))
     return forces[0]
 
 

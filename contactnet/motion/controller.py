@@ -12,7 +12,10 @@ Per tick (`WholeBodyController.torques`), as in the paper's Fig. 3 (after Grimmi
 2. stance legs: tau = -J^T f (the ground pushes the robot with f);
 3. swing legs: a Cartesian PD that tracks the swing trajectory (semi-ellipse for the horizontal
    progress, fifth-order polynomial for the height, in the swing frame);
-4. a joint impedance layer: joint damping on every joint;
+4. a joint impedance layer: joint damping on every joint; with ``leg_gravity`` > 0, that share of each leg's own
+   weight held by its joints (``tau += g_leg(q)``: a stance leg then gives the ground the planned force, and one
+   planned with almost none holds its pose instead of sagging and sliding its foot; off in the paper's controller,
+   whose legs are massless);
 5. torques saturated to the motor limit.
 Kinematics and Jacobians come from pinocchio on the measured state.
 """
@@ -54,8 +57,14 @@ class ControllerGains:
     # The horizontal feedback force is scaled down so the centre of pressure stays this far inside the stance
     # feet's polygon (controller_kernel.cop_scale); None: not limited.
     cop_margin_m: float | None = 0.01
+    # The share of each leg's own weight its joints hold (pinocchio's generalized gravity, the joints' rows): 0 leaves
+    # the legs massless (the paper's controller; Solo12's 0.34 kg legs); 1 holds all of it (heavy legs, e.g. Go2's).
+    leg_gravity: float = 0.0
 
     def __post_init__(self) -> None:
+        share = self.leg_gravity
+        if not (isinstance(share, int | float) and math.isfinite(share) and 0.0 <= share <= 1.0):
+            raise ValueError(f"ControllerGains.leg_gravity must be a share in [0, 1] of the legs' weight, got {share!r}")
         margin = self.cop_margin_m
         if margin is not None and not (isinstance(margin, int | float) and math.isfinite(margin) and margin >= 0.0):
             raise ValueError(f"ControllerGains.cop_margin_m must be None (off) or a finite number >= 0 (m), got {margin!r}")
@@ -203,7 +212,10 @@ class WholeBodyController:
         self._kd_swing = np.array(gains.kd_swing)
         self._gains = pack_gains(self._kp_com, self._kd_com, self._kp_rot, self._kd_rot, self._kp_swing,
                                  self._kd_swing, gains.mu, gains.fz_min_n, gains.fz_max_n, gains.kd_joint,
-                                 gains.force_regularization, gains.unload_rounds, gains.cop_margin_m)
+                                 gains.force_regularization, gains.unload_rounds, gains.cop_margin_m,
+                                 gains.leg_gravity)
+        self._gravity_q: np.ndarray | None = None  # the configuration of ``_gravity_tau`` (None: not computed yet)
+        self._gravity_tau = np.zeros(12)
         self._no_force = np.zeros(3)
         self._up = np.zeros((4, 3))
         self._up[:, 2] = 1.0
@@ -249,11 +261,13 @@ class WholeBodyController:
         rot_err = pin.log3(np.dot(self._rpy_to_matrix(target.rpy), rot.T))
         external = self._no_force if target.external_force_world is None else target.external_force_world
         tau, forces, foot_pos = np.empty(12), np.empty((4, 3)), np.empty((4, 3))  # new each tick: callers keep them
+        if self.gains.leg_gravity:
+            self._gravity_tau = self._leg_gravity(q)
         wbc_torques(  # steps 1-5, compiled (contactnet.motion.controller_kernel)
             com, vcom, jacobians, feet, rot, v, rot_err, target.com_pos, target.com_vel, target.ang_vel,
             target.forces, np.asarray(target.stance, dtype=bool), target.swing_pos, target.swing_vel, external,
             self._gains, self.torque_limit_nm, tau, forces, foot_pos,
-            self._up if target.contact_normals_world is None else target.contact_normals_world)
+            self._up if target.contact_normals_world is None else target.contact_normals_world, self._gravity_tau)
         self.last_forces = forces
         self.last_foot_pos = foot_pos
         self.last_com = com
@@ -278,8 +292,16 @@ class WholeBodyController:
         stance, near 0 for a leg stretched straight, whose torques do not tell the force along it."""
         if self._last_jacobians is None:
             raise RuntimeError("delivered_forces needs a torques() call first (its Jacobians)")
-        gravity = self._pin.computeGeneralizedGravity(self.model, self.data, q)[6:]
+        gravity = self._leg_gravity(q)
         forces, sigma_min = np.empty((4, 3)), np.empty(4)
         leg_ground_forces(self._last_jacobians, np.asarray(tau, dtype=float), gravity, LEG_FORCE_DAMPING_M2, forces,
                           sigma_min)
         return forces, sigma_min
+
+    def _leg_gravity(self, q: np.ndarray) -> np.ndarray:
+        """(12,) the torques that hold the legs' own weight at ``q`` (pinocchio's generalized gravity without the base
+        rows), computed once per configuration (``torques`` with ``leg_gravity`` on, then ``delivered_forces``)."""
+        if self._gravity_q is None or not np.array_equal(self._gravity_q, q):
+            self._gravity_tau = self._pin.computeGeneralizedGravity(self.model, self.data, q)[6:].copy()
+            self._gravity_q = np.array(q, dtype=float)
+        return self._gravity_tau

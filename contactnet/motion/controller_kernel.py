@@ -17,17 +17,19 @@ import numpy as np
 
 #: Layout of the ``gains`` vector (``pack_gains``).
 KP_COM, KD_COM, KP_ROT, KD_ROT, KP_SWING, KD_SWING = 0, 3, 6, 9, 12, 15
-MU, FZ_MIN, FZ_MAX, KD_JOINT, REGULARIZATION, UNLOAD_ROUNDS, COP_MARGIN = 18, 19, 20, 21, 22, 23, 24
-N_GAINS = 25
+MU, FZ_MIN, FZ_MAX, KD_JOINT, REGULARIZATION, UNLOAD_ROUNDS, COP_MARGIN, LEG_GRAVITY = 18, 19, 20, 21, 22, 23, 24, 25
+N_GAINS = 26
 
 
 def pack_gains(kp_com: np.ndarray, kd_com: np.ndarray, kp_rot: np.ndarray, kd_rot: np.ndarray, kp_swing: np.ndarray,
                kd_swing: np.ndarray, mu: float, fz_min: float, fz_max: float, kd_joint: float,
-               regularization: float, unload_rounds: int = 0, cop_margin_m: float | None = None) -> np.ndarray:
+               regularization: float, unload_rounds: int = 0, cop_margin_m: float | None = None,
+               leg_gravity: float = 0.0) -> np.ndarray:
     """The controller's gains as one float64 vector (N_GAINS,) for ``wbc_torques`` (``cop_margin_m`` None: -1)."""
     cop = -1.0 if cop_margin_m is None else cop_margin_m
     return np.concatenate([kp_com, kd_com, kp_rot, kd_rot, kp_swing, kd_swing,
-                           [mu, fz_min, fz_max, kd_joint, regularization, unload_rounds, cop]]).astype(np.float64)
+                           [mu, fz_min, fz_max, kd_joint, regularization, unload_rounds, cop, leg_gravity]]
+                          ).astype(np.float64)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -151,7 +153,7 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
                 rot_err: np.ndarray, com_ref: np.ndarray, com_vel_ref: np.ndarray, ang_vel_ref: np.ndarray,
                 forces_ref: np.ndarray, stance: np.ndarray, swing_pos: np.ndarray, swing_vel: np.ndarray,
                 external_force: np.ndarray, gains: np.ndarray, torque_limit: np.ndarray, tau: np.ndarray,
-                forces: np.ndarray, foot: np.ndarray, normals: np.ndarray) -> None:
+                forces: np.ndarray, foot: np.ndarray, normals: np.ndarray, gravity_tau: np.ndarray) -> None:
     """Fills ``tau`` (12,), the joint torques, saturated; ``forces`` (4, 3), the ground forces on the stance feet,
     zero on swing feet; ``foot`` (4, 3), the foot positions. ``jacobians``: the 4 feet's (6, 18) world-aligned frame
     Jacobians (linear rows first); ``feet``: their 4 positions (3,); ``rot``: base orientation; ``v`` (18,) pinocchio
@@ -159,7 +161,8 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
     ``ControlTarget``, ``external_force`` zero for none, ``gains`` as ``pack_gains``; ``normals`` (4, 3) the unit
     normals of the ground under the feet (world): the friction pyramid of a stance foot is built about it (its
     normal force in [fz_min, fz_max], each of two tangential parts at most mu times it), the same numbers as the
-    axis-wise clip where it is +z.
+    axis-wise clip where it is +z. ``gravity_tau`` (12,): the torques that hold the legs' own weight (pinocchio's
+    generalized gravity without the base rows), added times ``gains[LEG_GRAVITY]`` (0: left out, the legs massless).
 
     With ``gains[UNLOAD_ROUNDS]`` > 0, a stance foot whose vertical force comes out below ``fz_min`` (the wrench
     asks it to pull on the ground) is held at ``fz_min`` and the rest of the wrench is spread again over the other
@@ -266,7 +269,7 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
                     vel += jac[i, k] * v[k]
                 push[leg, i] = (gains[KP_SWING + i] * (swing_pos[leg, i] - foot[leg, i])
                                 + gains[KD_SWING + i] * (swing_vel[leg, i] - vel))
-    # 4-5. tau = sum over legs of J_leg^T (joint columns) push_leg, joint damping, saturation.
+    # 4-5. tau = sum over legs of J_leg^T (joint columns) push_leg, joint damping, the legs' weight, saturation.
     for j in range(12):
         s = 0.0
         for leg in range(4):
@@ -274,6 +277,8 @@ def wbc_torques(com: np.ndarray, vcom: np.ndarray, jacobians: tuple, feet: tuple
             for i in range(3):
                 s += jac[i, 6 + j] * push[leg, i]
         s -= gains[KD_JOINT] * v[6 + j]
+        if gains[LEG_GRAVITY] != 0.0:
+            s += gains[LEG_GRAVITY] * gravity_tau[j]
         tau[j] = min(max(s, -torque_limit[j]), torque_limit[j])
 
 
