@@ -108,6 +108,20 @@ def test_an_unknown_controller_gain_is_named_when_the_controller_is_built(tmp_pa
         ControllerGains.for_robot(robot.description)
 
 
+def test_a_controller_gain_out_of_its_range_is_one_line_that_names_the_robot(tmp_path):
+    from contactnet.motion.controller import ControllerGains
+
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace("kd_joint = 0.1", "kd_joint = 0.1\nleg_gravity = 2.0").replace('"a1_file"', '"a1_lg"'))
+    robot = load_robot(str(path), cache_dir=tmp_path)
+    with pytest.raises(RobotDataError, match="robot a1_lg: ControllerGains.leg_gravity must be a share") as error:
+        ControllerGains.for_robot(robot.description)
+    assert "\n" not in str(error.value)
+    good = tmp_path / "a1_ok.toml"
+    good.write_text(A1.replace("kd_joint = 0.1", "kd_joint = 0.1\nleg_gravity = 1").replace('"a1_file"', '"a1_ok"'))
+    assert ControllerGains.for_robot(load_robot(str(good), cache_dir=tmp_path).description).leg_gravity == 1.0
+
+
 def test_robot_init_finds_legs_names_stance_and_says_what_it_guessed():
     go1 = draft("go1_description")
     assert go1.values["leg_prefixes"] == ["FL", "FR", "RL", "RR"]
@@ -210,8 +224,9 @@ def test_on_terrain_of_one_level_a_robot_stands_in_its_wider_stance(tmp_path):
     np.testing.assert_array_equal(wide.description.q_standing, reference.q_standing)
     np.testing.assert_array_equal(wide.description.foot_upright_base, solo.description.foot_nominal_base)
     go2 = load_robot("go2", cache_dir=tmp_path)
-    assert go2.for_terrain(one_level) is go2 and go2.for_terrain(one_level, "walk") is go2  # the trot's stance only
-    assert go2.for_terrain(one_level, "trot") is not go2
+    walk, trot = go2.for_terrain(one_level, "walk"), go2.for_terrain(one_level, "trot")
+    assert go2.for_terrain(one_level) is walk and walk.spec.stance_abduction_rad == 0.0  # the trot's stance only
+    assert trot.spec.stance_abduction_rad == 0.1 and go2.for_terrain(heights, "trot") is go2
     path = tmp_path / "a1.toml"
     path.write_text(A1.replace("fall_base_height_m = 0.12\n",
                                "fall_base_height_m = 0.12\none_level_stance_abduction_rad = 0.05\n")
@@ -223,6 +238,44 @@ def test_on_terrain_of_one_level_a_robot_stands_in_its_wider_stance(tmp_path):
     assert spec_values(robot_spec("go2"))["one_level_stance_gaits"] == ["trot"]
     with pytest.raises(RobotDataError, match="one_level_stance_abduction_rad must be from 0 to 0.3"):
         Robot.load(dataclasses.replace(solo.spec, one_level_stance_abduction_rad=float("nan")), cache_dir=tmp_path)
+
+
+def test_controller_gains_for_terrain_of_one_level_only_are_taken_there_by_every_gait(tmp_path):
+    """``one_level_controller_gains`` (Go2's legs' weight held, ``leg_gravity`` 1): on terrain of one level every gait's
+    robot has them over ``controller_gains`` (the trot's with its wider stance too), on terrain with heights the robot
+    itself keeps its own; Solo12 has none. They read from and write to a robot file's table; a bad value is named."""
+    import dataclasses
+
+    from contactnet.motion.controller import ControllerGains
+    from contactnet.terrain import resolve
+
+    one_level, heights = resolve("push_field"), resolve("random_heights", removed=80, seed=0)
+    go2 = load_robot("go2", cache_dir=tmp_path)
+
+    def gains(robot):
+        return ControllerGains.for_robot(robot.description)
+
+    assert gains(go2).leg_gravity == 0.0 and gains(go2.for_terrain(heights, "walk")).leg_gravity == 0.0
+    for gait in ("walk", "trot"):
+        twin = go2.for_terrain(one_level, gait)
+        assert gains(twin).leg_gravity == 1.0 and gains(twin).kd_joint == gains(go2).kd_joint == 0.2
+        assert twin.name == "go2" and twin.for_terrain(one_level, gait) is twin
+    solo = load_robot("solo12", cache_dir=tmp_path)
+    assert solo.spec.one_level_controller_gains == () and gains(solo.for_terrain(one_level)).leg_gravity == 0.0
+    assert spec_values(robot_spec("go2"))["one_level_controller_gains"] == {"leg_gravity": 1.0}
+    assert "one_level_controller_gains" not in spec_values(robot_spec("solo12"))
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace('name = "a1_file"', 'name = "a1_level_gains"') + "\n[one_level_controller_gains]\n"
+                    "leg_gravity = 1\nkd_joint = 0.3\n")
+    spec = load_robot_file(path)
+    assert spec.one_level_controller_gains == (("leg_gravity", 1.0), ("kd_joint", 0.3))
+    assert spec_values(spec)["one_level_controller_gains"] == {"leg_gravity": 1.0, "kd_joint": 0.3}
+    robot = load_robot(str(path), cache_dir=tmp_path)
+    assert gains(robot.for_terrain(one_level, "walk")).kd_joint == 0.3 and gains(robot).kd_joint == 0.1
+    path.write_text(A1 + "\n[one_level_controller_gains]\nleg_gravity = true\n")
+    with pytest.raises(RobotDataError, match="one_level_controller_gains.leg_gravity: expected a number"):
+        load_robot_file(path)
+    assert dataclasses.replace(robot_spec("go2"), one_level_controller_gains=()) != robot_spec("go2")
 
 
 def test_a_wider_stance_for_some_gaits_only_is_taken_by_those_gaits(tmp_path):

@@ -79,7 +79,12 @@ class ControllerGains:
 
             raise RobotDataError(f"robot {robot.name}: unknown controller gain {unknown[0]!r} (gains: "
                                  f"{', '.join(f.name for f in fields(cls))})")
-        return replace(cls(fz_max_n=robot.fz_max_n), **gains)
+        try:
+            return replace(cls(fz_max_n=robot.fz_max_n), **gains)
+        except ValueError as exc:  # a value out of its range (e.g. leg_gravity 2): one line that names the robot
+            from contactnet.robots import RobotDataError
+
+            raise RobotDataError(f"robot {robot.name}: {exc}") from None
 
 
 @dataclass(frozen=True)

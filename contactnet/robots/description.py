@@ -97,6 +97,9 @@ class RobotSpec:
     one_level_stance_abduction_rad: float = 0.0
     #: The gaits (by name) that take ``one_level_stance_abduction_rad``; None: every gait. Go2: the trot only.
     one_level_stance_gaits: tuple[str, ...] | None = None
+    #: ControllerGains fields set on terrain of one level only, every gait (`Robot.for_terrain`), over
+    #: ``controller_gains``. Go2: its legs' weight held (``leg_gravity``), measured to help there and not on heights.
+    one_level_controller_gains: tuple[tuple[str, Any], ...] = ()
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -382,25 +385,31 @@ class Robot:
 
         self._pin = pin
         self._foot_ids = [model.getFrameId(f) for f in spec.foot_frames]
-        self._one_level: Robot | None = None  # for_terrain's twin, built on first use
+        self._one_level: dict[bool, Robot] = {}  # for_terrain's twins (by: the stance widened), built on first use
 
     def for_terrain(self, terrain: Terrain, gait: str | None = None) -> Robot:
         """The robot that walks ``terrain`` with ``gait`` (a gait's name): this one, or on terrain of one level
-        (``Terrain.has_heights`` False) its twin with the stance ``spec.one_level_stance_abduction_rad`` wider (built
-        once, then kept; the same name, model files and URDF), when ``spec.one_level_stance_gaits`` is None or names
-        ``gait``. Build the gait, the planner and `contactnet.locomotion.Locomotion` with it. A robot whose spec has
-        no such stance is its own robot on every terrain; with ``gait`` None only a stance for every gait applies."""
+        (``Terrain.has_heights`` False) its twin with the stance ``spec.one_level_stance_abduction_rad`` wider when
+        ``spec.one_level_stance_gaits`` is None or names ``gait``, and with ``spec.one_level_controller_gains`` over
+        its controller gains (built once, then kept; the same name, model files and URDF). Build the gait, the
+        planner and `contactnet.locomotion.Locomotion` with it. A robot whose spec has neither is its own robot on
+        every terrain; with ``gait`` None only a stance for every gait applies."""
         spec = self.spec
-        if not spec.one_level_stance_abduction_rad or terrain.has_heights:
+        if terrain.has_heights:
             return self
-        if spec.one_level_stance_gaits is not None and gait not in spec.one_level_stance_gaits:
+        widen = bool(spec.one_level_stance_abduction_rad) and (spec.one_level_stance_gaits is None
+                                                               or gait in spec.one_level_stance_gaits)
+        if not widen and not spec.one_level_controller_gains:
             return self
-        if self._one_level is None:
-            twin = replace(spec, stance_abduction_rad=spec.one_level_stance_abduction_rad,
-                           one_level_stance_abduction_rad=0.0, one_level_stance_gaits=None)
-            self._one_level = Robot(twin, self.files, self.model, describe(twin, self.files, self.model),
-                                    self.cache_dir)
-        return self._one_level
+        if widen not in self._one_level:
+            twin = replace(spec, one_level_stance_abduction_rad=0.0, one_level_stance_gaits=None,
+                           controller_gains=spec.controller_gains + spec.one_level_controller_gains,
+                           one_level_controller_gains=())
+            if widen:
+                twin = replace(twin, stance_abduction_rad=spec.one_level_stance_abduction_rad)
+            self._one_level[widen] = Robot(twin, self.files, self.model, describe(twin, self.files, self.model),
+                                           self.cache_dir)
+        return self._one_level[widen]
 
     @staticmethod
     def load(spec: RobotSpec, cache_dir: Path | None = None) -> Robot:

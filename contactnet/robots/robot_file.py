@@ -23,7 +23,8 @@ read from them, as for the robots in modules::
     # stance_abduction_rad = 0.1 (each leg's abduction this much further out than the stance's: wider feet; default 0),
     # one_level_stance_abduction_rad = 0.1 (the same on terrain of one level only, instead; default 0),
     # one_level_stance_gaits = ["trot"] (the gaits that take it; default: every gait),
-    # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains)
+    # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains),
+    # [one_level_controller_gains] leg_gravity = 1.0 ... (the same, over them, on terrain of one level only)
 
 `contactnet robot init` drafts one from a description folder or a URDF; `contactnet robot check FILE.toml` says
 whether it is ready (``docs/robots.md``). A file named on the command line is registered in this process and listed
@@ -48,7 +49,7 @@ _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes"
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
              "controller_gains", "size_scale", "walk_crouch_m", "stance_abduction_rad",
-             "one_level_stance_abduction_rad", "one_level_stance_gaits")
+             "one_level_stance_abduction_rad", "one_level_stance_gaits", "one_level_controller_gains")
 _POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm", "size_scale")
 
 
@@ -128,13 +129,15 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
     feet = values.get("feet", "sphere")
     if feet not in ("sphere", "mesh"):
         raise bad("feet", f"expected 'sphere' or 'mesh', got {feet!r}")
-    gains = values.get("controller_gains", {})
-    if not isinstance(gains, dict):
-        raise bad("controller_gains", "expected a table")
-    for name, value in gains.items():  # the names are checked by the controller (ControllerGains.for_robot)
-        numbers = value if isinstance(value, list) else [value]
-        if not numbers or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in numbers):
-            raise bad(f"controller_gains.{name}", f"expected a number or numbers, got {value!r}")
+    tables = {}
+    for table in ("controller_gains", "one_level_controller_gains"):
+        gains = tables[table] = values.get(table, {})
+        if not isinstance(gains, dict):
+            raise bad(table, "expected a table")
+        for name, value in gains.items():  # the names are checked by the controller (ControllerGains.for_robot)
+            numbers = value if isinstance(value, list) else [value]
+            if not numbers or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in numbers):
+                raise bad(f"{table}.{name}", f"expected a number or numbers, got {value!r}")
     description_dir = values["description_dir"]
     if description_dir.startswith((".", "/", "~")):  # a path, not an example-robot-data folder
         folder = Path(description_dir).expanduser()
@@ -151,14 +154,20 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
         torque_limit_nm=None if "torque_limit_nm" not in values else float(values["torque_limit_nm"]),
         standing_leg_joints_rad=None if stance is None else tuple(float(v) for v in stance),
         description=values.get("description", ""),
-        controller_gains=tuple((name, tuple(float(v) for v in value) if isinstance(value, list) else float(value))
-                               for name, value in gains.items()),
+        controller_gains=_gains(tables["controller_gains"]),
+        one_level_controller_gains=_gains(tables["one_level_controller_gains"]),
         collision_recipe=recipe, recipe_version=f"file-{feet}-feet-v1",
         size_scale=None if "size_scale" not in values else float(values["size_scale"]),
         walk_crouch_m=float(crouch), stance_abduction_rad=float(widen),
         one_level_stance_abduction_rad=float(widen_one_level),
         one_level_stance_gaits=None if stance_gaits is None else tuple(stance_gaits),
     )
+
+
+def _gains(table: dict[str, Any]) -> tuple[tuple[str, Any], ...]:
+    """A robot file's gains table as ``RobotSpec``'s (name, value) pairs (lists become tuples)."""
+    return tuple((name, tuple(float(v) for v in value) if isinstance(value, list) else float(value))
+                 for name, value in table.items())
 
 
 def spec_values(spec: RobotSpec) -> dict[str, Any]:
@@ -170,10 +179,12 @@ def spec_values(spec: RobotSpec) -> dict[str, Any]:
             continue
         if field.name in ("walk_crouch_m", "stance_abduction_rad", "one_level_stance_abduction_rad") and value == 0.0:  # the default: not written
             continue
-        values[field.name] = list(value) if isinstance(value, tuple) and field.name != "controller_gains" else value
+        values[field.name] = list(value) if isinstance(value, tuple) and not field.name.endswith("controller_gains") \
+            else value
     values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"
-    if spec.controller_gains:
-        values["controller_gains"] = {name: list(v) if isinstance(v, tuple) else v for name, v in spec.controller_gains}
+    for table in ("controller_gains", "one_level_controller_gains"):
+        if getattr(spec, table):
+            values[table] = {name: list(v) if isinstance(v, tuple) else v for name, v in getattr(spec, table)}
     return values
 
 
