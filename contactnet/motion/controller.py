@@ -58,7 +58,7 @@ class ControllerGains:
     # feet's polygon (controller_kernel.cop_scale); None: not limited.
     cop_margin_m: float | None = 0.01
     # The share of each leg's own weight its joints hold (pinocchio's generalized gravity, the joints' rows): 0 leaves
-    # the legs massless (the paper's controller; Solo12's 0.34 kg legs); 1 holds all of it (heavy legs, e.g. Go2's).
+    # the legs massless (the paper's controller, Solo12's); 1 holds all of it (Go2's on terrain of one level).
     leg_gravity: float = 0.0
 
     def __post_init__(self) -> None:
