@@ -172,6 +172,10 @@ def test_robot_check_says_what_is_wrong_with_a_stance_and_what_to_tune(tmp_path)
     checks = model_checks(leaning, "pybullet")
     assert [c.name for c in checks if not c.passed] == ["feet under the hips"]
     assert "not ready: feet under the hips: tune standing_leg_joints_rad" in verdict("a1", checks)
+    passed = [replace(c, passed=True) for c in checks]
+    assert verdict("a1", passed).endswith("ContactNet needs its own models: contactnet datagen and train")
+    assert verdict("go2", passed).endswith("its ContactNet models: go2_walk.pt, go2_trot.pt")  # shipped
+    assert verdict("solo12", passed).endswith("its ContactNet models: walk.pt, trot.pt")
 
 
 @pytest.mark.slow

@@ -146,9 +146,15 @@ def check_robot(robot, engine: str = "pybullet", stand_s: float = 10.0, walk_s: 
 
 
 def verdict(robot_name: str, checks: list[Check]) -> str:
-    """One line: ready, or which checks failed and what to tune."""
+    """One line: ready, or which checks failed and what to tune; when ready, the ContactNet models the robot has in
+    the package (``registry.model_path``) or that it needs its own."""
     failed = [c for c in checks if not c.passed]
     if not failed:
+        from contactnet.registry import model_path
+
+        models = [model_path(robot_name, gait) for gait in ("walk", "trot")]
+        if all(path.is_file() for path in models):
+            return f"{robot_name}: ready (every check passed); its ContactNet models: " + ", ".join(p.name for p in models)
         return f"{robot_name}: ready (every check passed); ContactNet needs its own models: contactnet datagen and train"
     return f"{robot_name}: not ready: " + "; ".join(f"{c.name}: tune {c.tune}" for c in failed)
 
