@@ -219,8 +219,8 @@ class WholeBodyController:
                                  self._kd_swing, gains.mu, gains.fz_min_n, gains.fz_max_n, gains.kd_joint,
                                  gains.force_regularization, gains.unload_rounds, gains.cop_margin_m,
                                  gains.leg_gravity)
-        self._gravity_q: np.ndarray | None = None  # the configuration of ``_gravity_tau`` (None: not computed yet)
-        self._gravity_tau = np.zeros(12)
+        self._gravity_tau = np.zeros(12)  # the legs' weight's torques of the last ``torques`` call (when on) ...
+        self._gravity_q: np.ndarray | None = None  # ... at this configuration array (None: not computed there)
         self._no_force = np.zeros(3)
         self._up = np.zeros((4, 3))
         self._up[:, 2] = 1.0
@@ -266,8 +266,9 @@ class WholeBodyController:
         rot_err = pin.log3(np.dot(self._rpy_to_matrix(target.rpy), rot.T))
         external = self._no_force if target.external_force_world is None else target.external_force_world
         tau, forces, foot_pos = np.empty(12), np.empty((4, 3)), np.empty((4, 3))  # new each tick: callers keep them
+        self._gravity_q = None
         if self.gains.leg_gravity:
-            self._gravity_tau = self._leg_gravity(q)
+            self._gravity_tau, self._gravity_q = self._leg_gravity(q).copy(), q  # (pinocchio may reuse its array)
         wbc_torques(  # steps 1-5, compiled (contactnet.motion.controller_kernel)
             com, vcom, jacobians, feet, rot, v, rot_err, target.com_pos, target.com_vel, target.ang_vel,
             target.forces, np.asarray(target.stance, dtype=bool), target.swing_pos, target.swing_vel, external,
@@ -297,7 +298,7 @@ class WholeBodyController:
         stance, near 0 for a leg stretched straight, whose torques do not tell the force along it."""
         if self._last_jacobians is None:
             raise RuntimeError("delivered_forces needs a torques() call first (its Jacobians)")
-        gravity = self._leg_gravity(q)
+        gravity = self._gravity_tau if q is self._gravity_q else self._leg_gravity(q)  # torques' own, when it made it
         forces, sigma_min = np.empty((4, 3)), np.empty(4)
         leg_ground_forces(self._last_jacobians, np.asarray(tau, dtype=float), gravity, LEG_FORCE_DAMPING_M2, forces,
                           sigma_min)
@@ -305,8 +306,5 @@ class WholeBodyController:
 
     def _leg_gravity(self, q: np.ndarray) -> np.ndarray:
         """(12,) the torques that hold the legs' own weight at ``q`` (pinocchio's generalized gravity without the base
-        rows), computed once per configuration (``torques`` with ``leg_gravity`` on, then ``delivered_forces``)."""
-        if self._gravity_q is None or not np.array_equal(self._gravity_q, q):
-            self._gravity_tau = self._pin.computeGeneralizedGravity(self.model, self.data, q)[6:].copy()
-            self._gravity_q = np.array(q, dtype=float)
-        return self._gravity_tau
+        rows)."""
+        return self._pin.computeGeneralizedGravity(self.model, self.data, q)[6:]
