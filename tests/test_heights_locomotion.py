@@ -109,8 +109,11 @@ def test_touchdown_adapts_to_early_and_late_contact(robot):
                          ids=["stairs-walk", "raised_stones-trot"])
 def test_contactnet_crosses_terrain_with_heights(robot, terrain, gait):
     """Issue 13 targets (vx 0.05 m/s): the shipped ContactNet models cross the stairs (5 cm risers up and down)
-    and the raised stones (tops within +-6 cm)."""
-    with Locomotion(robot, resolve(terrain), gait, make_planner("contactnet", gait, robot),
+    and the raised stones (tops within +-6 cm), as a user runs them (the robot for the terrain: its stance feet
+    pressed on heights, ``Robot.for_terrain``)."""
+    terrain = resolve(terrain)
+    robot = robot.for_terrain(terrain, gait.name)
+    with Locomotion(robot, terrain, gait, make_planner("contactnet", gait, robot),
                     vel_cmd_xy=(0.05, 0.0)) as loco:
         result = loco.run(40.0)
     assert result["success"], result["fall_reason"]

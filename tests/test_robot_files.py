@@ -202,7 +202,8 @@ def test_a_wider_stance_turns_each_abduction_outward(tmp_path):
 def test_on_terrain_of_one_level_a_robot_stands_in_its_wider_stance(tmp_path):
     """``one_level_stance_abduction_rad`` (Solo12's 0.1): ``Robot.for_terrain`` gives, on terrain of one level, a twin
     whose stance is the spec's widened by it (the same as ``stance_abduction_rad`` would make it: feet 0.169 m from the
-    centre line instead of 0.147 m), built once; on terrain with heights (several levels or sloped) the robot itself.
+    centre line instead of 0.147 m), built once; on terrain with heights (several levels or sloped) the SRDF's stance
+    (Solo12's twin there only presses its feet harder: ``heights_controller_gains``).
     A robot without it is itself everywhere; the value reads from and writes to a robot file, range-checked."""
     import dataclasses
 
@@ -217,7 +218,9 @@ def test_on_terrain_of_one_level_a_robot_stands_in_its_wider_stance(tmp_path):
     assert not one_level.has_heights and heights.has_heights and resolve("ramps").has_heights
     wide = solo.for_terrain(one_level)
     assert wide is not solo and wide is solo.for_terrain(flat()) and wide.for_terrain(flat()) is wide
-    assert solo.for_terrain(heights) is solo and wide.name == solo.name == "solo12"
+    on_heights = solo.for_terrain(heights)
+    assert on_heights.spec.stance_abduction_rad == 0.0 and wide.name == solo.name == on_heights.name == "solo12"
+    np.testing.assert_array_equal(on_heights.description.q_standing, solo.description.q_standing)
     np.testing.assert_allclose(np.abs(solo.description.foot_nominal_base[:, 1]), 0.147, atol=5e-4)
     np.testing.assert_allclose(np.abs(wide.description.foot_nominal_base[:, 1]), 0.169, atol=5e-4)
     reference = Robot.load(dataclasses.replace(solo.spec, stance_abduction_rad=0.1), cache_dir=tmp_path).description
@@ -290,7 +293,8 @@ def test_a_wider_stance_for_some_gaits_only_is_taken_by_those_gaits(tmp_path):
     solo = load_robot("solo12", cache_dir=tmp_path)
     one_level, heights = resolve("push_field"), resolve("random_heights", removed=80, seed=0)
     assert solo.for_terrain(one_level, "walk") is solo.for_terrain(one_level, "trot") is solo.for_terrain(one_level)
-    trot_only = Robot.load(dataclasses.replace(solo.spec, one_level_stance_gaits=("trot",)), cache_dir=tmp_path)
+    trot_only = Robot.load(dataclasses.replace(solo.spec, one_level_stance_gaits=("trot",), heights_controller_gains=()),
+                           cache_dir=tmp_path)
     wide = trot_only.for_terrain(one_level, "trot")
     assert wide is not trot_only and wide.spec.stance_abduction_rad == 0.1
     assert trot_only.for_terrain(one_level, "walk") is trot_only and trot_only.for_terrain(one_level) is trot_only
@@ -306,3 +310,28 @@ def test_a_wider_stance_for_some_gaits_only_is_taken_by_those_gaits(tmp_path):
         load_robot_file(path)
     with pytest.raises(RobotDataError, match="one_level_stance_gaits must be None"):
         Robot.load(dataclasses.replace(solo.spec, one_level_stance_gaits=["trot"]), cache_dir=tmp_path)
+
+
+def test_controller_gains_for_terrain_with_heights_read_and_write_and_are_taken_there(tmp_path):
+    """A robot file's ``[heights_controller_gains]`` (Solo12's ``fz_min_n`` in its module): read, written back, taken
+    by the robot on terrain with heights only (over ``[controller_gains]``); a bad value is named."""
+    from contactnet.motion.controller import ControllerGains
+    from contactnet.terrain import resolve
+
+    assert spec_values(robot_spec("solo12"))["heights_controller_gains"] == {"fz_min_n": 0.98}
+    assert "heights_controller_gains" not in spec_values(robot_spec("go2"))
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace('name = "a1_file"', 'name = "a1_heights_gains"') + "\n[heights_controller_gains]\n"
+                    "fz_min_n = 2\n")
+    spec = load_robot_file(path)
+    assert spec.heights_controller_gains == (("fz_min_n", 2.0),)
+    assert spec_values(spec)["heights_controller_gains"] == {"fz_min_n": 2.0}
+    assert "[heights_controller_gains]" in to_toml(spec_values(spec))
+    robot = load_robot(str(path), cache_dir=tmp_path)
+    heights = robot.for_terrain(resolve("stairs"), "walk")
+    assert ControllerGains.for_robot(heights.description).fz_min_n == 2.0
+    assert ControllerGains.for_robot(heights.description).kd_joint == 0.1  # [controller_gains] under it
+    assert ControllerGains.for_robot(robot.for_terrain(resolve("push_field"), "walk").description).fz_min_n == 0.5
+    path.write_text(A1 + "\n[heights_controller_gains]\nfz_min_n = \"hard\"\n")
+    with pytest.raises(RobotDataError, match="heights_controller_gains.fz_min_n: expected a number"):
+        load_robot_file(path)

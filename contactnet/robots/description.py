@@ -100,6 +100,10 @@ class RobotSpec:
     #: ControllerGains fields set on terrain of one level only, every gait (`Robot.for_terrain`), over
     #: ``controller_gains``. Go2: its legs' weight held (``leg_gravity``), measured to help there and not on heights.
     one_level_controller_gains: tuple[tuple[str, Any], ...] = ()
+    #: ControllerGains fields set on terrain with heights only, every gait (`Robot.for_terrain`), over
+    #: ``controller_gains``. Solo12: its stance feet pressed with at least 4 % of its weight (``fz_min_n``), measured
+    #: to keep a foot on a stone's edge there and to cost pushes and the narrow stones on one level.
+    heights_controller_gains: tuple[tuple[str, Any], ...] = ()
 
     @property
     def joint_names(self) -> tuple[str, ...]:
@@ -386,30 +390,41 @@ class Robot:
         self._pin = pin
         self._foot_ids = [model.getFrameId(f) for f in spec.foot_frames]
         self._one_level: dict[bool, Robot] = {}  # for_terrain's twins (by: the stance widened), built on first use
+        self._heights: Robot | None = None  # ... and its twin on terrain with heights
 
     def for_terrain(self, terrain: Terrain, gait: str | None = None) -> Robot:
-        """The robot that walks ``terrain`` with ``gait`` (a gait's name): this one, or on terrain of one level
-        (``Terrain.has_heights`` False) its twin with the stance ``spec.one_level_stance_abduction_rad`` wider when
-        ``spec.one_level_stance_gaits`` is None or names ``gait``, and with ``spec.one_level_controller_gains`` over
-        its controller gains (built once, then kept; the same name, model files and URDF). Build the gait, the
-        planner and `contactnet.locomotion.Locomotion` with it. A robot whose spec has neither is its own robot on
-        every terrain; with ``gait`` None only a stance for every gait applies."""
+        """The robot that walks ``terrain`` with ``gait`` (a gait's name): this one, or its twin. On terrain of one
+        level (``Terrain.has_heights`` False) the twin's stance is ``spec.one_level_stance_abduction_rad`` wider when
+        ``spec.one_level_stance_gaits`` is None or names ``gait``, and ``spec.one_level_controller_gains`` lie over its
+        controller gains; on terrain with heights ``spec.heights_controller_gains`` do (each twin built once, then
+        kept; the same name, model files and URDF; a twin is its own robot on every terrain). Build the gait, the
+        planner and `contactnet.locomotion.Locomotion` with it. A robot whose spec has none of them is its own robot
+        on every terrain; with ``gait`` None only a stance for every gait applies."""
         spec = self.spec
         if terrain.has_heights:
-            return self
+            if not spec.heights_controller_gains:
+                return self
+            if self._heights is None:
+                self._heights = self._twin(replace(spec, controller_gains=spec.controller_gains
+                                                   + spec.heights_controller_gains))
+            return self._heights
         widen = bool(spec.one_level_stance_abduction_rad) and (spec.one_level_stance_gaits is None
                                                                or gait in spec.one_level_stance_gaits)
         if not widen and not spec.one_level_controller_gains:
             return self
         if widen not in self._one_level:
-            twin = replace(spec, one_level_stance_abduction_rad=0.0, one_level_stance_gaits=None,
-                           controller_gains=spec.controller_gains + spec.one_level_controller_gains,
-                           one_level_controller_gains=())
+            twin = replace(spec, controller_gains=spec.controller_gains + spec.one_level_controller_gains)
             if widen:
                 twin = replace(twin, stance_abduction_rad=spec.one_level_stance_abduction_rad)
-            self._one_level[widen] = Robot(twin, self.files, self.model, describe(twin, self.files, self.model),
-                                           self.cache_dir)
+            self._one_level[widen] = self._twin(twin)
         return self._one_level[widen]
+
+    def _twin(self, spec: RobotSpec) -> Robot:
+        """A twin of this robot for one kind of terrain: ``spec`` with the terrain-scoped fields cleared (so that the
+        twin is its own robot on every terrain), the same model and files."""
+        spec = replace(spec, one_level_stance_abduction_rad=0.0, one_level_stance_gaits=None,
+                       one_level_controller_gains=(), heights_controller_gains=())
+        return Robot(spec, self.files, self.model, describe(spec, self.files, self.model), self.cache_dir)
 
     @staticmethod
     def load(spec: RobotSpec, cache_dir: Path | None = None) -> Robot:

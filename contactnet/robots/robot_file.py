@@ -25,6 +25,7 @@ read from them, as for the robots in modules::
     # one_level_stance_gaits = ["trot"] (the gaits that take it; default: every gait),
     # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains),
     # [one_level_controller_gains] leg_gravity = 1.0 ... (the same, over them, on terrain of one level only)
+    # [heights_controller_gains] fz_min_n = 0.98 ... (the same, over them, on terrain with heights only)
 
 `contactnet robot init` drafts one from a description folder or a URDF; `contactnet robot check FILE.toml` says
 whether it is ready (``docs/robots.md``). A file named on the command line is registered in this process and listed
@@ -49,7 +50,10 @@ _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes"
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
              "controller_gains", "size_scale", "walk_crouch_m", "stance_abduction_rad",
-             "one_level_stance_abduction_rad", "one_level_stance_gaits", "one_level_controller_gains")
+             "one_level_stance_abduction_rad", "one_level_stance_gaits", "one_level_controller_gains",
+             "heights_controller_gains")
+#: The tables of ControllerGains fields: every terrain, then over them on terrain of one level, with heights.
+_GAIN_TABLES = ("controller_gains", "one_level_controller_gains", "heights_controller_gains")
 _POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm", "size_scale")
 
 
@@ -130,7 +134,7 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
     if feet not in ("sphere", "mesh"):
         raise bad("feet", f"expected 'sphere' or 'mesh', got {feet!r}")
     tables = {}
-    for table in ("controller_gains", "one_level_controller_gains"):
+    for table in _GAIN_TABLES:
         gains = tables[table] = values.get(table, {})
         if not isinstance(gains, dict):
             raise bad(table, "expected a table")
@@ -156,6 +160,7 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
         description=values.get("description", ""),
         controller_gains=_gains(tables["controller_gains"]),
         one_level_controller_gains=_gains(tables["one_level_controller_gains"]),
+        heights_controller_gains=_gains(tables["heights_controller_gains"]),
         collision_recipe=recipe, recipe_version=f"file-{feet}-feet-v1",
         size_scale=None if "size_scale" not in values else float(values["size_scale"]),
         walk_crouch_m=float(crouch), stance_abduction_rad=float(widen),
@@ -182,7 +187,7 @@ def spec_values(spec: RobotSpec) -> dict[str, Any]:
         values[field.name] = list(value) if isinstance(value, tuple) and not field.name.endswith("controller_gains") \
             else value
     values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"
-    for table in ("controller_gains", "one_level_controller_gains"):
+    for table in _GAIN_TABLES:
         if getattr(spec, table):
             values[table] = {name: list(v) if isinstance(v, tuple) else v for name, v in getattr(spec, table)}
     return values
