@@ -239,7 +239,7 @@ class SessionCommands:
         restarting the robot (paused, so several edits can be made before it walks again)."""
         terrain = to_terrain(data)
         label = self._edited_label()
-        same_robot = self._robot.for_terrain(terrain, self._gait_name) is self._loco.robot  # stance by terrain
+        same_robot = self._robot.for_terrain(terrain, self._gait_name) is self._loco.robot  # stance, gains by terrain
         if same_robot and change_is_away(self._terrain, terrain, self._robot,
                                          [loco.snapshot() for loco in self._locos()]):
             self._loco.replace_terrain(terrain)
@@ -253,7 +253,7 @@ class SessionCommands:
             self._rebuild(terrain=(terrain, label))
             self._paused = True
             why = "near the robot" if same_robot else (
-                "and the robot takes its stance for terrain " + ("with heights" if terrain.has_heights else "of one level"))
+                "and the robot takes its stance and gains for terrain " + ("with heights" if terrain.has_heights else "of one level"))
             self._notify(f"Terrain {what} {why}: it restarted from the start and waits - press Run.", "warning")
 
     def _locos(self) -> list[Locomotion]:
