@@ -224,11 +224,11 @@ def test_the_robot_takes_its_stance_for_the_terrain_and_an_edit_that_changes_the
         assert live.call(EditTerrain(_far_raised_stone)) is True
         view = live.view
         assert view.terrain.has_heights and view.snapshot.t_s == 0.0
-        assert "stance for terrain with heights" in view.notices[-1].text
+        assert "stance and gains for terrain with heights" in view.notices[-1].text
         np.testing.assert_allclose(np.asarray(view.snapshot.q[7::3]), nominal, atol=0.02)
         live.call(UndoTerrainEdit())
         view = live.view
-        assert not view.terrain.has_heights and "stance for terrain of one level" in view.notices[-1].text
+        assert not view.terrain.has_heights and "stance and gains for terrain of one level" in view.notices[-1].text
         np.testing.assert_allclose(np.abs(np.asarray(view.snapshot.q[7::3]) - nominal), 0.1, atol=0.02)
     finally:
         live.stop()
