@@ -44,6 +44,13 @@ kp_swing = [400.0, 400.0, 400.0]
 """
 
 
+def _file_with_table(tmp_path, name: str, table: str, body: str):  # noqa: ANN001, ANN202
+    """A1's robot file renamed ``name`` with ``[table]`` holding ``body``: its path and its spec."""
+    path = tmp_path / "a1.toml"
+    path.write_text(A1.replace('name = "a1_file"', f'name = "{name}"') + f"\n[{table}]\n{body}\n")
+    return path, load_robot_file(path)
+
+
 def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
     path = tmp_path / "a1.toml"
     path.write_text(A1)
@@ -267,10 +274,8 @@ def test_controller_gains_for_terrain_of_one_level_only_are_taken_there_by_every
     assert solo.spec.one_level_controller_gains == () and gains(solo.for_terrain(one_level)).leg_gravity == 0.0
     assert spec_values(robot_spec("go2"))["one_level_controller_gains"] == {"leg_gravity": 1.0}
     assert "one_level_controller_gains" not in spec_values(robot_spec("solo12"))
-    path = tmp_path / "a1.toml"
-    path.write_text(A1.replace('name = "a1_file"', 'name = "a1_level_gains"') + "\n[one_level_controller_gains]\n"
-                    "leg_gravity = 1\nkd_joint = 0.3\n")
-    spec = load_robot_file(path)
+    path, spec = _file_with_table(tmp_path, "a1_level_gains", "one_level_controller_gains",
+                                  "leg_gravity = 1\nkd_joint = 0.3")
     assert spec.one_level_controller_gains == (("leg_gravity", 1.0), ("kd_joint", 0.3))
     assert spec_values(spec)["one_level_controller_gains"] == {"leg_gravity": 1.0, "kd_joint": 0.3}
     robot = load_robot(str(path), cache_dir=tmp_path)
@@ -320,10 +325,7 @@ def test_controller_gains_for_terrain_with_heights_read_and_write_and_are_taken_
 
     assert spec_values(robot_spec("solo12"))["heights_controller_gains"] == {"fz_min_n": 0.98}
     assert "heights_controller_gains" not in spec_values(robot_spec("go2"))
-    path = tmp_path / "a1.toml"
-    path.write_text(A1.replace('name = "a1_file"', 'name = "a1_heights_gains"') + "\n[heights_controller_gains]\n"
-                    "fz_min_n = 2\n")
-    spec = load_robot_file(path)
+    path, spec = _file_with_table(tmp_path, "a1_heights_gains", "heights_controller_gains", "fz_min_n = 2")
     assert spec.heights_controller_gains == (("fz_min_n", 2.0),)
     assert spec_values(spec)["heights_controller_gains"] == {"fz_min_n": 2.0}
     assert "[heights_controller_gains]" in to_toml(spec_values(spec))

@@ -180,12 +180,12 @@ def spec_values(spec: RobotSpec) -> dict[str, Any]:
     values: dict[str, Any] = {}
     for field in fields(RobotSpec):
         value = getattr(spec, field.name)
-        if field.name in ("collision_recipe", "recipe_version") or value is None or value == "" or value == ():
+        if field.name in ("collision_recipe", "recipe_version", *_GAIN_TABLES) or value is None or value == "" \
+                or value == ():  # (the gains tables: as tables, below)
             continue
         if field.name in ("walk_crouch_m", "stance_abduction_rad", "one_level_stance_abduction_rad") and value == 0.0:  # the default: not written
             continue
-        values[field.name] = list(value) if isinstance(value, tuple) and not field.name.endswith("controller_gains") \
-            else value
+        values[field.name] = list(value) if isinstance(value, tuple) else value
     values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"
     for table in _GAIN_TABLES:
         if getattr(spec, table):
