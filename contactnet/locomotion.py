@@ -90,8 +90,8 @@ class LocomotionConfig:
     brace: BraceConfig | None = BraceConfig()
     # The CoM height reference this much below the robot's nominal (m, RobotDescription.check_crouch), all the time: a
     # lower CoM moves the centre of pressure that balances a push less (F h / (m g)). 0: the paper's height; None: the
-    # robot's default for the gait and the terrain (RobotDescription.default_crouch_m: its walk_crouch_m for the walk
-    # on terrain of one level, nothing on terrain with heights, where the legs would meet the tops; 0 for Solo12).
+    # robot's default for the gait and the terrain (RobotDescription.default_crouch_m: its walk_crouch_m and
+    # trot_crouch_m on terrain of one level, nothing on terrain with heights, where the legs would meet the tops).
     crouch_m: float | None = None
     # A stance foot off the ground held where it stood (contactnet.motion.foot_hold); None (the default): off.
     foot_hold: FootHoldConfig | None = None
@@ -112,8 +112,8 @@ class Locomotion:
         vel_cmd_xy: tuple[float, float] = (0.0, 0.0),
     ):
         sim_config = SimConfig() if sim_config is None else sim_config
-        robot.description.check_crouch(robot.description.walk_crouch_m if config.crouch_m is None
-                                       else config.crouch_m)  # before anything is built
+        robot.description.check_crouch(robot.description.default_crouch_m(gait.name, heights=False)
+                                       if config.crouch_m is None else config.crouch_m)  # before anything is built
         self.robot = robot
         self.terrain = terrain
         self.gait = gait

@@ -131,13 +131,13 @@ def test_a_crouch_lowers_the_body_by_as_much(robot):
         Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK), config=LocomotionConfig(crouch_m=float("nan")))
 
 
-def test_the_robot_s_default_crouch_is_the_walk_s_on_one_level(robot, monkeypatch):
-    """``LocomotionConfig(crouch_m=None)``: a robot's ``walk_crouch_m`` for its walk on terrain of one level, the
-    nominal height on terrain with heights and for the trot; a given crouch, 0 too, is taken as given; the crouch
-    follows a terrain replaced while walking. Solo12's own is 0 (measured: docs/results.md)."""
+def test_the_robot_s_default_crouch_is_the_gait_s_on_one_level(robot, monkeypatch):
+    """``LocomotionConfig(crouch_m=None)``: a robot's ``walk_crouch_m`` for its walk and ``trot_crouch_m`` for its
+    trot on terrain of one level, the nominal height on terrain with heights; a given crouch, 0 too, is taken as
+    given; the crouch follows a terrain replaced while walking. Solo12's own are 0 (measured: docs/results.md)."""
     import dataclasses
 
-    assert robot.description.walk_crouch_m == 0.0
+    assert robot.description.walk_crouch_m == 0.0 and robot.description.trot_crouch_m == 0.0
     with Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK)) as loco:
         assert loco.crouch_m == 0.0 and loco.summary()["crouch_m"] == 0.0
     monkeypatch.setattr(robot, "description", dataclasses.replace(robot.description, walk_crouch_m=0.02))
@@ -149,14 +149,22 @@ def test_the_robot_s_default_crouch_is_the_walk_s_on_one_level(robot, monkeypatc
                         config=LocomotionConfig(crouch_m=crouch_m)) as loco:
             assert loco.crouch_m == expected and loco.com_height_ref_m == pytest.approx(nominal - expected)
             assert loco.summary()["crouch_m"] == expected  # simulate --json says which
+    monkeypatch.setattr(robot, "description", dataclasses.replace(robot.description, trot_crouch_m=0.015))
+    cases = [(TROT, "flat", None, 0.015), (WALK, "flat", None, 0.02), (TROT, "stairs", None, 0.0)]
+    for gait, terrain, crouch_m, expected in cases:
+        with Locomotion(robot, resolve(terrain), gait, HeuristicPlanner(gait),
+                        config=LocomotionConfig(crouch_m=crouch_m)) as loco:
+            assert loco.crouch_m == expected and loco.com_height_ref_m == pytest.approx(nominal - expected)
+            assert loco.summary()["crouch_m"] == expected  # simulate --json says which
     flat_field = resolve("random", removed=0, seed=0)
     with Locomotion(robot, flat_field, WALK, HeuristicPlanner(WALK)) as loco:
         assert loco.crouch_m == 0.02
         loco.replace_terrain(resolve("random_heights", removed=0, seed=0))
         assert loco.crouch_m == 0.0 and loco.com_height_ref_m == pytest.approx(nominal)
-    with pytest.raises(ValueError, match="more than a third"):  # a robot's own crouch is checked like a given one
-        monkeypatch.setattr(robot, "description", dataclasses.replace(robot.description, walk_crouch_m=0.2))
-        Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK))
+    for gait, field in ((WALK, "walk_crouch_m"), (TROT, "trot_crouch_m")):  # a robot's own is checked like a given one
+        monkeypatch.setattr(robot, "description", dataclasses.replace(robot.description, **{field: 0.2}))
+        with pytest.raises(ValueError, match="more than a third"):
+            Locomotion(robot, resolve("flat"), gait, HeuristicPlanner(gait))
 
 
 def test_watching_a_run_does_not_change_it(robot):

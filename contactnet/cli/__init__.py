@@ -361,7 +361,7 @@ RETARGET_HELP = ("rank a swinging leg's landing again when the measured velocity
                  "(contactnet.planning.retarget; off by default)")
 CROUCH_HELP = ("walk with the CoM this much below the robot's nominal height, all the time (metres, at most a "
                "third of it): a push moves the balancing centre of pressure less; 0: the nominal height; default: "
-               "the robot's walk_crouch_m for the walk on terrain of one level (0 for Solo12 and Go2), else 0")
+               "the robot's walk_crouch_m or trot_crouch_m for that gait on terrain of one level, else 0")
 
 
 def _engine_arguments(parser: argparse.ArgumentParser) -> None:

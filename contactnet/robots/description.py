@@ -85,9 +85,10 @@ class RobotSpec:
     #: None: its leg's length over `REFERENCE_LEG_M`, to 0.001.
     size_scale: float | None = None
     #: The walk's crouch on terrain of one level by default (m: the CoM reference this much lower,
-    #: ``LocomotionConfig.crouch_m``); 0: the nominal height. Solo12 and Go2 keep 0 (Solo12's 2 cm, measured:
-    #: docs/results.md).
+    #: ``LocomotionConfig.crouch_m``); 0: the nominal height. Solo12 keeps 0 (its 2 cm, measured: docs/results.md).
     walk_crouch_m: float = 0.0
+    #: The same for the trot (m, on terrain of one level); 0: the nominal height.
+    trot_crouch_m: float = 0.0
     #: Each leg's abduction this much further out than the stance's (rad, SRDF pose or ``standing_leg_joints_rad``):
     #: the feet wider apart, sideways from under the hips. 0: the stance as given.
     stance_abduction_rad: float = 0.0
@@ -196,6 +197,7 @@ class RobotDescription:
     leg_names: tuple[str, ...] = LEG_NAMES
     knee_pos_base: np.ndarray | None = None  #: (4, 3) knee joints in the nominal stance (None: not known)
     walk_crouch_m: float = 0.0  #: the walk's crouch on terrain of one level by default (RobotSpec.walk_crouch_m)
+    trot_crouch_m: float = 0.0  #: the trot's (RobotSpec.trot_crouch_m)
     #: (4, 3) the feet of the stance before ``RobotSpec.stance_abduction_rad`` turned them out (base frame, with
     #: the hips where the widened stance has them): each leg's upright position, the vertical plane its leg leans
     #: from; None: ``foot_nominal_base``.
@@ -225,9 +227,12 @@ class RobotDescription:
                              f"({self.com_height_nominal_m:.3f} m)")
 
     def default_crouch_m(self, gait_name: str, heights: bool) -> float:
-        """The crouch ``LocomotionConfig(crouch_m=None)`` takes: ``walk_crouch_m`` for the walk on terrain of one
-        level (``heights`` False), else 0 (a lower body brings the legs nearer the tops of a terrain with heights)."""
-        return self.walk_crouch_m if gait_name == "walk" and not heights else 0.0
+        """The crouch ``LocomotionConfig(crouch_m=None)`` takes: ``walk_crouch_m`` for the walk and ``trot_crouch_m``
+        for the trot on terrain of one level (``heights`` False), else 0 (every other gait; and on terrain with
+        heights, where a lower body brings the legs nearer the tops)."""
+        if heights:
+            return 0.0
+        return {"walk": self.walk_crouch_m, "trot": self.trot_crouch_m}.get(gait_name, 0.0)
 
     @property
     def joint_standing(self) -> np.ndarray:
@@ -586,5 +591,6 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         controller_gains=spec.controller_gains,
         knee_pos_base=_frozen(knees_base),
         walk_crouch_m=float(spec.walk_crouch_m),
+        trot_crouch_m=float(spec.trot_crouch_m),
         foot_upright_base=_frozen(upright_feet_base),
     )

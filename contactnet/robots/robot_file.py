@@ -20,6 +20,7 @@ read from them, as for the robots in modules::
     # feet = "sphere" (default: each foot a ball of foot_radius_m in the simulators) or "mesh" (the URDF's),
     # size_scale = 1.3 (the gaits' size against the paper's Solo12; default: the leg's length over 0.3245 m),
     # walk_crouch_m = 0.02 (the walk's CoM reference this much lower on terrain of one level; default 0),
+    # trot_crouch_m = 0.02 (the same for the trot; default 0),
     # stance_abduction_rad = 0.1 (each leg's abduction this much further out than the stance's: wider feet; default 0),
     # one_level_stance_abduction_rad = 0.1 (the same on terrain of one level only, instead; default 0),
     # one_level_stance_gaits = ["trot"] (the gaits that take it; default: every gait),
@@ -49,7 +50,8 @@ ROBOT_FILES_ENV = "CONTACTNET_ROBOT_FILES"
 _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes", "foot_suffix", "foot_radius_m",
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
-             "controller_gains", "size_scale", "walk_crouch_m", "stance_abduction_rad",
+             "controller_gains", "size_scale", "walk_crouch_m", "trot_crouch_m",
+             "stance_abduction_rad",
              "one_level_stance_abduction_rad", "one_level_stance_gaits", "one_level_controller_gains",
              "heights_controller_gains")
 #: The tables of ControllerGains fields: every terrain, then over them on terrain of one level, with heights.
@@ -113,9 +115,10 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
             value = values[field]
             if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < 1e6:
                 raise bad(field, f"expected a positive number, got {value!r}")
-    crouch = values.get("walk_crouch_m", 0.0)
-    if isinstance(crouch, bool) or not isinstance(crouch, int | float) or not 0.0 <= crouch < 1.0:
-        raise bad("walk_crouch_m", f"expected a number from 0 to 1 (m), got {crouch!r}")
+    crouch = {name: values.get(name, 0.0) for name in ("walk_crouch_m", "trot_crouch_m")}
+    for name, depth in crouch.items():
+        if isinstance(depth, bool) or not isinstance(depth, int | float) or not 0.0 <= depth < 1.0:
+            raise bad(name, f"expected a number from 0 to 1 (m), got {depth!r}")
     widen, widen_one_level = values.get("stance_abduction_rad", 0.0), values.get("one_level_stance_abduction_rad", 0.0)
     for name, angle in (("stance_abduction_rad", widen), ("one_level_stance_abduction_rad", widen_one_level)):
         if isinstance(angle, bool) or not isinstance(angle, int | float) or not 0.0 <= angle <= MAX_STANCE_ABDUCTION_RAD:
@@ -163,7 +166,8 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
         heights_controller_gains=_gains(tables["heights_controller_gains"]),
         collision_recipe=recipe, recipe_version=f"file-{feet}-feet-v1",
         size_scale=None if "size_scale" not in values else float(values["size_scale"]),
-        walk_crouch_m=float(crouch), stance_abduction_rad=float(widen),
+        walk_crouch_m=float(crouch["walk_crouch_m"]), trot_crouch_m=float(crouch["trot_crouch_m"]),
+        stance_abduction_rad=float(widen),
         one_level_stance_abduction_rad=float(widen_one_level),
         one_level_stance_gaits=None if stance_gaits is None else tuple(stance_gaits),
     )
@@ -183,7 +187,8 @@ def spec_values(spec: RobotSpec) -> dict[str, Any]:
         if field.name in ("collision_recipe", "recipe_version", *_GAIN_TABLES) or value is None or value == "" \
                 or value == ():  # (the gains tables: as tables, below)
             continue
-        if field.name in ("walk_crouch_m", "stance_abduction_rad", "one_level_stance_abduction_rad") and value == 0.0:  # the default: not written
+        if field.name in ("walk_crouch_m", "trot_crouch_m", "stance_abduction_rad", "one_level_stance_abduction_rad") \
+                and value == 0.0:  # the default: not written
             continue
         values[field.name] = list(value) if isinstance(value, tuple) else value
     values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"
