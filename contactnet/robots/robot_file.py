@@ -50,8 +50,7 @@ ROBOT_FILES_ENV = "CONTACTNET_ROBOT_FILES"
 _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes", "foot_suffix", "foot_radius_m",
              "fz_max_n", "kin_threshold_m", "fall_base_height_m")
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
-             "controller_gains", "size_scale", "walk_crouch_m", "trot_crouch_m",
-             "stance_abduction_rad",
+             "controller_gains", "size_scale", "walk_crouch_m", "trot_crouch_m", "stance_abduction_rad",
              "one_level_stance_abduction_rad", "one_level_stance_gaits", "one_level_controller_gains",
              "heights_controller_gains")
 #: The tables of ControllerGains fields: every terrain, then over them on terrain of one level, with heights.
