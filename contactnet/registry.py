@@ -136,6 +136,13 @@ register_planner("heuristic", lambda gait, robot, model: HeuristicPlanner(gait),
                  summary="fixed cyclic gait with Raibert footholds, blind to holes")
 register_planner("oracle", lambda gait, robot, model: OraclePlanner(gait, robot),
                  summary="evaluates the ranking cost of every candidate online (exact, slow)")
+# The paper's planner as a baseline: the same network and safe-landing walk with every addition of this project off (no
+# capture step after a push, no standing still at a zero command, no room for the foot's roll nor its slide back or
+# reseat, no leg stepping alone by the reach rule, and a step with no safe action stays where it stands).
+register_planner("contactnet_paper",
+                 lambda gait, robot, model: ContactNetPlanner(gait, robot, model, capture=None, idle=None, roll=None,
+                                                              reach=None, put_back=False),
+                 needs_model=True, summary="ContactNet as the paper has it, without this project's additions (a baseline)")
 
 # Robots, gaits, planners and terrains of installed plugins (contactnet.plugins): registered before any name is read.
 load_plugins()

@@ -345,3 +345,25 @@ def test_a_trot_leg_left_behind_with_no_safe_pair_steps_alone(robot, models):
     np.testing.assert_allclose(step.footholds_xy_world, [centre + [0.10, 0.0]], atol=1e-9)
     plain = ContactNetPlanner(TROT, robot.description, planner.model, reach=ReachConfig(step_alone=False))
     assert plain.plan(context([centre.tolist()]))[0].legs != (fl,)
+
+
+def test_the_paper_s_planner_is_a_named_baseline_without_the_additions(robot, models):
+    """``contactnet_paper`` (``contactnet.registry``): the same network and safe-landing walk, every addition
+    of this project off (capture, idle standing, the roll's room, the reach rule's leg stepping alone, the put-back);
+    it plans like ``contactnet`` with those switches off, on a field where the ranking is walked deep."""
+    from contactnet.registry import planner_names
+
+    assert "contactnet_paper" in planner_names()
+    paper = make_planner("contactnet_paper", WALK, robot, model=models["walk"])
+    assert isinstance(paper, ContactNetPlanner) and paper.model.path == models["walk"]
+    assert (paper.capture, paper.idle, paper.roll, paper.reach, paper._put_back_m) == (None, None, None, None, 0.0)
+    plain = ContactNetPlanner(WALK, robot.description, paper.model, capture=None, idle=None, roll=None, reach=None,
+                              put_back=False)
+    ours = make_planner("contactnet", WALK, robot, model=models["walk"])
+    differs = 0
+    for ctx in planning_contexts(WALK, random_field(200, 2), robot.description, 30, seed=1):
+        got, want = paper.plan(ctx), plain.plan(ctx)
+        assert [(s.legs, s.action_index) for s in got] == [(s.legs, s.action_index) for s in want]
+        differs += any(not np.array_equal(a.footholds_xy_world, b.footholds_xy_world)
+                       for a, b in zip(got, ours.plan(ctx), strict=False))
+    assert differs > 0, "the additions should change some plans on a field this holed"
