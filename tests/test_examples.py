@@ -14,7 +14,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 CASES = {
     "01_simulate_stepping_stones.py": (["--duration", "3"], '"steps"'),
     "02_terrain_in_code.py": (["--duration", "3"], "three_stones"),
-    "03_custom_planner.py": (["--duration", "3"], "planners: contactnet, fixed, heuristic, oracle, cautious"),
+    "03_custom_planner.py": (["--duration", "3"], "planners: contactnet, fixed, heuristic, oracle, contactnet_paper, cautious"),
     "04_go2_walks.py": (["--duration", "3"], "go2 trot: fell=False"),
     "05_custom_gait.py": (["--duration", "3"], "gaits: walk, trot, pace"),
 }
