@@ -140,22 +140,17 @@ def test_the_robot_s_default_crouch_is_the_gait_s_on_one_level(robot, monkeypatc
     assert robot.description.walk_crouch_m == 0.0 and robot.description.trot_crouch_m == 0.0
     with Locomotion(robot, resolve("flat"), WALK, HeuristicPlanner(WALK)) as loco:
         assert loco.crouch_m == 0.0 and loco.summary()["crouch_m"] == 0.0
-    monkeypatch.setattr(robot, "description", dataclasses.replace(robot.description, walk_crouch_m=0.02))
     nominal = robot.description.com_height_nominal_m
-    cases = [(WALK, "flat", None, 0.02), (TROT, "flat", None, 0.0), (WALK, "stairs", None, 0.0),
-             (WALK, "flat", 0.0, 0.0), (WALK, "stairs", 0.01, 0.01)]
-    for gait, terrain, crouch_m, expected in cases:
-        with Locomotion(robot, resolve(terrain), gait, HeuristicPlanner(gait),
-                        config=LocomotionConfig(crouch_m=crouch_m)) as loco:
-            assert loco.crouch_m == expected and loco.com_height_ref_m == pytest.approx(nominal - expected)
-            assert loco.summary()["crouch_m"] == expected  # simulate --json says which
-    monkeypatch.setattr(robot, "description", dataclasses.replace(robot.description, trot_crouch_m=0.015))
-    cases = [(TROT, "flat", None, 0.015), (WALK, "flat", None, 0.02), (TROT, "stairs", None, 0.0)]
-    for gait, terrain, crouch_m, expected in cases:
-        with Locomotion(robot, resolve(terrain), gait, HeuristicPlanner(gait),
-                        config=LocomotionConfig(crouch_m=crouch_m)) as loco:
-            assert loco.crouch_m == expected and loco.com_height_ref_m == pytest.approx(nominal - expected)
-            assert loco.summary()["crouch_m"] == expected  # simulate --json says which
+    walk_only = [(WALK, "flat", None, 0.02), (TROT, "flat", None, 0.0), (WALK, "stairs", None, 0.0),
+                 (WALK, "flat", 0.0, 0.0), (WALK, "stairs", 0.01, 0.01)]
+    both = [(TROT, "flat", None, 0.015), (WALK, "flat", None, 0.02), (TROT, "stairs", None, 0.0)]
+    for own, cases in (({"walk_crouch_m": 0.02}, walk_only), ({"trot_crouch_m": 0.015}, both)):
+        monkeypatch.setattr(robot, "description", dataclasses.replace(robot.description, **own))
+        for gait, terrain, crouch_m, expected in cases:
+            with Locomotion(robot, resolve(terrain), gait, HeuristicPlanner(gait),
+                            config=LocomotionConfig(crouch_m=crouch_m)) as loco:
+                assert loco.crouch_m == expected and loco.com_height_ref_m == pytest.approx(nominal - expected)
+                assert loco.summary()["crouch_m"] == expected  # simulate --json says which
     flat_field = resolve("random", removed=0, seed=0)
     with Locomotion(robot, flat_field, WALK, HeuristicPlanner(WALK)) as loco:
         assert loco.crouch_m == 0.02
