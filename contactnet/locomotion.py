@@ -475,7 +475,8 @@ class Locomotion:
             adapt_to_contact(plan, t_s, stance, swing_pos, swing_vel, self._landed, config.late_touchdown_speed_m_s,
                              config.late_touchdown_depth_m)
         if self._foot_hold is not None:  # a stance foot off the ground
-            self._foot_hold.apply(stance, self._foot_contact(), self.controller.last_foot_pos, swing_pos, swing_vel)
+            self._foot_hold.apply(stance, self._foot_contact(), self.controller.last_foot_pos, swing_pos, swing_vel,
+                                  lambda xy: bool(self.terrain.is_safe(xy[None], self.foot_radius_m)[0]))
         solution = plan.solution
         external_world = None if self.observer is None else self.observer.feedforward_world(
             None if solution is None else plan.solution_force_world)

@@ -44,8 +44,39 @@ def test_a_foot_not_yet_down_in_its_stance_and_a_swinging_foot_are_left_alone():
     assert hold.held_ticks == 0
 
 
+def test_a_foot_the_body_lifted_is_left_in_stance_and_one_over_the_middle_of_its_top_is_not_held():
+    """A lost foot more than lift_m above its last standing point was lifted by the body tilting over it: it stays in
+    stance (its force pushes it down), and a held foot that rises is let go. Near the edge (the ``safe`` test
+    false) a lost foot is held; over the middle of its top (true) it is not, until it slides to the edge."""
+    hold = FootHold(FootHoldConfig(lost_ticks=1, lift_m=0.01))
+    _tick(hold, [1, 1, 1, 1], [1, 1, 1, 1], FEET)
+    lifted = FEET + np.array([0.0, 0.0, 0.015])
+    stance, _, _ = _tick(hold, [1, 1, 1, 1], [1, 0, 1, 1], lifted)
+    assert stance.all() and hold.held_ticks == 0
+    stance, _, _ = _tick(hold, [1, 1, 1, 1], [1, 0, 1, 1], FEET)  # back down, still off: held
+    assert stance.tolist() == [True, False, True, True]
+    stance, _, _ = _tick(hold, [1, 1, 1, 1], [1, 0, 1, 1], lifted)  # lifted while held: let go
+    assert stance.all()
+
+    edge_y = -0.14  # the front-right foot's top ends here (inward): a foot centre beyond it is near the edge
+    hold = FootHold(FootHoldConfig(lost_ticks=1))
+    def safe(xy):  # noqa: ANN001, ANN202
+        return bool(xy[1] < edge_y)
+    stance = np.ones(4, dtype=bool)
+    hold.apply(stance, np.ones(4, dtype=bool), FEET, FEET.copy(), np.zeros((4, 3)), safe)
+    for drift_y, held in ((0.0, False), (0.005, False), (0.02, True), (0.005, True)):  # held once at the edge
+        stance = np.ones(4, dtype=bool)
+        feet = FEET + np.array([0.0, drift_y, 0.0])
+        hold.apply(stance, np.array([1, 0, 1, 1], dtype=bool), feet, feet.copy(), np.zeros((4, 3)), safe)
+        assert stance[1] == (not held), drift_y
+    stance = np.ones(4, dtype=bool)
+    hold.apply(stance, np.ones(4, dtype=bool), FEET, FEET.copy(), np.zeros((4, 3)), safe)  # it touches: a stance foot
+    assert stance.all() and not hold.holding.any()
+
+
 @pytest.mark.parametrize(("field", "value"), [("lost_ticks", 0), ("lost_ticks", 1.5), ("lost_ticks", True),
-                                              ("press_m", -0.01), ("press_m", 0.2)])
+                                              ("press_m", -0.01), ("press_m", 0.2), ("lift_m", 0.0),
+                                              ("lift_m", 0.5)])
 def test_a_bad_setting_names_its_field(field, value):
     with pytest.raises(ValueError, match=field):
         FootHoldConfig(**{field: value})

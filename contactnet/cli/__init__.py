@@ -111,6 +111,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from contactnet.locomotion import Locomotion, LocomotionConfig
+    from contactnet.motion.foot_hold import FootHoldConfig
     from contactnet.planning.observer import DEFAULT_OBSERVER
     from contactnet.planning.retarget import RetargetConfig
     from contactnet.sim.world import Push, SimConfig
@@ -139,7 +140,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             except RecordingPathError as exc:
                 raise UserError(str(exc)) from None
         loop_config = LocomotionConfig(observer=DEFAULT_OBSERVER if args.observer else None,
-                                       retarget=RetargetConfig() if args.retarget else None, crouch_m=args.crouch)
+                                       retarget=RetargetConfig() if args.retarget else None, crouch_m=args.crouch,
+                                       foot_hold=FootHoldConfig() if args.foot_hold else None)
         loco = stack.enter_context(Locomotion(robot, terrain, gait, planner, sim_config, config=loop_config,
                                               vel_cmd_xy=(args.vx, args.vy)))
         for push in pushes:
@@ -273,7 +275,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
                            forces_n=() if args.force is None and args.impulse else (args.force or (5.0,)),
                            impulses_ns=args.impulse or (), push_seed=args.push_seed, observer=args.observer,
                            retarget=args.retarget, mismatch=None if args.name == "robustness" and mismatch.neutral else mismatch,
-                           sims=sims, scale=args.terrain_scale, vx=args.vx, crouch_m=args.crouch)
+                           sims=sims, scale=args.terrain_scale, vx=args.vx, crouch_m=args.crouch, foot_hold=args.foot_hold)
     except ValueError as exc:
         if type(exc) is ValueError:
             raise UserError(str(exc)) from None
@@ -359,6 +361,7 @@ OBSERVER_HELP = ("estimate a push from the body's momentum, cancel it and lean t
                  "(contactnet.planning.observer; on by default, --no-observer turns it off)")
 RETARGET_HELP = ("rank a swinging leg's landing again when the measured velocity leaves the command "
                  "(contactnet.planning.retarget; off by default)")
+FOOT_HOLD_HELP = "hold a lost stance foot that slid toward its top's edge where it stood (contactnet.motion.foot_hold)"
 CROUCH_HELP = ("walk with the CoM this much below the robot's nominal height, all the time (metres, at most a "
                "third of it): a push moves the balancing centre of pressure less; 0: the nominal height; default: "
                "the robot's walk_crouch_m or trot_crouch_m for that gait on terrain of one level, else 0")
@@ -443,6 +446,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
+    sim.add_argument("--foot-hold", action="store_true", help=FOOT_HOLD_HELP)
     sim.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M", help=CROUCH_HELP)
     _mismatch_arguments(sim)
     sim.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
@@ -543,6 +547,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
+    experiment.add_argument("--foot-hold", action="store_true", help=FOOT_HOLD_HELP)
     experiment.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M",
                             help=CROUCH_HELP)
     _mismatch_arguments(experiment)
