@@ -5,12 +5,14 @@ The optimizer may plan a stance foot's force down to nothing (the body over the 
 push can lift the body off a foot. Such a foot, still planned in stance, gets ``-J^T f`` with ``f`` about zero: no
 task holds its leg, which follows the body, and on a holed terrain it can drift over a gap while it is off the ground
 (docs/results.md, "A stance foot that lost its contact"). A foot planned in stance that had its contact in this
-stance, has lost it for ``lost_ticks`` ticks and is over ground that is not safe a foot radius inside its top's
-edges is tracked by the swing PD instead, to the point where it last stood pressed ``press_m`` into the ground,
-until it touches again: it carries no force meanwhile and the body's wrench is spread over the others. A foot that
-lost its load over the middle of its top, or that rose more than ``lift_m`` above where it stood (a body tilting
-over it lifted it), stays in stance, where its force pushes it back down: holding those tipped a standing robot
-leaning into its command and a Go2 pushed from the side (docs/results.md).
+stance on safe ground (a foot radius inside its top's edges), has lost it for ``lost_ticks`` ticks and is over
+ground that is not safe is tracked by the swing PD instead, to the point where it last stood pressed ``press_m``
+into the ground, until it touches again: it carries no force meanwhile and the body's wrench is spread over the
+others. A foot that lost its load over the middle of its top, or that rose more than ``lift_m`` above where it
+stood (a body tilting over it lifted it), stays in stance, where its force pushes it back down: holding those tipped
+a standing robot leaning into its command and a Go2 pushed from the side (docs/results.md). A foot that landed on an
+edge is not held either: an unsafe landing is the planner's, and holding it carried the fixed gait's walk across
+the narrow stones (the paper's Fig. 6, where it falls).
 """
 
 from __future__ import annotations
@@ -31,9 +33,10 @@ class FootHoldConfig:
     # a lost foot more than this above the point it last stood (m) was lifted by the body tilting over it, not slid
     # off its spot: it is left in stance, where the body's wrench pushes it back down (None: every lost foot held)
     lift_m: float | None = 0.01
-    # ... and is held only once its centre is over ground that is not safe this far inside a top's edges (m; the
-    # loop passes the robot's foot radius), then until it touches again or is lifted: a foot that lost its load
-    # over the middle of its top stays in the body's wrench (False: every lost foot is held, the terrain unread)
+    # ... and is held only if it stood on safe ground (a foot radius inside its top's edges) and its centre is now
+    # over ground that is not, then until it touches again or is lifted: a foot that lost its load over the middle
+    # of its top stays in the body's wrench, and a foot that landed on an edge (an unsafe landing, the planner's
+    # doing: the fixed gait's on the narrow stones) is not rescued (False: every lost foot is held, the terrain unread)
     near_edge: bool = True
 
     def __post_init__(self) -> None:
@@ -61,8 +64,8 @@ class FootHold:
               swing_vel: np.ndarray, safe: Callable[[np.ndarray], bool] | None = None) -> None:
         """In place on ``stance`` (4,), ``swing_pos`` and ``swing_vel`` (4, 3): a lost stance foot becomes a swing
         foot tracking its anchor. ``contact`` (4,) the feet touching now, ``feet_world`` (4, 3) where they are;
-        ``safe(xy)``: whether a foot centred at ``xy`` (2,) is well inside its top (``near_edge``; None: always
-        held)."""
+        ``safe(xy)``: whether a foot centred at ``xy`` (2,) is well inside its top (``near_edge``: held when its
+        anchor is and it is not; None: always held)."""
         held = False
         for leg in range(4):
             if not stance[leg] or contact[leg]:
@@ -81,7 +84,8 @@ class FootHold:
                 self.holding[leg] = False
                 continue
             if not self.holding[leg] and self.lost[leg] >= self.config.lost_ticks:
-                self.holding[leg] = not (self.config.near_edge and safe is not None and safe(feet_world[leg, :2]))
+                self.holding[leg] = not (self.config.near_edge and safe is not None
+                                         and (safe(feet_world[leg, :2]) or not safe(self.anchors_world[leg, :2])))
             if self.holding[leg]:
                 stance[leg] = False
                 swing_pos[leg] = self.anchors_world[leg]
