@@ -93,8 +93,8 @@ class LocomotionConfig:
     # robot's default for the gait and the terrain (RobotDescription.default_crouch_m: its walk_crouch_m and
     # trot_crouch_m on terrain of one level, nothing on terrain with heights, where the legs would meet the tops).
     crouch_m: float | None = None
-    # A stance foot off the ground held where it stood (contactnet.motion.foot_hold); None (the default): off.
-    foot_hold: FootHoldConfig | None = None
+    # A stance foot that slid off safe ground toward an edge held where it stood (contactnet.motion.foot_hold).
+    foot_hold: FootHoldConfig | None = FootHoldConfig()
 
 
 class Locomotion:

@@ -60,9 +60,10 @@ def test_the_stacks_parts_are_in_the_key_and_the_inputs_only_when_on():
     assert crouched.key == plain.key + "/crouch0.03" and trial_inputs(crouched)["trial"]["crouch_m"] == 0.03
     assert "crouch_m" not in trial_inputs(plain)["trial"]  # the robot's default: as before the option existed
     assert one(crouch_m=0.0).key == plain.key + "/crouch0"  # the nominal height, asked for: not the default
-    held = one(foot_hold=True)
-    assert held.key == plain.key + "/foot-hold" and trial_inputs(held)["trial"]["foot_hold"] is True
-    assert "foot_hold" not in trial_inputs(plain)["trial"]  # off, the default: as before the option existed
+    unheld = one(foot_hold=False)
+    assert plain.foot_hold and unheld.key == plain.key + "/no-foot-hold"
+    assert trial_inputs(unheld)["trial"]["foot_hold"] is False
+    assert "foot_hold" not in trial_inputs(plain)["trial"]  # on, the default: named only when off
 
 
 def test_each_engine_runs_the_same_trials_and_the_summary_puts_them_side_by_side():

@@ -105,3 +105,36 @@ def test_mujocos_walk_no_longer_loses_a_front_foot_into_a_gap_under_a_push_along
     assert not outcomes[True]["fell"], outcomes[True]["fall_reason"]
     assert outcomes[True]["foot_hold_ticks"] > 0
     assert outcomes[False]["fell"] and "FR" in outcomes[False]["fall_reason"]
+
+
+
+def test_on_by_default_and_never_acting_on_ground_of_one_piece():
+    """The loop holds feet by default. A robot that only stands under a forward command leans its CoM to its front
+    feet and its hind feet lose their contact, unloaded over the middle of their tops (docs/results.md: holding them
+    tipped it over). On flat ground no foot is over unsafe ground, so the hold leaves them and the run is the same as
+    with the hold off, to the last digit of the state; holding every lost foot (``near_edge`` off) does act."""
+    from contactnet.locomotion import Locomotion, LocomotionConfig
+    from contactnet.motion.gait import WALK
+    from contactnet.planning.brace import standing_horizon
+    from contactnet.registry import load_robot
+    from contactnet.sim.world import SimConfig
+    from contactnet.terrain import flat
+
+    class Stander:  # a planner that always stands
+        name, last_candidates = "stander", None
+
+        def reset(self) -> None:
+            pass
+
+        def plan(self, ctx):  # noqa: ANN001, ANN202
+            return standing_horizon(WALK, WALK.steps_per_plan)
+
+    assert LocomotionConfig().foot_hold == FootHoldConfig()
+    runs = {}
+    for name, hold in (("default", FootHoldConfig()), ("off", None), ("every lost foot", FootHoldConfig(near_edge=False))):
+        with Locomotion(load_robot("solo12"), flat(), WALK, Stander(), SimConfig(),
+                        config=LocomotionConfig(foot_hold=hold), vel_cmd_xy=(0.05, 0.0)) as loco:
+            loco.run(8.0, stop_at_goal=False)
+            runs[name] = (loco.snapshot().q.tolist(), loco.summary()["foot_hold_ticks"])
+    assert runs["default"][1] == 0 and runs["default"][0] == runs["off"][0]
+    assert runs["every lost foot"][1] > 0 and runs["every lost foot"][0] != runs["off"][0]

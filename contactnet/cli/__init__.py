@@ -446,7 +446,7 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--push", action="append", default=[], metavar="T0,DURATION,FX,FY")
     sim.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
-    sim.add_argument("--foot-hold", action="store_true", help=FOOT_HOLD_HELP)
+    sim.add_argument("--foot-hold", action=argparse.BooleanOptionalAction, default=True, help=FOOT_HOLD_HELP)
     sim.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M", help=CROUCH_HELP)
     _mismatch_arguments(sim)
     sim.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
@@ -547,7 +547,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--model-dir", metavar="DIR", help="walk.pt / trot.pt to use (default: the shipped ones)")
     experiment.add_argument("--observer", action=argparse.BooleanOptionalAction, default=True, help=OBSERVER_HELP)
     experiment.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
-    experiment.add_argument("--foot-hold", action="store_true", help=FOOT_HOLD_HELP)
+    experiment.add_argument("--foot-hold", action=argparse.BooleanOptionalAction, default=True, help=FOOT_HOLD_HELP)
     experiment.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M",
                             help=CROUCH_HELP)
     _mismatch_arguments(experiment)

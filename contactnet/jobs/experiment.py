@@ -151,14 +151,14 @@ class Trial:
     scale: float | None = None  # the scene's size against the paper's; None: the robot's (registry.terrain_for)
     crouch_m: float | None = None  # the CoM reference this much below the nominal; None: the robot's default
     # for the gait and terrain (LocomotionConfig.crouch_m)
-    foot_hold: bool = False  # a lost stance foot held where it stood (contactnet.motion.foot_hold; off by default)
+    foot_hold: bool = True  # a lost stance foot held where it stood (contactnet.motion.foot_hold; on by default)
 
     @property
     def key(self) -> str:
         """Names the trial in ``trials.jsonl``; the robot only when it is not Solo12, the height only on
         random_heights, a push's duration only when not 1 s, the observer only when off, retargeting only when on
         and the mismatch only when there is one; the engine only when it is not PyBullet; a crouch only when given; the
-        foot hold only when on."""
+        foot hold only when off."""
         removed = "" if self.removed is None else f"/{self.removed}"
         height = "" if self.height_m is None else f"/h{self.height_m:g}"
         robot = "" if self.robot == DEFAULT_ROBOT else f"/{self.robot}"
@@ -171,7 +171,7 @@ class Trial:
         return (f"{self.terrain}{removed}{height}{push}/seed{self.seed}/{self.gait}/{self.planner}/noise{self.noise:g}"
                 f"{robot}{'' if self.observer else '/no-observer'}{'/retarget' if self.retarget else ''}{mismatch}"
                 f"{'' if self.sim == 'pybullet' else '/' + self.sim}{scale}"
-                f"{'' if self.crouch_m is None else f'/crouch{self.crouch_m:g}'}{'/foot-hold' if self.foot_hold else ''}")
+                f"{'' if self.crouch_m is None else f'/crouch{self.crouch_m:g}'}{'' if self.foot_hold else '/no-foot-hold'}")
 
 
 def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | None = None,
@@ -182,14 +182,14 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
               forces_n: tuple[float, ...] = (5.0,), observer: bool = True, impulses_ns: tuple[float, ...] = (),
               push_seed: int = 0, mismatch: ModelMismatch | None = None, retarget: bool = False,
               sims: tuple[str, ...] = ("pybullet",), scale: float | None = None, crouch_m: float | None = None,
-              foot_hold: bool = False) -> list[Trial]:
+              foot_hold: bool = True) -> list[Trial]:
     """The trials of experiment ``name`` with ``robot`` (default: 1 trial per setting on the fixed scenes and
     on every cell of ``narrow_map``'s ``widths_cm`` x ``gaps_cm`` grid, 5 seeds on ``raised_stones``, 20 on
     ``random`` and ``random_heights``, whose tops spread over +-``height_m``; on ``push``, 10 sampled pushes
     (``push_seed``) per force of ``forces_n`` and impulse of ``impulses_ns``; on ``robustness``, 20 seeds of the
     random field and the stepping stones per case of ``ROBUSTNESS_CASES``). Every trial's robot differs from the
     model by ``mismatch`` (neutral by default; on ``robustness``: the cases', unless given); ``observer``,
-    ``retarget`` and ``foot_hold`` turn those parts of the stack on in every trial; every trial runs in each engine of ``sims``
+    ``retarget`` and ``foot_hold`` turn those parts of the stack on or off in every trial; every trial runs in each engine of ``sims``
     (same seeds, terrains and pushes); ``scale``: every scene that size against the paper's (default: the robot's,
     ``registry.terrain_for``)."""
     if name not in EXPERIMENTS:
@@ -238,8 +238,8 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
         out = [replace(t, scale=float(scale)) for t in out]
     if crouch_m is not None:
         out = [replace(t, crouch_m=float(crouch_m)) for t in out]
-    if foot_hold:
-        out = [replace(t, foot_hold=True) for t in out]
+    if not foot_hold:
+        out = [replace(t, foot_hold=False) for t in out]
     return [replace(t, observer=observer, retarget=retarget) for t in out] if not observer or retarget else out
 
 
@@ -350,8 +350,8 @@ def trial_inputs(trial: Trial) -> dict:
         del settings["scale"]  # the robot's: named by the robot (older logs resume)
     if settings["crouch_m"] is None:
         del settings["crouch_m"]  # the robot's default (named by the code), as before the option existed
-    if not settings["foot_hold"]:
-        del settings["foot_hold"]  # off, the default, as before the option existed
+    if settings["foot_hold"]:
+        del settings["foot_hold"]  # on, the default: named only when off
     del settings["sim"]  # named with its version below
     terrain = _terrain_inputs(trial.terrain, trial.removed, trial.seed, trial.bar_width_m, trial.last_gap_m,
                               trial.height_m, trial.robot, trial.scale)

@@ -1,5 +1,5 @@
-"""A stance foot that lost its contact held where it stood (``LocomotionConfig.foot_hold``, ``--foot-hold``; off by
-default).
+"""A stance foot that lost its contact held where it stood (``LocomotionConfig.foot_hold``; on by default,
+``--no-foot-hold`` turns it off).
 
 The optimizer may plan a stance foot's force down to nothing (the body over the other feet during a swing), and a
 push can lift the body off a foot. Such a foot, still planned in stance, gets ``-J^T f`` with ``f`` about zero: no

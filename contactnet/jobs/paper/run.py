@@ -160,7 +160,7 @@ _FIXED_BY_THE_PLAN = {"trials": None, "gaits": None, "planners": None, "removed"
                       "force": None, "impulse": None, "push_seed": 0, "noise": 0.0, "widths_cm": None,
                       "gaps_cm": None, "mass_scale": 1.0, "payload": None, "friction": None,
                       "torque_scale": 1.0, "orientation_noise": 0.0, "velocity_noise": 0.0, "gyro_noise": 0.0,
-                      "delay_ms": 0.0, "observer": True, "retarget": False, "crouch": None, "foot_hold": False,
+                      "delay_ms": 0.0, "observer": True, "retarget": False, "crouch": None, "foot_hold": True,
                       "terrain_scale": None, "vx": 0.05}  # the plan runs the defaults (any --sim)
 #: ... and those the frontier's plan lets one choose (its own defaults otherwise)
 _FRONTIER_OPTIONS = ("trials", "gaits", "planners", "removed", "widths_cm", "gaps_cm")
