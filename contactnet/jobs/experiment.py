@@ -189,8 +189,8 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
     (``push_seed``) per force of ``forces_n`` and impulse of ``impulses_ns``; on ``robustness``, 20 seeds of the
     random field and the stepping stones per case of ``ROBUSTNESS_CASES``). Every trial's robot differs from the
     model by ``mismatch`` (neutral by default; on ``robustness``: the cases', unless given); ``observer``,
-    ``retarget`` and ``foot_hold`` turn those parts of the stack on or off in every trial; every trial runs in each engine of ``sims``
-    (same seeds, terrains and pushes); ``scale``: every scene that size against the paper's (default: the robot's,
+    ``retarget`` and ``foot_hold`` turn those parts of the stack on or off in every trial; every trial runs in each
+    engine of ``sims`` (same seeds, terrains and pushes); ``scale``: every scene that size against the paper's (default: the robot's,
     ``registry.terrain_for``)."""
     if name not in EXPERIMENTS:
         raise ExperimentError(f"unknown experiment {name!r}: choose one of {', '.join(EXPERIMENTS)}")

@@ -78,9 +78,9 @@ class FootHold:
             if not self.planted[leg]:
                 continue
             self.lost[leg] += 1
-            moved = feet_world[leg] - self.anchors_world[leg]
             lift = self.config.lift_m
-            if lift is not None and moved[2] > lift:  # lifted by the body over it: its stance force pushes it down
+            if lift is not None and feet_world[leg, 2] - self.anchors_world[leg, 2] > lift:  # lifted by the body
+                # over it: its stance force pushes it back down
                 self.holding[leg] = False
                 continue
             if not self.holding[leg] and self.lost[leg] >= self.config.lost_ticks:
