@@ -169,9 +169,9 @@ class Locomotion:
         self.wall_time_s = 0.0
         # The last step's legs, the tops under them and where they stood at lift-off.
         self._liftoff_tops: tuple[tuple[int, ...], np.ndarray, np.ndarray] | None = None
-        self._contact_tick = -1
-        self._contact = np.zeros(4, dtype=bool)
+        self._contact_tick, self._contact = -1, np.zeros(4, dtype=bool)  # (_foot_contact)
         self._foot_hold = None if self.config.foot_hold is None else FootHold(self.config.foot_hold)
+        self._well_inside = lambda xy: bool(self.terrain.is_safe(xy[None], self.foot_radius_m)[0])  # (foot_hold)
         if self.observer is not None:
             self.observer.reset()
         self._delivered, self._leg_sigma_m = np.zeros((4, 3)), np.full(4, np.inf)
@@ -476,7 +476,7 @@ class Locomotion:
                              config.late_touchdown_depth_m)
         if self._foot_hold is not None:  # a stance foot off the ground
             self._foot_hold.apply(stance, self._foot_contact(), self.controller.last_foot_pos, swing_pos, swing_vel,
-                                  lambda xy: bool(self.terrain.is_safe(xy[None], self.foot_radius_m)[0]))
+                                  self._well_inside)
         solution = plan.solution
         external_world = None if self.observer is None else self.observer.feedforward_world(
             None if solution is None else plan.solution_force_world)

@@ -107,7 +107,6 @@ def test_mujocos_walk_no_longer_loses_a_front_foot_into_a_gap_under_a_push_along
     assert outcomes[False]["fell"] and "FR" in outcomes[False]["fall_reason"]
 
 
-
 def test_on_by_default_and_never_acting_on_ground_of_one_piece():
     """The loop holds feet by default. A robot that only stands under a forward command leans its CoM to its front
     feet and its hind feet lose their contact, unloaded over the middle of their tops (docs/results.md: holding them
