@@ -1,5 +1,7 @@
 """The legs' own weight held by their joints (``ControllerGains.leg_gravity``): a lightly loaded stance leg holds
-its pose instead of sagging and sliding its foot away (docs/how-it-works.md, "A leg that holds its own weight")."""
+its pose instead of sagging and sliding its foot away (docs/how-it-works.md, "A leg that holds its own weight").
+And Go2's other gain on terrain of one level, the feedback a foot would pull for spread again over the others
+(``ControllerGains.unload_rounds``)."""
 
 from dataclasses import replace
 
@@ -9,8 +11,10 @@ import pytest
 from contactnet.motion.controller import ControllerGains
 
 
-def _pushed(robot_name: str, engine: str, share: float, push: tuple[float, float, float], until_s: float) -> dict:
-    """The walk on the push field (seed 0, as every push trial), pushed for 1 s at ``push`` = (t0, fx, fy)."""
+def _pushed(robot_name: str, engine: str, share: float, push: tuple[float, float, float], until_s: float,
+            gait_name: str = "walk", **gains_changes) -> dict:
+    """The walk (or ``gait_name``) on the push field (seed 0, as every push trial), pushed for 1 s at ``push`` =
+    (t0, fx, fy), with the legs' weight held by ``share`` and the robot's other gains but ``gains_changes``."""
     from contactnet.jobs.experiment import _terrain
     from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.planning.observer import DEFAULT_OBSERVER
@@ -18,9 +22,9 @@ def _pushed(robot_name: str, engine: str, share: float, push: tuple[float, float
     from contactnet.sim.world import Push, SimConfig
 
     terrain = _terrain("push_field", None, 0, None, None, robot=robot_name)
-    robot = load_robot(robot_name).for_terrain(terrain, "walk")
-    gait = gait_for("walk", robot)
-    gains = replace(ControllerGains.for_robot(robot.description), leg_gravity=share)
+    robot = load_robot(robot_name).for_terrain(terrain, gait_name)
+    gait = gait_for(gait_name, robot)
+    gains = replace(ControllerGains.for_robot(robot.description), leg_gravity=share, **gains_changes)
     with Locomotion(robot, terrain, gait, make_planner("contactnet", gait, robot), SimConfig(engine=engine),
                     gains=gains, config=LocomotionConfig(observer=DEFAULT_OBSERVER), vel_cmd_xy=(0.05, 0.0)) as loco:
         loco.push(Push(push[0], 1.0, (push[1], push[2], 0.0)))
@@ -36,8 +40,32 @@ def test_go2s_walk_pushed_from_the_side_keeps_its_unloaded_front_foot_with_the_l
     push = (3.214, -6.966, 31.4375)
     held = _pushed("go2", "pybullet", 1.0, push, 7.7)
     assert not held["fell"], held["fall_reason"]
-    limp = _pushed("go2", "pybullet", 0.0, push, 7.7)
+    limp = _pushed("go2", "pybullet", 0.0, push, 7.7, unload_rounds=0)
     assert limp["fell"] and "FR" in limp["fall_reason"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("gait_name, push, until_s", [("trot", (43.941, -15.443, -28.2552), 44.9),
+                                                      ("walk", (53.554, -20.855, -24.5338), 55.0)])
+def test_go2_pushed_toward_its_right_stands_with_the_feedback_spread_again(gait_name, push, until_s):
+    """Go2's two falls of 200 fresh pushes of 32.2 N (push seed 11: the trot's trial 1 as its diagonal lifted, the
+    walk's trial 6): once braced, the roll correction asked the left feet to pull; clipped at the minimum load, their
+    pull became a push that lifted the body, the next plan dropped it, and the body rolled over its right feet. With
+    the wrench spread again over the other feet (Go2's ``unload_rounds`` 2 on terrain of one level, its default) both
+    stand; with it spread once and clipped both fall."""
+    spread = _pushed("go2", "pybullet", 1.0, push, until_s, gait_name)
+    assert ControllerGains.for_robot(load_go2_one_level(gait_name).description).unload_rounds == 2
+    assert not spread["fell"], spread["fall_reason"]
+    clipped = _pushed("go2", "pybullet", 1.0, push, until_s, gait_name, unload_rounds=0)
+    assert clipped["fell"] and "tilted" in clipped["fall_reason"]
+
+
+def load_go2_one_level(gait_name: str):  # noqa: ANN201 - a Robot
+    """Go2 as it stands on terrain of one level (the push field's)."""
+    from contactnet.registry import load_robot
+    from contactnet.terrain import resolve
+
+    return load_robot("go2").for_terrain(resolve("flat"), gait_name)
 
 
 @pytest.mark.slow
