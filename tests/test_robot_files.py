@@ -257,9 +257,10 @@ def test_on_terrain_of_one_level_a_robot_stands_in_its_wider_stance(tmp_path):
 
 
 def test_controller_gains_for_terrain_of_one_level_only_are_taken_there_by_every_gait(tmp_path):
-    """``one_level_controller_gains`` (Go2's legs' weight held, ``leg_gravity`` 1): on terrain of one level every gait's
-    robot has them over ``controller_gains`` (the trot's with its wider stance too), on terrain with heights the robot
-    itself keeps its own; Solo12 has none. They read from and write to a robot file's table; a bad value is named."""
+    """``one_level_controller_gains`` (Go2's legs' weight held, ``leg_gravity`` 1, and its feedback spread again,
+    ``unload_rounds`` 2): on terrain of one level every gait's robot has them over ``controller_gains`` (the trot's with
+    its wider stance too), on terrain with heights the robot itself keeps its own; Solo12 has none. They read from and
+    write to a robot file's table; a bad value is named."""
     import dataclasses
 
     from contactnet.motion.controller import ControllerGains
@@ -272,13 +273,15 @@ def test_controller_gains_for_terrain_of_one_level_only_are_taken_there_by_every
         return ControllerGains.for_robot(robot.description)
 
     assert gains(go2).leg_gravity == 0.0 and gains(go2.for_terrain(heights, "walk")).leg_gravity == 0.0
+    assert gains(go2).unload_rounds == gains(go2.for_terrain(heights, "trot")).unload_rounds == 0
     for gait in ("walk", "trot"):
         twin = go2.for_terrain(one_level, gait)
         assert gains(twin).leg_gravity == 1.0 and gains(twin).kd_joint == gains(go2).kd_joint == 0.2
+        assert gains(twin).unload_rounds == 2
         assert twin.name == "go2" and twin.for_terrain(one_level, gait) is twin
     solo = load_robot("solo12", cache_dir=tmp_path)
     assert solo.spec.one_level_controller_gains == () and gains(solo.for_terrain(one_level)).leg_gravity == 0.0
-    assert spec_values(robot_spec("go2"))["one_level_controller_gains"] == {"leg_gravity": 1.0}
+    assert spec_values(robot_spec("go2"))["one_level_controller_gains"] == {"leg_gravity": 1.0, "unload_rounds": 2}
     assert "one_level_controller_gains" not in spec_values(robot_spec("solo12"))
     path, spec = _file_with_table(tmp_path, "a1_level_gains", "one_level_controller_gains",
                                   "leg_gravity = 1\nkd_joint = 0.3")
