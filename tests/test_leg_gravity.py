@@ -62,7 +62,7 @@ def test_go2_pushed_toward_its_right_stands_as_shipped_and_falls_with_its_feedba
 
 
 def _go2_on_one_level(gait_name: str):  # noqa: ANN201 - a Robot
-    """Go2 as it stands on terrain of one level (the push field's)."""
+    """Go2 as it stands on terrain of one level (flat here; the push field is of one level too)."""
     from contactnet.registry import load_robot
     from contactnet.terrain import resolve
 
