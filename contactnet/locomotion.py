@@ -219,6 +219,10 @@ class Locomotion:
     def done(self) -> bool:
         return self.fall_reason is not None or self.reached_goal
 
+    @property
+    def target(self) -> ControlTarget | None:  # what the controller tracked at the last tick (None before it)
+        return self._last_target
+
     # ---- the loop --------------------------------------------------------------------------
     def advance(self, n_ticks: int = 1) -> None:
         """Run n control ticks (1 ms each), unless the robot has fallen."""
@@ -568,25 +572,20 @@ class Locomotion:
         sim_time = float(self.sim.t_s)
         displacement = self._state.base_pos_world[:2] - self.start_xy
         return {
-            "success": bool(self.reached_goal and self.fall_reason is None),
-            "fell": self.fall_reason is not None,
+            "success": bool(self.reached_goal and self.fall_reason is None), "fell": self.fall_reason is not None,
             "reached_x": float(self._state.base_pos_world[0]),
             "sim_time_s": sim_time,
             "wall_time_s": float(self.wall_time_s),
             "steps": self.steps_taken,
             **StepCounts.of_run(self.records, self.swing_retargets).as_dict(), **records_summary(self.records),
-            "planner_ms": summary_stats(self.planner_times_s),
-            "trajopt_ms": summary_stats(self.trajopt_times_s),
+            "planner_ms": summary_stats(self.planner_times_s), "trajopt_ms": summary_stats(self.trajopt_times_s),
             "fall_reason": self.fall_reason,
             "mean_velocity_xy": (displacement / sim_time).tolist() if sim_time > 0 else [0.0, 0.0],
             "max_abs_yaw_rad": self.max_abs_yaw_rad,
             "trajopt_failures": self.trajopt_failures,
             "max_external_force_n": 0.0 if self.observer is None else float(self.observer.max_estimate_n),
-            "sim": self.sim.engine,
-            "brace_touchdowns": self.brace_touchdowns,
-            "crouch_m": self.crouch_m,
-            "stance_abduction_rad": float(self.robot.spec.stance_abduction_rad),
-            "stall_plans": self.stall_plans,
+            "sim": self.sim.engine, "brace_touchdowns": self.brace_touchdowns, "crouch_m": self.crouch_m,
+            "stance_abduction_rad": float(self.robot.spec.stance_abduction_rad), "stall_plans": self.stall_plans,
             "foot_hold_ticks": 0 if self._foot_hold is None else self._foot_hold.held_ticks,
         }
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 
@@ -332,5 +333,13 @@ def test_replay_runs_a_stored_trial_again_with_the_same_outcome(tmp_path, capsys
     assert main(["replay", str(tmp_path), hard.key]) == 0
     text = capsys.readouterr().out
     assert text.count("fell: ") == 2 and hard.key in text
+    trace = tmp_path / "fall.csv"  # traced: the same fall, and the trace ends where the run fell, the push on
+    assert main(["replay", str(tmp_path), hard.key, "--json", "--trace", str(trace), "--trace-every-ms", "5"]) == 0
+    traced = json.loads(capsys.readouterr().out)["now"]
+    assert traced["fall_reason"] == stored["fall_reason"] and traced["reached_x"] == stored["reached_x"]
+    with trace.open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert float(rows[-1]["t_s"]) == pytest.approx(traced["sim_time_s"])
+    assert {float(r["push_fy_n"]) for r in rows if 0.21 <= float(r["t_s"]) <= traced["sim_time_s"]} == {150.0}
     assert main(["replay", str(tmp_path), "push_field/none"]) != 0
     assert "no trial 'push_field/none'" in capsys.readouterr().err

@@ -11,8 +11,10 @@ from pathlib import Path
 
 from app.live.settings import SESSION_ENGINES, VELOCITY_LIMIT_M_S
 from contactnet import registry
+from contactnet.cli.mismatch import add_mismatch_arguments, mismatch_of
 from contactnet.cli.robot import add_robot_parser
 from contactnet.cli.terrain import add_terrain_parser
+from contactnet.cli.trace import add_trace_arguments, trace_of, write_trace
 from contactnet.cli.types import (
     HEIGHT_HELP,
     ROBOT_METAVAR,
@@ -128,8 +130,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     robot = robot.for_terrain(terrain, args.gait)  # its stance for this terrain and gait (Robot.for_terrain)
     gait = registry.gait_for(args.gait, robot)  # sized to the robot (contactnet.motion.gait.SIZE_RULE)
     planner = make_planner(args.planner, gait, robot, model=args.model)
-    sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=_mismatch_of(args),
+    sim_config = SimConfig(joint_vel_noise_var=args.noise, seed=args.seed, mismatch=mismatch_of(args),
                            engine=sim_of(args))
+    trace = trace_of(args)  # a bad trace file fails now, before the simulation
+    if trace is not None and args.record:
+        raise UserError("--trace / --trace-plot and --record: one at a time (each drives the loop its own way)")
     with contextlib.ExitStack() as stack:
         recording = None
         if args.record:  # the scene over time, as the web tool draws it (app/recordings/recorder.py)
@@ -149,6 +154,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         chunk_s = recording.period_s if recording else 0.32
         if recording:
             recording.add(loco)
+        if trace is not None:
+            try:
+                trace.run(loco, args.duration)
+            finally:  # interrupted too: the samples so far are written
+                write_trace(trace, args, f"simulate {args.robot} {args.gait} {args.planner} on {args.terrain}")
         with tqdm(total=round(args.duration, 2), unit="sim s", file=sys.stderr, disable=None, leave=False) as bar:
             while loco.t_s < args.duration - 1e-9 and not loco.done:
                 before = loco.t_s
@@ -267,7 +277,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     model_dir = args.model_dir
     if model_dir is not None and not Path(model_dir).is_dir():
         raise UserError(f"--model-dir {model_dir}: not a directory")
-    mismatch = _mismatch_of(args)
+    mismatch = mismatch_of(args)
     try:
         trials = trials_of(args.name, args.trials, args.gaits, args.planners, args.removed or (80,), args.noise,
                            model_dir=model_dir, widths_cm=args.widths_cm, gaps_cm=args.gaps_cm, robot=args.robot,
@@ -309,51 +319,16 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from contactnet.jobs.outcome import outcome
     from contactnet.jobs.replay import replay
 
-    stored, now = replay(args.dir, args.key)
+    trace = trace_of(args)
+    stored, now = replay(args.dir, args.key, trace=trace)
+    if trace is not None:
+        write_trace(trace, args, f"replay {args.key}")
     if args.json:
         print(json.dumps({"key": args.key, "stored": stored, "now": now}, indent=1, default=str))
     else:
         print(f"{args.key}\n  stored: {outcome(stored)} (x {stored['reached_x']:.2f} m)\n"
               f"  now:    {outcome(now)} (x {now['reached_x']:.2f} m)")
     return 0
-
-
-def _mismatch_of(args: argparse.Namespace):  # noqa: ANN202 - a ModelMismatch
-    """The model mismatch the options ask for (neutral without them)."""
-    from contactnet.sim.mismatch import ModelMismatch, parse_payload
-
-    try:
-        payload_kg, offset = parse_payload(args.payload) if args.payload else (0.0, (0.0, 0.0))
-        return ModelMismatch(mass_scale=args.mass_scale, payload_kg=payload_kg, payload_offset_xy_m=offset,
-                             friction=args.friction, torque_scale=args.torque_scale,
-                             orientation_noise_rad=args.orientation_noise, lin_vel_noise_m_s=args.velocity_noise,
-                             ang_vel_noise_rad_s=args.gyro_noise, delay_ms=args.delay_ms)
-    except ValueError as exc:
-        raise UserError(str(exc).replace("model mismatch: ", "")) from None
-
-
-def _mismatch_arguments(parser: argparse.ArgumentParser) -> None:
-    from contactnet.sim.mismatch import LIMITS
-
-    group = parser.add_argument_group(
-        "model mismatch", "the simulated robot differs from the model; the planner and the controller do not know it")
-    group.add_argument("--mass-scale", type=bounded_float("--mass-scale", *LIMITS["mass_scale"]), default=1.0,
-                       metavar="S", help="every link's mass and inertia times S")
-    group.add_argument("--payload", metavar="KG[,DX,DY]",
-                       help="a mass fixed to the base, DX, DY metres from the base origin (base frame)")
-    group.add_argument("--friction", type=bounded_float("--friction", *LIMITS["friction"]), default=None,
-                       metavar="MU", help="the foot-ground friction coefficient (default 0.81: 0.9 x 0.9)")
-    group.add_argument("--torque-scale", type=bounded_float("--torque-scale", *LIMITS["torque_scale"]),
-                       default=1.0, metavar="S", help="the motors' torque limits times S")
-    group.add_argument("--orientation-noise", type=bounded_float("--orientation-noise",
-                                                                  *LIMITS["orientation_noise_rad"]),
-                       default=0.0, metavar="RAD", help="std of the measured base orientation's error, per axis")
-    group.add_argument("--velocity-noise", type=bounded_float("--velocity-noise", *LIMITS["lin_vel_noise_m_s"]),
-                       default=0.0, metavar="M_S", help="std of the measured base linear velocity's error")
-    group.add_argument("--gyro-noise", type=bounded_float("--gyro-noise", *LIMITS["ang_vel_noise_rad_s"]),
-                       default=0.0, metavar="RAD_S", help="std of the measured base angular velocity's error")
-    group.add_argument("--delay-ms", type=bounded_float("--delay-ms", *LIMITS["delay_ms"]), default=0.0,
-                       metavar="MS", help="the torques act this long after they were computed")
 
 
 # ---- parser ------------------------------------------------------------------------------------
@@ -448,9 +423,10 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--retarget", action="store_true", help=RETARGET_HELP)
     sim.add_argument("--foot-hold", action=argparse.BooleanOptionalAction, default=True, help=FOOT_HOLD_HELP)
     sim.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M", help=CROUCH_HELP)
-    _mismatch_arguments(sim)
+    add_mismatch_arguments(sim)
     sim.add_argument("--sim", choices=SIM_ENGINES, help=SIM_HELP)
     sim.add_argument("--record", metavar="FILE.viser")
+    add_trace_arguments(sim)
     sim.add_argument("--json", action="store_true")
     sim.set_defaults(func=cmd_simulate)
 
@@ -550,7 +526,7 @@ def build_parser() -> argparse.ArgumentParser:
     experiment.add_argument("--foot-hold", action=argparse.BooleanOptionalAction, default=True, help=FOOT_HOLD_HELP)
     experiment.add_argument("--crouch", type=bounded_float("--crouch", 0.0, 1.0), default=None, metavar="M",
                             help=CROUCH_HELP)
-    _mismatch_arguments(experiment)
+    add_mismatch_arguments(experiment)
     experiment.add_argument("--sim", type=choices("--sim", SIM_ENGINES), metavar="|".join(SIM_ENGINES),
                             help=SIM_HELP + "; comma-separated: every trial in each engine, on the same seeds "
                                  "(not with paper)")
@@ -566,6 +542,7 @@ def build_parser() -> argparse.ArgumentParser:
     again.add_argument("dir", metavar="DIR", help="the experiment's --out folder (a paper run's too)")
     again.add_argument("key", metavar="KEY", help="the trial's key, as in DIR's trials.jsonl")
     again.add_argument("--json", action="store_true", help="both records whole")
+    add_trace_arguments(again)
     again.set_defaults(func=cmd_replay)
 
     bench = sub.add_parser("bench", help="speed benchmarks (tables; --json for machines)")

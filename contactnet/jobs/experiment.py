@@ -63,6 +63,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from contactnet.atomic import atomic_write_text
 from contactnet.jobs.pushes import (
@@ -78,6 +79,9 @@ from contactnet.jobs.summary import plot_success, summarize
 from contactnet.robots import DEFAULT_ROBOT
 from contactnet.sim.mismatch import ModelMismatch
 from contactnet.sim.world import ENGINES as SIM_ENGINES
+
+if TYPE_CHECKING:
+    from contactnet.jobs.trace import LoopTrace
 
 HEADER_FORMAT = "contactnet-experiment-v1"
 EXPERIMENTS = ("stepping_stones", "narrow_stones", "narrow_map", "random", "stairs", "raised_stones", "random_heights",
@@ -243,8 +247,9 @@ def trials_of(name: str, trials: int | None = None, gaits: tuple[str, ...] | Non
     return [replace(t, observer=observer, retarget=retarget) for t in out] if not observer or retarget else out
 
 
-def run_trial(trial: Trial) -> dict:
-    """Run one trial in this process and return its record (the trial, the simulate summary, facts)."""
+def run_trial(trial: Trial, trace: LoopTrace | None = None) -> dict:
+    """Run one trial in this process and return its record (the trial, the simulate summary, facts); ``trace``: sampled
+    on the way (the same run: ``contactnet.jobs.trace``)."""
     from contactnet.locomotion import Locomotion, LocomotionConfig
     from contactnet.motion.foot_hold import FootHoldConfig
     from contactnet.planning.observer import DEFAULT_OBSERVER
@@ -271,7 +276,7 @@ def run_trial(trial: Trial) -> dict:
 
             loco.push(Push(trial.push_t0_s, trial.push_duration_s, (*trial.push_force_xy, 0.0)))
             limit_s = trial.push_t0_s + trial.push_duration_s + PUSH_SETTLE_S
-        summary = loco.run(limit_s)
+        summary = loco.run(limit_s) if trace is None else trace.run(loco, limit_s)
         samples = {"planner_ms_samples": _ms_samples(loco.planner_times_s),
                    "trajopt_ms_samples": _ms_samples(loco.trajopt_times_s)}
     if trial.push_force_xy is not None:

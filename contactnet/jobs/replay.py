@@ -12,6 +12,7 @@ import dataclasses
 from pathlib import Path
 
 from contactnet.jobs.experiment import ExperimentError, Trial, read_log, run_trial
+from contactnet.jobs.trace import LoopTrace
 from contactnet.sim.mismatch import ModelMismatch
 
 
@@ -46,10 +47,11 @@ def find_record(out: str | Path, key: str) -> dict:
     return found[-1]
 
 
-def replay(out: str | Path, key: str) -> tuple[dict, dict]:
-    """(the stored record, the record of running it again now) of trial ``key`` in ``out``."""
+def replay(out: str | Path, key: str, trace: LoopTrace | None = None) -> tuple[dict, dict]:
+    """(the stored record, the record of running it again now) of trial ``key`` in ``out``; ``trace``: sampled on
+    the way (``contactnet.jobs.trace``)."""
     stored = find_record(out, key)
-    return stored, run_trial(trial_from_record(stored))
+    return stored, run_trial(trial_from_record(stored), trace=trace)
 
 
 __all__ = ["find_record", "replay", "trial_from_record"]

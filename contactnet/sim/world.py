@@ -314,6 +314,11 @@ class EngineBase(Referee):
         self._rng = np.random.default_rng(self.config.seed)
         self._pending_tau.clear()
 
+    def foot_forces(self) -> tuple[np.ndarray, np.ndarray]:
+        """The feet touching the terrain now (4,) and the contact force on each (4, 3; world, N): the engine's contact
+        query only, no state read and no sensor noise drawn (a run read this way stays the same run)."""
+        return self._foot_contacts()
+
     def add_push(self, push: Push) -> None:
         self.pushes.append(push)
 

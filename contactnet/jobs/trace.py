@@ -1,0 +1,225 @@
+"""A run's trace: the body against its plan and each foot's planned, commanded and measured force, tick by tick.
+
+``contactnet simulate ... --trace FILE.csv --trace-plot FILE.png`` (and ``contactnet replay DIR KEY --trace ...``)
+samples the loop every ``TraceConfig.every_ms`` of simulated time from ``TraceConfig.from_s`` on, and writes one
+CSV row per sample (world frame, SI units named in the columns) and a plot of them. What a fall looks like from the
+inside: did the optimizer ask for it (the planned forces), did the controller deliver it (the commanded ones), did
+the ground take it (the measured ones, from the engine's contacts), and did the body follow its plan.
+
+The trace reads and never changes the run: the contact forces come from the engine's contact query (no sensor noise
+drawn), the body's state as the controller saw it, the body's own rotation (``body_w*``: the whole robot's angular
+momentum about its CoM over its composite inertia, pinocchio's centroidal dynamics) from the same measured state on a
+pinocchio Data of its own. ``base_w*`` is the base link's rate, which the optimizer starts from: the two differ when
+the legs swing against the base. ``push_*`` is the force applied to the base over the tick (``--push``),
+``push_estimate_*`` the disturbance observer's estimate of it (``contactnet.planning.observer``; NaN without the
+observer) and ``plan_push_*`` the force the active plan was solved with.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from contactnet.atomic import atomic_write_bytes, atomic_write_text
+
+if TYPE_CHECKING:
+    from contactnet.locomotion import Locomotion
+
+LEGS = ("FL", "FR", "HL", "HR")
+#: The plot's file types (matplotlib draws each from the name's suffix).
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+class TraceError(ValueError):
+    """A trace that cannot be made or written: ``str()`` is one line naming the file or the value."""
+
+
+@dataclass(frozen=True)
+class TraceConfig:
+    """Which instants a trace keeps: every ``every_ms`` of simulated time (whole control ticks of 1 ms) from
+    ``from_s`` on."""
+
+    every_ms: int = 10
+    from_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.every_ms <= 1000:
+            raise TraceError(f"trace: every_ms must be 1..1000 ms, got {self.every_ms}")
+        if not (np.isfinite(self.from_s) and self.from_s >= 0.0):
+            raise TraceError(f"trace: from_s must be a time >= 0 s, got {self.from_s}")
+
+
+def columns() -> list[str]:
+    """The CSV's columns, in order."""
+    names = ["t_s"]
+    names += [f"com_{a}_m" for a in "xyz"] + [f"com_v{a}_m_s" for a in "xyz"]
+    names += ["base_roll_rad", "base_pitch_rad", "base_yaw_rad"]
+    names += [f"base_w{a}_rad_s" for a in "xyz"] + [f"body_w{a}_rad_s" for a in "xyz"]
+    names += [f"plan_com_{a}_m" for a in "xyz"] + ["plan_roll_rad", "plan_pitch_rad"]
+    names += ["push_fx_n", "push_fy_n", "push_estimate_fx_n", "push_estimate_fy_n", "plan_push_fx_n", "plan_push_fy_n"]
+    for leg in LEGS:
+        names += [f"{leg}_stance", f"{leg}_contact"]
+        for kind in ("plan", "cmd", "meas"):
+            names += [f"{leg}_{kind}_f{a}_n" for a in "xyz"]
+    return names
+
+
+def body_angular_velocity(model, data, q: np.ndarray, v: np.ndarray) -> np.ndarray:  # noqa: ANN001 - pinocchio
+    """(3,) the whole robot's angular velocity (world axes, rad/s): its angular momentum about its CoM over its
+    composite rotational inertia there (pinocchio's ``ccrba``). The base's rate when the joints do not move."""
+    import pinocchio as pin
+
+    pin.ccrba(model, data, q, v)
+    return np.linalg.solve(data.Ig.inertia, np.asarray(data.hg.angular))
+
+
+class LoopTrace:
+    """The samples of one run (``run`` drives the loop and samples it; ``write_csv`` and ``plot`` write them)."""
+
+    def __init__(self, config: TraceConfig = TraceConfig()) -> None:
+        self.config = config
+        self.rows: list[list[float]] = []
+        self._data = None
+
+    def run(self, loco: Locomotion, until_s: float) -> dict:
+        """``loco.run(until_s)``, tick for tick the same run, sampled on the way; returns its summary."""
+        dt = loco.sim.config.dt_s
+        end = loco.tick + round(max(until_s - loco.t_s, 0.0) / dt)  # as Locomotion.run_for counts its ticks
+        first = round(self.config.from_s / dt)
+        every = max(1, round(self.config.every_ms * 1e-3 / dt))
+        while loco.tick < end and not loco.done:
+            sampling = loco.tick >= first
+            ticks = min(every if sampling else first - loco.tick, end - loco.tick)
+            loco.run_for(ticks * dt)
+            if sampling:
+                self.sample(loco)
+        return loco.summary()
+
+    def sample(self, loco: Locomotion) -> None:
+        """One row: the loop now."""
+        controller, state, target = loco.controller, loco._state, loco.target
+        if self._data is None:
+            self._data = controller.model.createData()
+        q, v = state.q_pinocchio(), state.v_pinocchio()
+        body_w = body_angular_velocity(controller.model, self._data, q, v)
+        contact, measured = loco.sim.foot_forces()
+        nan3 = [float("nan")] * 3
+        row = [loco.t_s, *controller.last_com, *controller.last_com_vel, *state.rpy, *state.base_ang_vel_world, *body_w]
+        if target is None:
+            row += nan3 + [float("nan")] * 2
+            planned, stance = np.zeros((4, 3)), np.ones(4, dtype=bool)
+        else:
+            row += [*target.com_pos, *target.rpy[:2]]
+            planned, stance = target.forces, target.stance
+        pushes = [p.force_world for p in loco.sim.pushes if p.active(loco.t_s - loco.sim.config.dt_s)]
+        row += list(np.sum(pushes, axis=0)[:2]) if pushes else [0.0, 0.0]
+        observer = loco.observer
+        row += [float("nan")] * 2 if observer is None else [observer.estimate_x_n, observer.estimate_y_n]
+        held = None if loco.plan is None else loco.plan.solution_force_world
+        row += [0.0, 0.0] if held is None else [float(held[0]), float(held[1])]
+        commanded = controller.last_forces
+        for leg in range(4):
+            row += [float(stance[leg]), float(contact[leg]), *planned[leg], *commanded[leg], *measured[leg]]
+        self.rows.append([float(x) for x in row])
+
+    def table(self) -> np.ndarray:
+        """(samples, columns) of the rows so far."""
+        return np.array(self.rows, dtype=float).reshape(-1, len(columns()))
+
+    def write_csv(self, path: str | os.PathLike) -> Path:
+        """The samples as CSV (a header of ``columns()``, 6 significant digits), written whole or not at all."""
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(columns())
+        writer.writerows([f"{x:.6g}" for x in row] for row in self.rows)
+        return _written(path, lambda p: atomic_write_text(p, out.getvalue()))
+
+    def plot(self, path: str | os.PathLike, title: str = "") -> Path:
+        """The samples drawn (``plot_table``), written whole or not at all."""
+        figure = plot_table(self.table(), title)
+        buffer = io.BytesIO()
+        figure.savefig(buffer, format=Path(path).suffix[1:], dpi=110)
+        import matplotlib.pyplot as plt
+
+        plt.close(figure)
+        return _written(path, lambda p: atomic_write_bytes(p, buffer.getvalue()))
+
+
+def plot_table(table: np.ndarray, title: str = ""):  # noqa: ANN201 - a matplotlib Figure
+    """A figure of a trace's table: the CoM height, roll and pitch against the plan, the roll rate of the base and of
+    the whole body, the push (applied, estimated by the observer, held by the plan), and each foot's normal force as
+    planned, commanded and measured (grey where the foot does not touch the ground)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    col = {name: i for i, name in enumerate(columns())}
+    t = table[:, col["t_s"]]
+    fig, axes = plt.subplots(8, 1, figsize=(9, 13), sharex=True, constrained_layout=True)
+    ax = axes[0]
+    ax.plot(t, table[:, col["com_z_m"]], label="CoM")
+    ax.plot(t, table[:, col["plan_com_z_m"]], "--", label="plan")
+    ax.set_ylabel("height (m)")
+    ax = axes[1]
+    for name, colour in (("roll", "C0"), ("pitch", "C1")):
+        ax.plot(t, table[:, col[f"base_{name}_rad"]], colour, label=name)
+        ax.plot(t, table[:, col[f"plan_{name}_rad"]], colour, ls="--", label=f"{name} plan")
+    ax.set_ylabel("angle (rad)")
+    ax = axes[2]
+    ax.plot(t, table[:, col["base_wx_rad_s"]], label="base")
+    ax.plot(t, table[:, col["body_wx_rad_s"]], label="whole body")
+    ax.set_ylabel("roll rate (rad/s)")
+    ax = axes[3]
+    for axis, colour in (("x", "C0"), ("y", "C1")):
+        ax.plot(t, table[:, col[f"push_f{axis}_n"]], colour, label=f"push {axis}")
+        ax.plot(t, table[:, col[f"push_estimate_f{axis}_n"]], colour, ls=":", label="estimate")
+        ax.plot(t, table[:, col[f"plan_push_f{axis}_n"]], colour, ls="--", label="planned with")
+    ax.set_ylabel("push (N)")
+    for leg_index, leg in enumerate(LEGS):
+        ax = axes[4 + leg_index]
+        off = table[:, col[f"{leg}_contact"]] < 0.5
+        ax.fill_between(t, 0, 1, where=off, transform=ax.get_xaxis_transform(), color="0.9", step="mid",
+                        label="no contact")
+        ax.plot(t, table[:, col[f"{leg}_plan_fz_n"]], "--", label="planned")
+        ax.plot(t, table[:, col[f"{leg}_cmd_fz_n"]], label="commanded")
+        ax.plot(t, table[:, col[f"{leg}_meas_fz_n"]], ":", label="measured")
+        ax.set_ylabel(f"{leg} f_z (N)")
+    axes[-1].set_xlabel("t (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper left", fontsize=7, ncol=4)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig
+
+
+def check_output(path: str | os.PathLike, suffixes: tuple[str, ...]) -> Path:
+    """``path`` if a file of one of ``suffixes`` can be written there (its folder exists); else a ``TraceError``."""
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise TraceError(f"trace file {path}: the name must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise TraceError(f"trace file {path}: is a folder")
+    if not path.parent.is_dir():
+        raise TraceError(f"trace file {path}: folder {path.parent} does not exist")
+    if not os.access(path.parent, os.W_OK):
+        raise TraceError(f"trace file {path}: cannot write in {path.parent}")
+    return path
+
+
+def _written(path: str | os.PathLike, write) -> Path:  # noqa: ANN001 - a callable of the path
+    try:
+        return write(path)
+    except OSError as exc:  # a StorageError too: one line naming the file
+        raise TraceError(f"trace file {path}: {exc}") from None
+
+
+__all__ = ["LEGS", "LoopTrace", "TraceConfig", "TraceError", "body_angular_velocity", "check_output", "columns",
+           "plot_table"]

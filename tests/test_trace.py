@@ -1,0 +1,147 @@
+"""A run's trace (``contactnet.jobs.trace``, ``simulate --trace``): it reads the run and never changes it, on both
+engines; its whole-body rotation is the one a plain sum over the links gives; its files and its mistakes."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from contactnet.cli import EXIT_USER_ERROR, main
+from contactnet.jobs.trace import LoopTrace, TraceConfig, TraceError, body_angular_velocity, columns
+from contactnet.locomotion import Locomotion
+from contactnet.motion.gait import WALK
+from contactnet.planning.heuristic import HeuristicPlanner
+from contactnet.sim.world import ENGINES, Push, SimConfig
+from contactnet.terrain import flat
+
+FLAT_WALK = ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic"]
+
+
+def body_angular_velocity_by_links(model, data, q: np.ndarray, v: np.ndarray) -> np.ndarray:  # noqa: ANN001
+    """The reference: every link's momentum summed about the robot's CoM, over the links' inertias summed there."""
+    import pinocchio as pin
+
+    pin.forwardKinematics(model, data, q, v)
+    masses, coms, vels, rots, inertias, omegas = [], [], [], [], [], []
+    for joint in range(1, model.njoints):
+        link = model.inertias[joint]
+        placement, twist = data.oMi[joint], data.v[joint]  # the twist in the joint's frame, at its origin
+        rot = placement.rotation
+        masses.append(link.mass)
+        coms.append(placement.translation + rot @ link.lever)
+        vels.append(rot @ (twist.linear + np.cross(twist.angular, link.lever)))
+        omegas.append(rot @ twist.angular)
+        rots.append(rot)
+        inertias.append(link.inertia)
+    com = np.average(coms, axis=0, weights=masses)
+    momentum, inertia = np.zeros(3), np.zeros((3, 3))
+    for m, c, vel, rot, i_link, omega in zip(masses, coms, vels, rots, inertias, omegas, strict=True):
+        r = c - com
+        i_world = rot @ i_link @ rot.T
+        momentum += i_world @ omega + m * np.cross(r, vel)
+        inertia += i_world + m * (r @ r * np.eye(3) - np.outer(r, r))
+    return np.linalg.solve(inertia, momentum)
+
+
+def test_the_whole_body_rotation_is_the_sum_over_the_links(robot):
+    """``body_angular_velocity`` (pinocchio's centroidal momentum) against the plain sum; with the joints at rest it
+    is the base's own rate (world axes)."""
+    import pinocchio as pin
+
+    model, rng = robot.model, np.random.default_rng(3)
+    data = model.createData()
+    for _ in range(5):
+        quat = rng.normal(size=4)
+        q = np.concatenate([rng.normal(size=3), quat / np.linalg.norm(quat), robot.joint_standing
+                            + rng.normal(scale=0.3, size=12)])
+        v = rng.normal(size=18)
+        assert np.allclose(body_angular_velocity(model, data, q, v),
+                           body_angular_velocity_by_links(model, model.createData(), q, v), atol=1e-9)
+        v[6:] = 0.0
+        rot = pin.Quaternion(q[3:7]).toRotationMatrix()
+        assert np.allclose(body_angular_velocity(model, data, q, v), rot @ v[3:6], atol=1e-9)
+
+
+def _walk(robot, engine: str, trace: LoopTrace | None, seconds: float = 1.2) -> dict:
+    config = SimConfig(engine=engine, joint_vel_noise_var=0.01, seed=4)  # noise: a trace that drew it would show
+    with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), config, vel_cmd_xy=(0.1, 0.0)) as loco:
+        loco.push(Push(0.5, 0.3, (0.0, 4.0, 0.0)))
+        summary = loco.run(seconds) if trace is None else trace.run(loco, seconds)
+    return {k: v for k, v in summary.items() if k not in ("wall_time_s", "planner_ms", "trajopt_ms")}  # clocks
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_a_traced_run_is_the_same_run_and_the_forces_add_up(robot, engine):
+    """Traced or not, the same run to the last digit (with sensor noise on, and a push); the samples every 10 ms from
+    0.2 s; the ground carries the robot's weight as measured and as planned, the push is there while it lasts, and a
+    foot planned in swing is planned no force."""
+    trace = LoopTrace(TraceConfig(every_ms=10, from_s=0.2))
+    assert _walk(robot, engine, trace) == _walk(robot, engine, None)
+    table = trace.table()
+    col = {name: i for i, name in enumerate(columns())}
+    assert np.allclose(table[:, col["t_s"]], np.arange(0.21, 1.2001, 0.01))
+    weight = robot.mass_kg * 9.81
+    measured = sum(table[:, col[f"{leg}_meas_fz_n"]] for leg in ("FL", "FR", "HL", "HR"))
+    planned = sum(table[:, col[f"{leg}_plan_fz_n"]] for leg in ("FL", "FR", "HL", "HR"))
+    assert np.median(measured) == pytest.approx(weight, rel=0.1)
+    assert np.median(planned) == pytest.approx(weight, rel=0.1)
+    pushed = (table[:, col["t_s"]] > 0.5) & (table[:, col["t_s"]] <= 0.8)
+    assert np.all(table[pushed, col["push_fy_n"]] == 4.0) and np.all(table[~pushed, col["push_fy_n"]] == 0.0)
+    swinging = 0
+    for leg in ("FL", "FR", "HL", "HR"):
+        swing = table[:, col[f"{leg}_stance"]] == 0.0
+        assert np.all(table[swing, col[f"{leg}_plan_fz_n"]] == 0.0)
+        assert np.all(np.isin(table[:, col[f"{leg}_contact"]], (0.0, 1.0)))
+        swinging += swing.sum()
+    assert swinging >= 10  # the walk stepped
+
+
+def test_simulate_writes_the_trace_and_its_plot(tmp_path, capsys):
+    """``--trace`` and ``--trace-plot``: a CSV of the columns and a PNG; ``--json`` stays one JSON object on stdout."""
+    out_csv, out_png = tmp_path / "run.csv", tmp_path / "run.png"
+    assert main([*FLAT_WALK, "--duration", "0.5", "--json", "--trace", str(out_csv), "--trace-plot", str(out_png),
+                 "--trace-every-ms", "20"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    assert summary["sim_time_s"] == pytest.approx(0.5) and not summary["fell"]
+    assert f"trace: {out_csv}, {out_png} (25 samples)" in captured.err
+    with out_csv.open() as handle:
+        rows = list(csv.reader(handle))
+    assert rows[0] == columns() and len(rows) == 26
+    assert math.isclose(float(rows[-1][0]), 0.5)
+    assert out_png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("extra, needle", [
+    (["--trace", "{tmp}/run.txt"], "must end in .csv"),
+    (["--trace", "{tmp}/missing/run.csv"], "does not exist"),
+    (["--trace-plot", "{tmp}/run.gif"], "must end in .png or .svg or .pdf"),
+    (["--trace", "{tmp}"], "must end in .csv"),
+    (["--trace", "{tmp}/run.csv", "--record", "{tmp}/run.viser"], "one at a time"),
+])
+def test_a_trace_file_that_cannot_be_written_is_one_line_before_running(extra, needle, tmp_path, capsys):
+    args = [part.format(tmp=tmp_path) for part in extra]
+    assert main([*FLAT_WALK, *args]) == EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not list(tmp_path.glob("*.csv")) and not list(tmp_path.glob("*.viser"))
+
+
+@pytest.mark.parametrize("value", ["0", "1001", "ten"])
+def test_a_bad_sampling_interval_exits_2(value, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([*FLAT_WALK, "--trace-every-ms", value])
+    assert exc.value.code == EXIT_USER_ERROR and "--trace-every-ms" in capsys.readouterr().err
+
+
+def test_the_config_refuses_what_it_cannot_sample():
+    with pytest.raises(TraceError, match="every_ms"):
+        TraceConfig(every_ms=0)
+    with pytest.raises(TraceError, match="from_s"):
+        TraceConfig(from_s=float("nan"))
+    assert replace(TraceConfig(), from_s=2.0).from_s == 2.0
