@@ -146,16 +146,14 @@ class Locomotion:
         self.sim.reset(joint_pos=joint_pos, joint_vel=joint_vel)
         self.planner.reset()
         self._stall.reset()
-        self.tick = 0
-        self.yaw_ref_rad = 0.0
+        self.tick, self.yaw_ref_rad = 0, 0.0
         self.set_command(*self.vel_cmd_xy)
         self.plan: ActivePlan | None = None
         self.records: list[StepRecord] = []
         self._swing_height_m = self.config.swing_height_m * self.robot.description.size_scale
         self.planner_times_s: list[float] = []
         self.trajopt_times_s: list[float] = []
-        self.trajopt_failures = 0
-        self.swing_retargets = 0
+        self.trajopt_failures, self.swing_retargets = 0, 0
         self.stall_plans = 0  # plans made stalled (contactnet.planning.stand.StallWatch): the first step went on
         self.brace_touchdowns = 0  # steps whose swinging feet bracing put down early
         self.fall_reason: str | None = None
@@ -165,8 +163,7 @@ class Locomotion:
         self.start_xy = self._state.base_pos_world[:2].copy()
         com, _, _, _ = self.controller.kinematics(self._state.q_pinocchio(), self._state.v_pinocchio())
         self.com_xy_ref = com[:2].copy()
-        self.max_abs_yaw_rad = 0.0
-        self.wall_time_s = 0.0
+        self.max_abs_yaw_rad, self.wall_time_s = 0.0, 0.0
         # The last step's legs, the tops under them and where they stood at lift-off.
         self._liftoff_tops: tuple[tuple[int, ...], np.ndarray, np.ndarray] | None = None
         self._contact_tick, self._contact = -1, np.zeros(4, dtype=bool)  # (_foot_contact)
@@ -218,6 +215,10 @@ class Locomotion:
     @property
     def done(self) -> bool:
         return self.fall_reason is not None or self.reached_goal
+
+    @property
+    def state(self) -> SimState:  # the measured state the loop acts on now (read only)
+        return self._state
 
     @property
     def target(self) -> ControlTarget | None:  # what the controller tracked at the last tick (None before it)

@@ -132,6 +132,12 @@ def test_a_trace_file_that_cannot_be_written_is_one_line_before_running(extra, n
     assert not list(tmp_path.glob("*.csv")) and not list(tmp_path.glob("*.viser"))
 
 
+def test_a_trace_that_starts_after_the_run_writes_no_file(tmp_path, capsys):
+    out_csv = tmp_path / "late.csv"
+    assert main([*FLAT_WALK, "--duration", "0.2", "--trace", str(out_csv), "--trace-from", "5"]) == 0
+    assert "trace: no samples" in capsys.readouterr().err and not out_csv.exists()
+
+
 @pytest.mark.parametrize("value", ["0", "1001", "ten"])
 def test_a_bad_sampling_interval_exits_2(value, capsys):
     with pytest.raises(SystemExit) as exc:

@@ -320,9 +320,11 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from contactnet.jobs.replay import replay
 
     trace = trace_of(args)
-    stored, now = replay(args.dir, args.key, trace=trace)
-    if trace is not None:
-        write_trace(trace, args, f"replay {args.key}")
+    try:
+        stored, now = replay(args.dir, args.key, trace=trace)
+    finally:  # interrupted too: the samples so far are written
+        if trace is not None:
+            write_trace(trace, args, f"replay {args.key}")
     if args.json:
         print(json.dumps({"key": args.key, "stored": stored, "now": now}, indent=1, default=str))
     else:

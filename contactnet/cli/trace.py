@@ -39,6 +39,9 @@ def write_trace(trace, args: argparse.Namespace, title: str) -> None:  # noqa: A
     """The trace's files, and a line on stderr saying where."""
     from contactnet.jobs.trace import TraceError
 
+    if not trace.rows:  # e.g. the run ended before --trace-from: no files rather than empty ones
+        print(f"trace: no samples (nothing ran from {trace.config.from_s:g} s on); no file written", file=sys.stderr)
+        return
     try:
         written = [str(trace.write_csv(args.trace))] if args.trace else []
         if args.trace_plot:

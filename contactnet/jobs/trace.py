@@ -103,7 +103,7 @@ class LoopTrace:
 
     def sample(self, loco: Locomotion) -> None:
         """One row: the loop now."""
-        controller, state, target = loco.controller, loco._state, loco.target
+        controller, state, target = loco.controller, loco.state, loco.target
         if self._data is None:
             self._data = controller.model.createData()
         q, v = state.q_pinocchio(), state.v_pinocchio()
