@@ -144,7 +144,7 @@ class LoopTrace:
         """The samples drawn (``plot_table``), written whole or not at all."""
         figure = plot_table(self.table(), title)
         buffer = io.BytesIO()
-        figure.savefig(buffer, format=Path(path).suffix[1:], dpi=110)
+        figure.savefig(buffer, format=Path(path).suffix[1:].lower(), dpi=110)
         import matplotlib.pyplot as plt
 
         plt.close(figure)
