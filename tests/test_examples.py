@@ -17,6 +17,7 @@ CASES = {
     "03_custom_planner.py": (["--duration", "3"], "planners: contactnet, fixed, heuristic, oracle, contactnet_paper, cautious"),
     "04_go2_walks.py": (["--duration", "3"], "go2 trot: fell=False"),
     "05_custom_gait.py": (["--duration", "3"], "gaits: walk, trot, pace"),
+    "06_trace_a_push.py": (["--duration", "3"], "trace: 300 samples over 3.00 s; fell=False"),
 }
 
 

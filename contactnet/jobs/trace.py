@@ -179,8 +179,8 @@ def plot_table(table: np.ndarray, title: str = ""):  # noqa: ANN201 - a matplotl
     ax = axes[3]
     for axis, colour in (("x", "C0"), ("y", "C1")):
         ax.plot(t, table[:, col[f"push_f{axis}_n"]], colour, label=f"push {axis}")
-        ax.plot(t, table[:, col[f"push_estimate_f{axis}_n"]], colour, ls=":", label="estimate")
-        ax.plot(t, table[:, col[f"plan_push_f{axis}_n"]], colour, ls="--", label="planned with")
+        ax.plot(t, table[:, col[f"push_estimate_f{axis}_n"]], colour, ls=":", label=f"estimate {axis}")
+        ax.plot(t, table[:, col[f"plan_push_f{axis}_n"]], colour, ls="--", label=f"planned with {axis}")
     ax.set_ylabel("push (N)")
     for leg_index, leg in enumerate(LEGS):
         ax = axes[4 + leg_index]
