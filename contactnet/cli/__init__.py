@@ -159,13 +159,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 trace.run(loco, args.duration)
             finally:  # interrupted too: the samples so far are written
                 write_trace(trace, args, f"simulate {args.robot} {args.gait} {args.planner} on {args.terrain}")
-        with tqdm(total=round(args.duration, 2), unit="sim s", file=sys.stderr, disable=None, leave=False) as bar:
-            while loco.t_s < args.duration - 1e-9 and not loco.done:
-                before = loco.t_s
-                loco.run_for(min(chunk_s, args.duration - loco.t_s))
-                if recording:
-                    recording.add(loco)
-                bar.update(round(loco.t_s - before, 3))
+        else:
+            with tqdm(total=round(args.duration, 2), unit="sim s", file=sys.stderr, disable=None, leave=False) as bar:
+                while loco.t_s < args.duration - 1e-9 and not loco.done:
+                    before = loco.t_s
+                    loco.run_for(min(chunk_s, args.duration - loco.t_s))
+                    if recording:
+                        recording.add(loco)
+                    bar.update(round(loco.t_s - before, 3))
         result = loco.summary()
         if recording:
             where = recording.save()

@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from contactnet.jobs.experiment import ExperimentError, Trial, read_log, run_trial
-from contactnet.jobs.trace import LoopTrace
 from contactnet.sim.mismatch import ModelMismatch
+
+if TYPE_CHECKING:
+    from contactnet.jobs.trace import LoopTrace
 
 
 def trial_from_record(record: dict) -> Trial:
