@@ -125,10 +125,25 @@ def new_page(browser, width: int = 1400, height: int = 900):  # noqa: ANN001, AN
     return new_context(browser, width, height).new_page()
 
 
+#: The 3D view's pixel ratio in the browser tests (viser's ``fixedDpr``, given in the page's address): a quarter.
+#: Software WebGL draws each frame in seconds of CPU: viser redraws for 250 ms after every change and once a second,
+#: so a 3D view in SwiftShader draws without pause, and measured on a 2-core machine (a paused session's page, 20 s)
+#: chromium's GPU process took 185 % of a core at viser's own ratio, 80 % at 0.5 (the page's own choice without a GPU,
+#: static/embed.js) and 45 % at 0.25 (0.1: 44 %). Nothing a test checks depends on it: clicks and the camera's
+#: projections are in CSS pixels, and no test reads the 3D view's pixels. The page's own choice is tested by
+#: tests/test_browser_page.py, which opens the page without it.
+LIGHT_VIEW = "fixedDpr=0.25"
+
+
+def light(url: str) -> str:
+    """``url`` with the browser tests' 3D view resolution (`LIGHT_VIEW`) added to its query."""
+    return url + ("&" if "?" in url else "?") + LIGHT_VIEW
+
+
 def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
-    """A 1400 x 900 page of the viser client served at ``port`` (loopback), once it says "Connected"."""
+    """A 1400 x 900 page of the viser client served at ``port`` (loopback, `light`), once it says "Connected"."""
     page = new_page(browser)
-    page.goto(f"http://127.0.0.1:{port}/")
+    page.goto(light(f"http://127.0.0.1:{port}/"))
     page.get_by_text("Connected").wait_for(timeout=90_000)
     return page
 

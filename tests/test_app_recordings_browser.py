@@ -8,7 +8,7 @@ import shutil
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, new_page, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, light, new_page, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -40,7 +40,7 @@ def browser():
 def page(live, browser):
     _, url = live
     page = new_page(browser)
-    page.goto(url + "/")
+    page.goto(light(url + "/"))
     page.locator("body[data-ready]").wait_for(timeout=90_000)  # main() wired and showing the live session
     yield page
 
@@ -58,7 +58,7 @@ def test_the_recordings_open_while_the_page_still_loads(live, browser):
     held = []
     slow.route("**/api/info", lambda route: held.append(route))  # not answered until the end of the test
     try:
-        slow.goto(url + "/", wait_until="domcontentloaded")
+        slow.goto(light(url + "/"), wait_until="domcontentloaded")
         # (evaluate lets playwright dispatch the route to the handler)
         wait_for(lambda: slow.evaluate("1") and held, what="the page to ask for /api/info")
         slow.locator("#recordings-toggle").dispatch_event("click")

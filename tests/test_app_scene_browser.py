@@ -43,16 +43,18 @@ def page(live):
 
 
 
-def screen_xy(camera, point_world: np.ndarray) -> tuple[float, float] | None:
-    """Where a world point is drawn in the browser's canvas (CSS pixels), from the camera it reported."""
+def screen_xy(camera, point_world: np.ndarray, css_size: tuple[int, int]) -> tuple[float, float] | None:
+    """Where a world point is drawn in the browser's canvas (CSS pixels, the canvas ``css_size`` wide and high),
+    from the camera it reported (its image size is in rendered pixels: a quarter of them here, `helpers.light`)."""
     from viser import transforms
 
     rotation = transforms.SO3(np.asarray(camera.wxyz)).as_matrix()  # OpenCV: x right, y down, z forward
     p = rotation.T @ (np.asarray(point_world, dtype=float) - np.asarray(camera.position))
     if p[2] <= 1e-3:
         return None
-    focal = 0.5 * camera.image_height / math.tan(0.5 * camera.fov)
-    return camera.image_width / 2 + focal * p[0] / p[2], camera.image_height / 2 + focal * p[1] / p[2]
+    width, height = css_size
+    focal = 0.5 * height / math.tan(0.5 * camera.fov)
+    return width / 2 + focal * p[0] / p[2], height / 2 + focal * p[1] / p[2]
 
 
 def test_the_software_webgl_toast_closes_by_itself(live, page):
@@ -96,12 +98,13 @@ def click_a_disk(app, page, client, scene, cand, positions) -> None:  # noqa: AN
     """Click the disk drawn (at ``positions``) clearest of the others and of the feet; the legend names it."""
     n = min(len(cand.xy_world), len(positions))
     feet = app.session.view.foot_pos_world
-    on_screen = [(i, screen_xy(client.camera, positions[i])) for i in range(n)]
+    size = (page.viewport_size["width"], page.viewport_size["height"])
+    on_screen = [(i, screen_xy(client.camera, positions[i], size)) for i in range(n)]
     on_screen = [(i, xy) for i, xy in on_screen if xy is not None and 100 < xy[0] < 900 and 100 < xy[1] < 800]
     assert on_screen, "no disk on screen"
     # the disk drawn farthest (on the screen) from every other disk and every foot: a click there hits it and
     # nothing in front of it, wherever the robot stopped (a far disk among many was hit behind a nearer one)
-    others = [xy for xy in (screen_xy(client.camera, p) for p in (*positions[:n], *feet)) if xy is not None]
+    others = [xy for xy in (screen_xy(client.camera, p, size) for p in (*positions[:n], *feet)) if xy is not None]
 
     def room(xy) -> float:  # noqa: ANN001
         return min((math.dist(xy, o) for o in others if math.dist(xy, o) > 1e-9), default=math.inf)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, new_context, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, light, new_context, serving, wait_for
 
 pytestmark = browser_marks()
 
@@ -43,7 +43,7 @@ def page(tool):
         page = context.new_page()
         errors: list[str] = []
         page.on("pageerror", lambda error: errors.append(str(error)))
-        page.goto(url + "/")
+        page.goto(light(url + "/"))
         page.locator("body[data-ready]").wait_for()
         cookie = next(c["value"] for c in context.cookies() if c["name"] == VISIT_COOKIE)
         token = CURRENT_VISIT.set(app.visits.get(cookie))

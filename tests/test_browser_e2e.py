@@ -7,7 +7,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, new_page, save_random_models, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, light, new_page, save_random_models, serving, wait_for
 
 from app.live.commands import SetPaused, SetPlanner, SetVelocity
 
@@ -42,7 +42,7 @@ def page(live):
     app, url = live
     with chromium() as browser:
         page = new_page(browser, 1600, 1000)
-        page.goto(url + "/")
+        page.goto(light(url + "/"))
         page.frame_locator("#viewer").get_by_text("Connected").wait_for(timeout=90_000)
         yield page
 

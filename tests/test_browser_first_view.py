@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, live_app, new_context, serving, wait_for
+from helpers import ARTIFACTS, browser_marks, chromium, light, live_app, new_context, serving, wait_for
 
 from app.live.commands import Reset, SetLoop, SetPaused, SetPlanner, SetTerrain, SetVelocity
 from contactnet.terrain import Terrain, flat
@@ -78,7 +78,7 @@ def open_page(browser, url: str, width: int = 1280, height: int = 800):  # noqa:
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda error: errors.append(str(error)))
-    page.goto(url + "/")
+    page.goto(light(url + "/"))
     page.locator("body[data-ready]").wait_for()
     return page, errors
 

@@ -11,7 +11,16 @@ import time
 from urllib.parse import parse_qs, urlsplit
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, new_context, save_random_models, wait_for
+from helpers import (
+    ARTIFACTS,
+    LIGHT_VIEW,
+    browser_marks,
+    chromium,
+    light,
+    new_context,
+    save_random_models,
+    wait_for,
+)
 
 from app.live.commands import EditTerrain, Reset, SetCompare, SetGait, SetLoop, SetPaused
 
@@ -154,9 +163,10 @@ def connected(page, timeout_ms: int = 90_000) -> None:
 
 
 def opened(tool, page):
-    """The page on the tool (the first test opens it; a test run alone opens it here)."""
-    if not page.url.startswith(tool.url):
-        page.goto(tool.url + "/")
+    """The page on the tool with the tests' 3D view resolution (`light`): the first test opens it without, to see the
+    page's own choice; the next test, or a test run alone, opens it here."""
+    if not page.url.startswith(tool.url) or "fixedDpr=" not in page.evaluate("location.href"):
+        page.goto(light(tool.url + "/"))
         connected(page)
     return page
 
@@ -287,7 +297,7 @@ def test_share_link_round_trip(tool, page):
     tool.app.terrains.load("flat")
     session.call(SetGait("walk"))
     session.call(SetCompare(()))
-    page.goto(link + "&fixedDpr=0.75")
+    page.goto(link + "&" + LIGHT_VIEW)
     wait_for(lambda: tool.state().scenario.model_dump() == {
         "terrain": "short_flat", "removed": None, "seed": None, "gait": "trot", "planner": "heuristic",
         "compare": ["heuristic", "fixed"],
@@ -295,8 +305,8 @@ def test_share_link_round_trip(tool, page):
     # (location.href: playwright's page.url does not always follow history.replaceState)
     wait_for(lambda: "terrain=" not in page.evaluate("location.href"), timeout=60,
              what="the scenario out of the address bar")
-    assert "fixedDpr=0.75" in page.evaluate("location.href")
-    assert "fixedDpr=0.75" in page.locator("#viewer").get_attribute("src")  # other parameters reach the viewer
+    assert LIGHT_VIEW in page.evaluate("location.href")
+    assert LIGHT_VIEW in page.locator("#viewer").get_attribute("src")  # other parameters reach the viewer
     connected(page)
 
     # An edited terrain cannot be shared until it is saved.
@@ -308,7 +318,7 @@ def test_share_link_round_trip(tool, page):
     toast(page, "Save the edited terrain", "warning")
 
     # A link naming a terrain that does not exist: a toast, and the rest of the link still applies.
-    page.goto(tool.url + "/?terrain=no_such_terrain&gait=walk&planner=heuristic")
+    page.goto(light(tool.url + "/?terrain=no_such_terrain&gait=walk&planner=heuristic"))
     toast(page, "terrain no_such_terrain refused (404", "error")
     wait_for(lambda: tool.state().gait == "walk" and tool.state().compare is None, timeout=60,
              what="the link's gait and compare mode off")

@@ -9,7 +9,17 @@ from __future__ import annotations
 import time
 
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, live_app, new_context, new_page, serving, wait_for
+from helpers import (
+    ARTIFACTS,
+    browser_marks,
+    chromium,
+    light,
+    live_app,
+    new_context,
+    new_page,
+    serving,
+    wait_for,
+)
 
 pytestmark = browser_marks()
 
@@ -32,7 +42,7 @@ def visitor(browser, url: str):  # noqa: ANN001, ANN201 - playwright objects
     """A new browser profile (its own cookies) with the page open and wired."""
     context = new_context(browser, 1200, 800)
     page = context.new_page()
-    page.goto(url + "/")
+    page.goto(light(url + "/"))
     page.locator("body[data-ready]").wait_for()
     return page
 
@@ -94,7 +104,7 @@ def test_a_watcher_sees_a_session_read_only(live, browser):
     try:
         watch_id = owner.evaluate("() => fetch('/api/info').then(r => r.json())")["watch_id"]
         sessions_before = len(app.visits)
-        watcher.goto(f"{url}/?watch={watch_id}")
+        watcher.goto(light(f"{url}/?watch={watch_id}"))
         watcher.locator("body[data-ready]").wait_for(timeout=90_000)
         assert len(app.visits) == sessions_before  # watching takes no session
         assert watcher.locator("body.watching").count() == 1

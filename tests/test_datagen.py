@@ -114,9 +114,10 @@ def test_config_validation():
 
 def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
     out = tmp_path / "walk"
-    # Enough episodes that work is left when the interrupt lands (6 could all finish between two polls once
-    # episodes got faster).
-    command = [sys.executable, "-m", "contactnet", "datagen", "--gait", "walk", "--episodes", "40",
+    # Enough episodes that work is left when the interrupt lands (6 could all finish between two polls of 0.2 s once
+    # episodes got faster), few enough that the resume is short: the interrupt comes within a poll of 0.05 s of the
+    # first stored episode, and the other 15 take seconds each.
+    command = [sys.executable, "-m", "contactnet", "datagen", "--gait", "walk", "--episodes", "16",
                "--instances-per-episode", "3", "--episodes-per-shard", "1", "--workers", "1", "--seed", "3",
                "--out", str(out), "--quiet"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -130,23 +131,23 @@ def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
             if episodes_at_interrupt >= 1:
                 break
         assert process.poll() is None, process.communicate()
-        time.sleep(0.2)
+        time.sleep(0.05)
     os.killpg(process.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers included
     out_text, err = process.communicate(timeout=60)
-    # (Once in CI the run ended with 0, all 40 episodes done: the message says whether the interrupt came late or
+    # (Once in CI the run ended with 0, all episodes done: the message says whether the interrupt came late or
     # was lost.)
-    assert process.returncode == 130, (f"exit {process.returncode}; {episodes_at_interrupt} of 40 episodes stored "
+    assert process.returncode == 130, (f"exit {process.returncode}; {episodes_at_interrupt} of 16 episodes stored "
                                        f"when interrupted; stdout {out_text!r}; stderr {err!r}; SIGINT blocked "
                                        f"in this process: {signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, [])}")
     assert "resume" in err and "Traceback" not in err
     manifest = json.loads(manifest_path.read_text())
-    assert 1 <= manifest["episodes"] < 40 and not manifest["complete"]
+    assert 1 <= manifest["episodes"] < 16 and not manifest["complete"]
     assert all((out / name).is_file() for name in manifest["shards"])
     finished = {name: (out / name).stat().st_mtime_ns for name in manifest["shards"]}
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr
     manifest = json.loads(manifest_path.read_text())
-    assert manifest["complete"] and manifest["episodes"] == 40
+    assert manifest["complete"] and manifest["episodes"] == 16
     assert {name: (out / name).stat().st_mtime_ns for name in finished} == finished
 
 

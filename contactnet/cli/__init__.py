@@ -82,7 +82,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     if args.sessions is not None and args.what != "live":
         raise UserError("--sessions is an option of bench live")
-    if args.what == "live":  # the web tool's benchmarks live with the web tool
+    if args.runs is not None and args.what != "sim":
+        raise UserError("--runs is an option of bench sim")
+    if args.what == "sim" and args.runs is not None:
+        from contactnet.bench.sim import bench_sim
+
+        rows = bench_sim(runs=args.runs, stack_runs=args.runs, robot_name=args.robot or registry.DEFAULT_ROBOT)
+    elif args.what == "live":  # the web tool's benchmarks live with the web tool
         from app.bench.live import bench_live, bench_sessions
 
         rows = bench_sessions(args.sessions) if args.sessions is not None else bench_live()
@@ -554,6 +560,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="the robot of the benchmarks that run one (default solo12)")
     bench.add_argument("--sessions", metavar="N[,N...]", type=session_counts, default=None,
                        help="bench live: N visitors' sessions at once (each count a row: all in real time?)")
+    bench.add_argument("--runs", type=bounded_int("--runs", 1, 100), default=None, metavar="N",
+                       help="bench sim: N runs of each row (default 5 standing, 3 of the whole stack; 1 for a look)")
     bench.add_argument("--json", action="store_true")
     bench.set_defaults(func=cmd_bench)
 

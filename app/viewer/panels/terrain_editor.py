@@ -55,7 +55,9 @@ class EditorPanel:
         gui = server.gui
         self._pending_save: str | None = None  # the name an "Overwrite NAME?" press would write
         self._label: str | None = None
-        self._height_lock = threading.Lock()  # one stone height change at a time (callbacks run in a pool)
+        # One change of the selected stone at a time (height, move, delete: callbacks run in a pool), so that a
+        # delete pressed while a move is applied deletes the moved stone, not nothing (the move re-selects it).
+        self._selection_lock = threading.Lock()
         self._height_thread: int | None = None  # the thread applying a height change (keeps the selection)
         with gui.add_folder("Terrain editor", order=order, expand_by_default=False):
             self.tool = gui.add_dropdown(
@@ -246,7 +248,7 @@ class EditorPanel:
         """The slider or the typed field changed (in a browser): put the selected stone's top there."""
         if event.client is None:  # set by the server (`_show_height`): nothing to apply
             return
-        with self._height_lock:
+        with self._selection_lock:
             index = self._selected
             if index is None:
                 return
@@ -270,24 +272,28 @@ class EditorPanel:
                 self._say(f"Region {index} ({shape}) top set to {value_cm:+.1f} cm · {self._summary()}")
 
     def _on_moved(self, event) -> None:
-        gizmo, index = self._gizmo, self._selected
-        if event.phase != "end" or gizmo is None or index is None:
+        if event.phase != "end":
             return
-        w, _, _, z = gizmo.wxyz
-        yaw = 2.0 * math.atan2(z, w)
-        xy = (float(gizmo.position[0]), float(gizmo.position[1]))
-        if self._run(
-            event.client, "Move stone", lambda: self.terrains.edit(editor.move_region, index, xy, yaw)
-        ):
-            self._select(index)
-            self._say(f"Moved region {index} to ({xy[0]:.2f}, {xy[1]:.2f}) · {self._summary()}")
+        with self._selection_lock:
+            gizmo, index = self._gizmo, self._selected
+            if gizmo is None or index is None:
+                return
+            w, _, _, z = gizmo.wxyz
+            yaw = 2.0 * math.atan2(z, w)
+            xy = (float(gizmo.position[0]), float(gizmo.position[1]))
+            if self._run(
+                event.client, "Move stone", lambda: self.terrains.edit(editor.move_region, index, xy, yaw)
+            ):
+                self._select(index)
+                self._say(f"Moved region {index} to ({xy[0]:.2f}, {xy[1]:.2f}) · {self._summary()}")
 
     def _on_delete(self, event) -> None:
-        index = self._selected
-        if index is not None and self._run(
-            event.client, "Delete stone", lambda: self.terrains.edit(editor.delete_region, index)
-        ):
-            self._say(f"Deleted region {index} · {self._summary()}")
+        with self._selection_lock:
+            index = self._selected
+            if index is not None and self._run(
+                event.client, "Delete stone", lambda: self.terrains.edit(editor.delete_region, index)
+            ):
+                self._say(f"Deleted region {index} · {self._summary()}")
 
     def _on_history(self, event) -> None:
         undo = self.history_buttons.value == "Undo"
