@@ -126,8 +126,8 @@ def new_page(browser, width: int = 1400, height: int = 900):  # noqa: ANN001, AN
 
 
 #: The 3D view's pixel ratio in the browser tests (viser's ``fixedDpr``, given in the page's address): a quarter.
-#: Software WebGL draws each frame in seconds of CPU: viser redraws for 250 ms after every change and once a second,
-#: so a 3D view in SwiftShader draws without pause, and measured on a 2-core machine (a paused session's page, 20 s)
+#: viser redraws for 250 ms after every change and once a second, and software WebGL (SwiftShader) takes a quarter
+#: second a frame, so the 3D view draws without pause: measured on a 2-core machine (a paused session's 3D view, 20 s)
 #: chromium's GPU process took 185 % of a core at viser's own ratio, 80 % at 0.5 (the page's own choice without a GPU,
 #: static/embed.js) and 45 % at 0.25 (0.1: 44 %). Nothing a test checks depends on it: clicks and the camera's
 #: projections are in CSS pixels, and no test reads the 3D view's pixels. The page's own choice is tested by

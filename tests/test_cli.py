@@ -115,6 +115,14 @@ def test_bench_sim_json():
         assert row["median_rtf"] > 0 and row["fell"] is False and row["runs"] == 1
 
 
+@pytest.mark.parametrize("args, needle", [(["planner", "--runs", "1"], "--runs is an option of bench sim"),
+                                          (["sim", "--sessions", "2"], "--sessions is an option of bench live")])
+def test_bench_options_of_another_benchmark_are_one_line(args, needle, capsys):
+    assert main(["bench", *args]) == EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert needle in err and len(err.strip().splitlines()) == 1, err
+
+
 def test_bad_push_is_a_user_error(capsys):
     args = ["simulate", "--terrain", "flat", "--gait", "walk", "--planner", "heuristic", "--push", "1,2"]
     assert main(args) == EXIT_USER_ERROR
