@@ -148,6 +148,23 @@ def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
     return page
 
 
+def screen_xy(camera, point_world, css_size: tuple[int, int]) -> tuple[float, float] | None:  # noqa: ANN001
+    """Where a world point is drawn in a browser's 3D view (CSS pixels, the canvas ``css_size`` wide and high), from
+    the camera it reported; None behind it. (The camera's image size is in rendered pixels: a quarter of them in the
+    tests, `light`, and viser lowers them further on a slow renderer.)"""
+    import math
+
+    from viser import transforms
+
+    rotation = transforms.SO3(np.asarray(camera.wxyz)).as_matrix()  # OpenCV: x right, y down, z forward
+    p = rotation.T @ (np.asarray(point_world, dtype=float) - np.asarray(camera.position))
+    if p[2] <= 1e-3:
+        return None
+    width, height = css_size
+    focal = 0.5 * height / math.tan(0.5 * camera.fov)
+    return width / 2 + focal * p[0] / p[2], height / 2 + focal * p[1] / p[2]
+
+
 def viser_client(app):  # noqa: ANN001, ANN201
     """The first viser client connected to ``app``'s 3D view (waits for one)."""
     return wait_for(lambda: list(app.viewer.server.get_clients().values()), what="the viser client")[0]

@@ -17,6 +17,7 @@ from helpers import (
     chromium,
     live_app,
     open_viser,
+    screen_xy,
     viser_client,
     wait_for,
 )
@@ -43,18 +44,6 @@ def page(live):
 
 
 
-def screen_xy(camera, point_world: np.ndarray, css_size: tuple[int, int]) -> tuple[float, float] | None:
-    """Where a world point is drawn in the browser's canvas (CSS pixels, the canvas ``css_size`` wide and high),
-    from the camera it reported (its image size is in rendered pixels: a quarter of them here, `helpers.light`)."""
-    from viser import transforms
-
-    rotation = transforms.SO3(np.asarray(camera.wxyz)).as_matrix()  # OpenCV: x right, y down, z forward
-    p = rotation.T @ (np.asarray(point_world, dtype=float) - np.asarray(camera.position))
-    if p[2] <= 1e-3:
-        return None
-    width, height = css_size
-    focal = 0.5 * height / math.tan(0.5 * camera.fov)
-    return width / 2 + focal * p[0] / p[2], height / 2 + focal * p[1] / p[2]
 
 
 def test_the_software_webgl_toast_closes_by_itself(live, page):

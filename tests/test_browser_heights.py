@@ -13,7 +13,16 @@ import time
 
 import numpy as np
 import pytest
-from helpers import ARTIFACTS, browser_marks, chromium, live_app, open_viser, viser_client, wait_for
+from helpers import (
+    ARTIFACTS,
+    browser_marks,
+    chromium,
+    live_app,
+    open_viser,
+    screen_xy,
+    viser_client,
+    wait_for,
+)
 
 from contactnet.terrain import Terrain
 
@@ -38,19 +47,6 @@ def page(live):
 
 
 
-def screen_xy(camera, point_world, css_size: tuple[int, int]) -> tuple[float, float] | None:  # noqa: ANN001
-    """Where a world point is drawn in the browser's canvas (CSS pixels, the canvas ``css_size`` wide and high),
-    from the camera it reported (its image size is in rendered pixels: viser lowers the resolution of a slow
-    renderer)."""
-    from viser import transforms
-
-    rotation = transforms.SO3(np.asarray(camera.wxyz)).as_matrix()  # OpenCV: x right, y down, z forward
-    p = rotation.T @ (np.asarray(point_world, dtype=float) - np.asarray(camera.position))
-    if p[2] <= 1e-3:
-        return None
-    width, height = css_size
-    focal = 0.5 * height / math.tan(0.5 * camera.fov)
-    return width / 2 + focal * p[0] / p[2], height / 2 + focal * p[1] / p[2]
 
 
 def settled_camera(app):
