@@ -116,7 +116,7 @@ def test_ctrl_c_keeps_finished_shards_and_the_same_command_resumes(tmp_path):
     out = tmp_path / "walk"
     # Enough episodes that work is left when the interrupt lands (6 could all finish between two polls of 0.2 s once
     # episodes got faster), few enough that the resume is short: the interrupt comes within a poll of 0.05 s of the
-    # first stored episode, and the other 15 take seconds each.
+    # first stored episode, and the other 15 take ten times that even at that pace (seconds each on a slow machine).
     command = [sys.executable, "-m", "contactnet", "datagen", "--gait", "walk", "--episodes", "16",
                "--instances-per-episode", "3", "--episodes-per-shard", "1", "--workers", "1", "--seed", "3",
                "--out", str(out), "--quiet"]
