@@ -43,9 +43,6 @@ def page(live):
         yield page
 
 
-
-
-
 def test_the_software_webgl_toast_closes_by_itself(live, page):
     page.get_by_text("Software WebGL rendering").first.wait_for(state="hidden", timeout=30_000)
 

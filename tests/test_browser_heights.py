@@ -46,9 +46,6 @@ def page(live):
         yield page
 
 
-
-
-
 def settled_camera(app):
     """The camera the browser reports once it stopped moving (a follow or mode change glides)."""
     camera = viser_client(app).camera

@@ -43,12 +43,18 @@ def benchmark(name: str) -> Callable[..., list[dict]]:
     return getattr(importlib.import_module(module), function)
 
 
-def run(name: str, robot_name: str | None = None) -> list[dict]:
-    """Run a named benchmark; ``robot_name`` goes to the benchmarks that run a robot."""
+def run(name: str, robot_name: str | None = None, runs: int | None = None) -> list[dict]:
+    """Run a named benchmark; ``robot_name`` goes to the benchmarks that run a robot, ``runs`` (repeats of each row)
+    to those that take it (`takes_runs`)."""
     fn = benchmark(name)
-    if robot_name is not None and "robot_name" in inspect.signature(fn).parameters:
-        return fn(robot_name=robot_name)
-    return fn()
+    given = {"robot_name": robot_name, "runs": runs}
+    parameters = inspect.signature(fn).parameters
+    return fn(**{key: value for key, value in given.items() if value is not None and key in parameters})
+
+
+def takes_runs(name: str) -> bool:
+    """Whether the named benchmark takes ``runs`` (``contactnet bench sim --runs N``)."""
+    return name in BENCHMARKS and "runs" in inspect.signature(benchmark(name)).parameters
 
 
 def format_table(rows: list[dict]) -> str:

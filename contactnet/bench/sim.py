@@ -59,8 +59,9 @@ def walking_real_time_factor(gait_name: str, sim_seconds: float = STACK_SECONDS,
             "trajopt_median_ms": result["trajopt_ms"]["median"], "planner_median_ms": result["planner_ms"]["median"]}
 
 
-def bench_sim(runs: int = 5, sim_seconds: float = 4.0, stack_runs: int = 3, robot_name: str = DEFAULT_ROBOT) -> list[dict]:
-    """Real-time factors of both engines: standing (joint PD at 1 kHz on `flat`) and the whole stack walking.
+def bench_sim(runs: int | None = None, sim_seconds: float = 4.0, robot_name: str = DEFAULT_ROBOT) -> list[dict]:
+    """Real-time factors of both engines: standing (joint PD at 1 kHz on `flat`) and the whole stack walking;
+    ``runs`` of each row (None: 5 standing, 3 of the whole stack).
 
     Standing rows: PyBullet with sphere feet (ours), with foot-contact sensing every step, and the URDF's mesh feet
     as the reference measured in the same run (`vs_mesh_feet` is the ratio of medians); MuJoCo with sphere feet,
@@ -74,9 +75,10 @@ def bench_sim(runs: int = 5, sim_seconds: float = 4.0, stack_runs: int = 3, robo
         "MuJoCo, sphere feet": {"sphere_feet": True, "engine": "mujoco"},
         "MuJoCo, sphere feet + contact sensing": {"sphere_feet": True, "with_contacts": True, "engine": "mujoco"},
     }
+    stand_runs, stack_runs = (5, 3) if runs is None else (runs, runs)
     rtfs: dict[str, list[float]] = {name: [] for name in variants}
     fell = dict.fromkeys(variants, False)
-    for _ in range(runs):
+    for _ in range(stand_runs):
         for name, kwargs in variants.items():
             result = standing_real_time_factor(sim_seconds, robot_name=robot_name, **kwargs)
             rtfs[name].append(result["rtf"])

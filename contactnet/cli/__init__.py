@@ -78,17 +78,13 @@ def session_counts(text: str) -> str:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from contactnet.bench import format_table, run
+    from contactnet.bench import format_table, run, takes_runs
 
     if args.sessions is not None and args.what != "live":
         raise UserError("--sessions is an option of bench live")
-    if args.runs is not None and args.what != "sim":
+    if args.runs is not None and not takes_runs(args.what):
         raise UserError("--runs is an option of bench sim")
-    if args.what == "sim" and args.runs is not None:
-        from contactnet.bench.sim import bench_sim
-
-        rows = bench_sim(runs=args.runs, stack_runs=args.runs, robot_name=args.robot or registry.DEFAULT_ROBOT)
-    elif args.what == "live":  # the web tool's benchmarks live with the web tool
+    if args.what == "live":  # the web tool's benchmarks live with the web tool
         from app.bench.live import bench_live, bench_sessions
 
         rows = bench_sessions(args.sessions) if args.sessions is not None else bench_live()
@@ -97,7 +93,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
         rows = bench_upload()
     else:
-        rows = run(args.what, robot_name=args.robot)
+        rows = run(args.what, robot_name=args.robot, runs=args.runs)
     if args.json:
         print(json.dumps({"benchmark": args.what, "rows": rows}, indent=2))
     else:
