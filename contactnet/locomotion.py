@@ -258,7 +258,7 @@ class Locomotion:
         q = state.q_pinocchio()
         tau = self.controller.torques(q, state.v_pinocchio(), target)
         if self.observer is not None:  # the forces the last tick's torques delivered; a foot off the ground none
-            contact = self.sim.foot_contact()
+            contact = self._foot_contact()
             known = not (contact & (self._leg_sigma_m < self.observer.config.min_leg_jacobian_m)).any()
             self.observer.update(self.controller.last_com_vel, self._delivered * contact[:, None], known)
             self._delivered, self._leg_sigma_m = self.controller.delivered_forces(q, tau)
