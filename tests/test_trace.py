@@ -78,8 +78,8 @@ def _walk(robot, engine: str, trace: LoopTrace | None, seconds: float = 1.2) -> 
 @pytest.mark.parametrize("engine", ENGINES)
 def test_a_traced_run_is_the_same_run_and_the_forces_add_up(robot, engine):
     """Traced or not, the same run to the last digit (with sensor noise on, and a push); the samples every 10 ms from
-    0.2 s; the ground carries the robot's weight as measured and as planned, the push is there while it lasts, and a
-    foot planned in swing is planned no force."""
+    0.2 s; the ground carries the robot's weight as measured and as planned, the push is there while it lasts, a
+    foot planned in swing is planned no force, and a foot on the flat ground has its ball's centre a radius up."""
     trace = LoopTrace(TraceConfig(every_ms=10, from_s=0.2))
     assert _walk(robot, engine, trace) == _walk(robot, engine, None)
     table = trace.table()
@@ -97,6 +97,9 @@ def test_a_traced_run_is_the_same_run_and_the_forces_add_up(robot, engine):
         swing = table[:, col[f"{leg}_stance"]] == 0.0
         assert np.all(table[swing, col[f"{leg}_plan_fz_n"]] == 0.0)
         assert np.all(np.isin(table[:, col[f"{leg}_contact"]], (0.0, 1.0)))
+        down = table[:, col[f"{leg}_contact"]] == 1.0
+        assert np.allclose(table[down, col[f"{leg}_z_m"]], robot.description.foot_radius_m, atol=3e-3)
+        assert np.all(table[swing & ~down, col[f"{leg}_z_m"]] > robot.description.foot_radius_m)
         swinging += swing.sum()
     assert swinging >= 10  # the walk stepped
 

@@ -12,7 +12,8 @@ momentum about its CoM over its composite inertia, pinocchio's centroidal dynami
 pinocchio Data of its own. ``base_w*`` is the base link's rate, which the optimizer starts from: the two differ when
 the legs swing against the base. ``push_*`` is the force applied to the base over the tick (``--push``),
 ``push_estimate_*`` the disturbance observer's estimate of it (``contactnet.planning.observer``; NaN without the
-observer) and ``plan_push_*`` the force the active plan was solved with.
+observer) and ``plan_push_*`` the force the active plan was solved with. ``{leg}_x_m`` .. ``{leg}_z_m`` is each foot's
+ball centre as the controller saw it (with the CoM, the support a push must be held over).
 """
 
 from __future__ import annotations
@@ -64,7 +65,7 @@ def columns() -> list[str]:
     names += [f"plan_com_{a}_m" for a in "xyz"] + ["plan_roll_rad", "plan_pitch_rad"]
     names += ["push_fx_n", "push_fy_n", "push_estimate_fx_n", "push_estimate_fy_n", "plan_push_fx_n", "plan_push_fy_n"]
     for leg in LEGS:
-        names += [f"{leg}_stance", f"{leg}_contact"]
+        names += [f"{leg}_stance", f"{leg}_contact"] + [f"{leg}_{a}_m" for a in "xyz"]
         for kind in ("plan", "cmd", "meas"):
             names += [f"{leg}_{kind}_f{a}_n" for a in "xyz"]
     return names
@@ -123,9 +124,9 @@ class LoopTrace:
         row += [float("nan")] * 2 if observer is None else [observer.estimate_x_n, observer.estimate_y_n]
         held = None if loco.plan is None else loco.plan.solution_force_world
         row += [0.0, 0.0] if held is None else [float(held[0]), float(held[1])]
-        commanded = controller.last_forces
+        commanded, feet = controller.last_forces, controller.last_foot_pos
         for leg in range(4):
-            row += [float(stance[leg]), float(contact[leg]), *planned[leg], *commanded[leg], *measured[leg]]
+            row += [float(stance[leg]), float(contact[leg]), *feet[leg], *planned[leg], *commanded[leg], *measured[leg]]
         self.rows.append([float(x) for x in row])
 
     def table(self) -> np.ndarray:
