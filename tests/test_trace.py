@@ -12,7 +12,14 @@ import numpy as np
 import pytest
 
 from contactnet.cli import EXIT_USER_ERROR, main
-from contactnet.jobs.trace import LoopTrace, TraceConfig, TraceError, body_angular_velocity, columns
+from contactnet.jobs.trace import (
+    LoopTrace,
+    TraceConfig,
+    TraceError,
+    body_angular_velocity,
+    columns,
+    hold_margin,
+)
 from contactnet.locomotion import Locomotion
 from contactnet.motion.gait import WALK
 from contactnet.planning.heuristic import HeuristicPlanner
@@ -102,6 +109,29 @@ def test_a_traced_run_is_the_same_run_and_the_forces_add_up(robot, engine):
         assert np.all(table[swing & ~down, col[f"{leg}_z_m"]] > robot.description.foot_radius_m)
         swinging += swing.sum()
     assert swinging >= 10  # the walk stepped
+    margin = table[:, col["push_hold_margin_m"]]
+    assert np.all(np.isnan(margin[~pushed])) and np.all(np.isfinite(margin[pushed]))
+    assert np.all((margin[pushed] > 0.0) & (margin[pushed] < 0.3))  # 4 N is held (Solo12's feet: about 0.15 m out)
+
+
+def test_the_hold_margin_is_the_feet_reach_beyond_the_push_and_capture_point():
+    """``hold_margin`` against the numbers worked by hand: four feet at (+-0.1, +-0.1) m around a CoM 0.3 m up, 10 kg,
+    a 10 N push along +y asks the centre of pressure 10 * 0.3 / (10 * 9.81) = 3.06 cm toward it; moving at 0.1 m/s
+    along it asks 0.1 / sqrt(9.81 / 0.3) = 1.75 cm more; along the diagonal the corner reaches 0.1 sqrt(2)."""
+    feet = np.array([[0.1, 0.1], [0.1, -0.1], [-0.1, 0.1], [-0.1, -0.1]])
+    com, still = np.array([0.0, 0.0, 0.3]), np.zeros(3)
+    asked = 10.0 * 0.3 / (10.0 * 9.81)
+    assert hold_margin(np.array([0.0, 10.0]), com, still, feet, 0.3, 10.0) == pytest.approx(0.1 - asked)
+    moving = np.array([0.0, 0.1, 0.0])
+    assert hold_margin(np.array([0.0, 10.0]), com, moving, feet, 0.3, 10.0) == pytest.approx(
+        0.1 - asked - 0.1 / math.sqrt(9.81 / 0.3))
+    assert hold_margin(np.array([0.0, -10.0]), com, moving, feet, 0.3, 10.0) == pytest.approx(
+        0.1 - asked + 0.1 / math.sqrt(9.81 / 0.3))  # moving away from the push helps
+    diagonal = np.array([10.0, 10.0]) / math.sqrt(2.0)
+    assert hold_margin(diagonal, com, still, feet, 0.3, 10.0) == pytest.approx(0.1 * math.sqrt(2.0) - asked)
+    assert hold_margin(np.array([0.0, 10.0]), com, still, feet[[1, 3]], 0.3, 10.0) == pytest.approx(-0.1 - asked)
+    assert math.isnan(hold_margin(np.zeros(2), com, still, feet, 0.3, 10.0))
+    assert math.isnan(hold_margin(np.array([0.0, 10.0]), com, still, feet[:0], 0.3, 10.0))
 
 
 def test_simulate_writes_the_trace_and_its_plot(tmp_path, capsys):

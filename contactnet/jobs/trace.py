@@ -13,13 +13,16 @@ pinocchio Data of its own. ``base_w*`` is the base link's rate, which the optimi
 the legs swing against the base. ``push_*`` is the force applied to the base over the tick (``--push``),
 ``push_estimate_*`` the disturbance observer's estimate of it (``contactnet.planning.observer``; NaN without the
 observer) and ``plan_push_*`` the force the active plan was solved with. ``{leg}_x_m`` .. ``{leg}_z_m`` is each foot's
-ball centre as the controller saw it (with the CoM, the support a push must be held over).
+ball centre as the controller saw it (with the CoM, the support a push must be held over). ``push_hold_margin_m`` is how
+far the feet on the ground reach beyond what holding the applied push in place asks (``hold_margin``; NaN without a
+push or with no foot down): below zero, no stance holds it and only a step does.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -64,6 +67,7 @@ def columns() -> list[str]:
     names += [f"base_w{a}_rad_s" for a in "xyz"] + [f"body_w{a}_rad_s" for a in "xyz"]
     names += [f"plan_com_{a}_m" for a in "xyz"] + ["plan_roll_rad", "plan_pitch_rad"]
     names += ["push_fx_n", "push_fy_n", "push_estimate_fx_n", "push_estimate_fy_n", "plan_push_fx_n", "plan_push_fy_n"]
+    names += ["push_hold_margin_m"]
     for leg in LEGS:
         names += [f"{leg}_stance", f"{leg}_contact"] + [f"{leg}_{a}_m" for a in "xyz"]
         for kind in ("plan", "cmd", "meas"):
@@ -78,6 +82,22 @@ def body_angular_velocity(model, data, q: np.ndarray, v: np.ndarray) -> np.ndarr
 
     pin.ccrba(model, data, q, v)
     return np.linalg.solve(data.Ig.inertia, np.asarray(data.hg.angular))
+
+
+def hold_margin(force_xy_n: np.ndarray, com_world: np.ndarray, com_vel_world: np.ndarray, feet_xy_world: np.ndarray,
+                com_height_m: float, mass_kg: float, gravity: float = 9.81) -> float:
+    """(m) How far the feet ``feet_xy_world`` (k, 2; those on the ground) reach along a horizontal push
+    ``force_xy_n`` (2,) beyond the centre of pressure that holding it in place asks: ``F h / (m g)`` toward the push
+    (the push held at the CoM, ``com_height_m`` above the ground) plus ``v / omega`` for the CoM's velocity along it
+    (the capture point, ``omega = sqrt(g / h)``), both from the CoM. Below zero no stance on these feet holds the push
+    and only a step does. NaN without a push or without a foot."""
+    force = float(np.hypot(*force_xy_n))
+    if force <= 0.0 or len(feet_xy_world) == 0 or com_height_m <= 0.0:
+        return float("nan")
+    along = np.asarray(force_xy_n, dtype=float) / force
+    reach = float(np.max((np.asarray(feet_xy_world, dtype=float) - com_world[:2]) @ along))
+    asked = force * com_height_m / (mass_kg * gravity) + float(com_vel_world[:2] @ along) / math.sqrt(gravity / com_height_m)
+    return reach - asked
 
 
 class LoopTrace:
@@ -119,12 +139,16 @@ class LoopTrace:
             row += [*target.com_pos, *target.rpy[:2]]
             planned, stance = target.forces, target.stance
         pushes = [p.force_world for p in loco.sim.pushes if p.active(loco.t_s - loco.sim.config.dt_s)]
-        row += list(np.sum(pushes, axis=0)[:2]) if pushes else [0.0, 0.0]
+        push_xy = np.sum(pushes, axis=0)[:2] if pushes else np.zeros(2)
+        row += list(push_xy)
         observer = loco.observer
         row += [float("nan")] * 2 if observer is None else [observer.estimate_x_n, observer.estimate_y_n]
         held = None if loco.plan is None else loco.plan.solution_force_world
         row += [0.0, 0.0] if held is None else [float(held[0]), float(held[1])]
-        commanded, feet = controller.last_forces, controller.last_foot_pos
+        commanded, feet, com = controller.last_forces, controller.last_foot_pos, controller.last_com
+        height = float(com[2] - loco.terrain.ground_z(com[None, :2])[0])
+        row.append(hold_margin(push_xy, com, controller.last_com_vel, feet[contact, :2], height, loco.robot.mass_kg,
+                               loco.sim.config.gravity))
         for leg in range(4):
             row += [float(stance[leg]), float(contact[leg]), *feet[leg], *planned[leg], *commanded[leg], *measured[leg]]
         self.rows.append([float(x) for x in row])
@@ -154,8 +178,9 @@ class LoopTrace:
 
 def plot_table(table: np.ndarray, title: str = ""):  # noqa: ANN201 - a matplotlib Figure
     """A figure of a trace's table: the CoM height, roll and pitch against the plan, the roll rate of the base and of
-    the whole body, the push (applied, estimated by the observer, held by the plan), and each foot's normal force as
-    planned, commanded and measured (grey where the foot does not touch the ground)."""
+    the whole body, the push (applied, estimated by the observer, held by the plan), the feet's hold margin against
+    it, and each foot's normal force as planned, commanded and measured (grey where the foot does not touch the
+    ground)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -163,7 +188,7 @@ def plot_table(table: np.ndarray, title: str = ""):  # noqa: ANN201 - a matplotl
 
     col = {name: i for i, name in enumerate(columns())}
     t = table[:, col["t_s"]]
-    fig, axes = plt.subplots(8, 1, figsize=(9, 13), sharex=True, constrained_layout=True)
+    fig, axes = plt.subplots(9, 1, figsize=(9, 14.5), sharex=True, constrained_layout=True)
     ax = axes[0]
     ax.plot(t, table[:, col["com_z_m"]], label="CoM")
     ax.plot(t, table[:, col["plan_com_z_m"]], "--", label="plan")
@@ -183,8 +208,12 @@ def plot_table(table: np.ndarray, title: str = ""):  # noqa: ANN201 - a matplotl
         ax.plot(t, table[:, col[f"push_estimate_f{axis}_n"]], colour, ls=":", label=f"estimate {axis}")
         ax.plot(t, table[:, col[f"plan_push_f{axis}_n"]], colour, ls="--", label=f"planned with {axis}")
     ax.set_ylabel("push (N)")
+    ax = axes[4]
+    ax.plot(t, 100.0 * table[:, col["push_hold_margin_m"]], "C2", label="feet's reach beyond the hold's need")
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.set_ylabel("hold margin (cm)")
     for leg_index, leg in enumerate(LEGS):
-        ax = axes[4 + leg_index]
+        ax = axes[5 + leg_index]
         off = table[:, col[f"{leg}_contact"]] < 0.5
         ax.fill_between(t, 0, 1, where=off, transform=ax.get_xaxis_transform(), color="0.9", step="mid",
                         label="no contact")
@@ -223,4 +252,4 @@ def _written(path: str | os.PathLike, write) -> Path:  # noqa: ANN001 - a callab
 
 
 __all__ = ["LEGS", "LoopTrace", "TraceConfig", "TraceError", "body_angular_velocity", "check_output", "columns",
-           "plot_table"]
+           "hold_margin", "plot_table"]
