@@ -89,8 +89,9 @@ def hold_margin(force_xy_n: np.ndarray, com_world: np.ndarray, com_vel_world: np
     """(m) How far the feet ``feet_xy_world`` (k, 2; those on the ground) reach along a horizontal push
     ``force_xy_n`` (2,) beyond the centre of pressure that holding it in place asks: ``F h / (m g)`` toward the push
     (the push held at the CoM, ``com_height_m`` above the ground) plus ``v / omega`` for the CoM's velocity along it
-    (the capture point, ``omega = sqrt(g / h)``), both from the CoM. Below zero no stance on these feet holds the push
-    and only a step does. NaN without a push or without a foot."""
+    (the capture point, ``omega = sqrt(g / h)``), both from the CoM: the linear inverted pendulum's measure, the body's
+    rotation and the plan's changes of height left out. Below zero no stance on these feet holds the push and only a
+    step does. NaN without a push or without a foot."""
     force = float(np.hypot(*force_xy_n))
     if force <= 0.0 or len(feet_xy_world) == 0 or com_height_m <= 0.0:
         return float("nan")
