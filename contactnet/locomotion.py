@@ -189,13 +189,14 @@ class Locomotion:
 
     def _use_terrain(self, terrain: Terrain) -> None:
         """Whether the terrain has heights (``Terrain.has_heights``: swings clear the tops on their way, touchdown
-        adapts to the contact sensed; else the flat-ground path), and the crouch that goes with it."""
-        self._heights = terrain.has_heights
-        adapt = self.config.adapt_touchdown
+        adapts to the contact sensed; else the flat-ground path), and the crouch and the bracing's outward landing
+        (m, ``BraceConfig.outward_on``) that go with it."""
+        self._heights, adapt, brace = terrain.has_heights, self.config.adapt_touchdown, self.config.brace
         self._adapt_touchdown = self._heights if adapt is None else bool(adapt)
         description, crouch = self.robot.description, self.config.crouch_m
         #: m, the crouch walked with (``LocomotionConfig.crouch_m``, or the robot's default for this terrain)
         self.crouch_m = description.default_crouch_m(self.gait.name, self._heights) if crouch is None else crouch
+        self._brace_outward_m = 0.0 if brace is None else brace.outward_on(description.brace_outward_m, self._heights)
         self.com_height_ref_m = description.com_height_nominal_m - self.crouch_m
 
     def push(self, push: Push) -> None:
@@ -395,14 +396,13 @@ class Locomotion:
     def _brace_touchdown(self, state: SimState, plan: ActivePlan) -> None:
         """Bracing's touchdown (``contactnet.planning.brace.touch_down_now``): the first tick a push is estimated at
         the bracing threshold during a step that bracing would have stood, the swinging feet come down, and the
-        optimizer solves again with them in stance."""
-        config = self.config.brace
-        if not (config.touch_down and braces(config, self.observer.active_force_xy(), plan.steps[0],
-                                             self.robot.mass_kg)):
+        optimizer solves again with them in stance (a foot on the push's side ``_brace_outward_m`` along it)."""
+        config, push_xy = self.config.brace, self.observer.active_force_xy()
+        if not (config.touch_down and braces(config, push_xy, plan.steps[0], self.robot.mass_kg)):
             return
         plan.braced_down = True  # once per step
         if touch_down_now(plan, config, self.gait, self.sim.t_s, self.controller.last_foot_pos, self.terrain,
-                          self.foot_radius_m):
+                          self.foot_radius_m, push_xy, self.controller.last_com[:2], self._brace_outward_m):
             self.brace_touchdowns += 1
             self._optimize(state, plan)
 

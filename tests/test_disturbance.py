@@ -277,9 +277,38 @@ def test_bracing_stands_a_two_legged_step_while_a_push_lasts():
     horizon = standing_horizon(TROT, 3)
     assert [(s.legs, s.action_index, s.footholds_xy_world.shape) for s in horizon] == [((), TROT.stand_index, (0, 2))] * 3
     for field, value in (("threshold_m_s2", -1.0), ("threshold_m_s2", float("nan")), ("min_swinging_legs", 0),
-                         ("touchdown_s", 0.0), ("min_remaining_s", float("inf"))):
+                         ("touchdown_s", 0.0), ("min_remaining_s", float("inf")), ("outward_m", -0.01),
+                         ("outward_m", 0.2), ("outward_m", float("nan"))):
         with pytest.raises(ValueError, match=field):
             BraceConfig(**{field: value})
+
+
+def test_a_foot_bracing_puts_down_on_the_push_side_lands_outward():
+    """``outward_shift``: ``outward_m`` along the push for a foot whose offset from the CoM points along it, nothing
+    for a foot on the other side, without a push or with 0 m; ``touchdown_point`` lands the shifted point if it is
+    safe ground, else the point under the foot, else where it lifted off (a foot over a hole)."""
+    from contactnet.planning.brace import outward_shift, touchdown_point
+    from contactnet.terrain import Terrain
+
+    com = np.array([0.0, 0.0])
+    push = np.array([0.0, 30.0])  # toward +y
+    left, right = np.array([0.25, 0.09]), np.array([0.25, -0.09])
+    assert np.allclose(outward_shift(left, com, push, 0.05), [0.0, 0.05])
+    assert np.allclose(outward_shift(left, com, np.array([30.0, 30.0]), 0.05), [0.05 / math.sqrt(2.0)] * 2)
+    assert outward_shift(right, com, push, 0.05) is None
+    assert outward_shift(left, com, None, 0.05) is None and outward_shift(left, None, push, 0.05) is None
+    assert outward_shift(left, com, push, 0.0) is None and outward_shift(left, com, np.zeros(2), 0.05) is None
+    # ground from x = -1 to 1 m, y = -1 to 0.15 m: the left foot's outward point (y 0.14) is 1 cm inside it, not a
+    # foot radius (2 cm); at 0.10 m it is 5 cm inside
+    ground = Terrain(name="t", start_xy=(0.0, 0.0), goal_x=1.0,
+                     regions=[{"shape": "rect", "center": [0.0, -0.425], "size": [2.0, 1.15]}])
+    foot = np.array([0.25, 0.09, 0.05])
+    liftoff = np.array([0.2, 0.0, 0.02])
+    assert np.allclose(touchdown_point(ground, foot, liftoff, 0.02, np.array([0.0, 0.01])), [0.25, 0.10, 0.0])
+    assert np.allclose(touchdown_point(ground, foot, liftoff, 0.02, np.array([0.0, 0.05])), [0.25, 0.09, 0.0])
+    assert np.allclose(touchdown_point(ground, foot, liftoff, 0.02), [0.25, 0.09, 0.0])
+    over_hole = np.array([0.25, 0.2, 0.05])
+    assert np.allclose(touchdown_point(ground, over_hole, liftoff, 0.02, np.array([0.0, 0.05])), [0.2, 0.0, 0.0])
 
 
 def test_a_trot_pushed_from_the_side_braces_and_walks_on(robot):
@@ -371,3 +400,44 @@ def test_standing_on_flat_ground_the_wider_stance_holds_a_side_push_that_tips_th
         loco.push(Push.parse(push))
         srdf = loco.run(4.0)
     assert srdf["stance_abduction_rad"] == 0.0 and srdf["fell"] and "tilted" in srdf["fall_reason"]
+
+
+def test_bracing_puts_a_foot_on_the_push_side_down_outward(robot):
+    """Solo12's walk on flat, pushed with 6 N toward its left 20 ms after its front-left foot lifted: bracing's
+    touchdown lands that foot ``outward_m`` (2 cm here) beyond where it is, along the estimated push, and where it is
+    with 0 (Solo12's own, on every terrain); the same foot pushed from the right lands where it is, and the walks
+    stand. A robot's own ``brace_outward_m`` is taken on terrain of one level only."""
+    from contactnet.planning.brace import BraceConfig
+    from contactnet.robots import load_robot
+    from contactnet.sim.pybullet_world import Push
+
+    def touchdown(outward_m: float | None, push_y_n: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        config = LocomotionConfig(brace=BraceConfig(outward_m=outward_m))
+        with Locomotion(robot, flat(), WALK, HeuristicPlanner(WALK), config=config, vel_cmd_xy=(0.05, 0.0)) as loco:
+            while not (loco.plan is not None and 0 in loco.plan.swings
+                       and loco.sim.t_s >= loco.plan.swings[0].t0_s + 0.02):
+                loco.advance(1)
+                assert loco.sim.t_s < 5.0, "the front-left foot never lifted"
+            loco.push(Push(loco.sim.t_s, 1.0, (0.0, push_y_n, 0.0)))
+            for _ in range(150):  # the estimate reaches the threshold within 0.15 s
+                loco.advance(1)
+                if loco.brace_touchdowns:
+                    break
+            assert loco.brace_touchdowns == 1, "bracing never put the foot down"
+            estimate = np.asarray(loco.observer.active_force_xy())
+            swing = loco.plan.swings[0]  # from where the foot was when bracing put it down
+            foot, end = swing.start_world.copy(), swing.end_world.copy()
+            summary = loco.run(loco.sim.t_s + 1.0)
+        assert not summary["fell"], summary["fall_reason"]
+        return foot, end, estimate / np.hypot(*estimate)
+
+    for outward_m in (0.02, None):  # None: Solo12's own, 0
+        foot, end, along = touchdown(outward_m, 6.0)
+        assert along[1] > 0.9  # the estimate points left
+        assert np.allclose(end[:2] - foot[:2], (outward_m or 0.0) * along, atol=1e-9)
+    foot, end, _ = touchdown(0.02, -6.0)  # pushed from the left side: the left foot lands where it is
+    assert np.allclose(end[:2], foot[:2], atol=1e-9)
+    assert robot.description.brace_outward_m == 0.0 and load_robot("go2").description.brace_outward_m == 0.0
+    assert BraceConfig().outward_on(0.05, heights=False) == 0.05  # a robot's 5 cm
+    assert BraceConfig().outward_on(0.05, heights=True) == 0.0
+    assert BraceConfig(outward_m=0.03).outward_on(0.05, heights=True) == 0.03  # the loop's own, everywhere

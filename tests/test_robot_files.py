@@ -64,15 +64,17 @@ def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
     again = tmp_path / "again.toml"
     again.write_text(to_toml(spec_values(spec)))
     assert load_robot_file(again) == spec  # what to_toml writes reads back as the same robot
-    for field in ("walk_crouch_m", "trot_crouch_m"):  # the default: not written
+    for field in ("walk_crouch_m", "trot_crouch_m", "brace_outward_m"):  # the default: not written
         assert getattr(spec, field) == 0.0 and field not in spec_values(spec)
     crouched = tmp_path / "crouched.toml"
     crouched.write_text(A1.replace("fall_base_height_m = 0.12\n",
-                                   "fall_base_height_m = 0.12\nwalk_crouch_m = 0.02\ntrot_crouch_m = 0.015\n")
+                                   "fall_base_height_m = 0.12\nwalk_crouch_m = 0.02\ntrot_crouch_m = 0.015\n"
+                                   "brace_outward_m = 0.04\n")
                         .replace('name = "a1_file"', 'name = "a1_crouched"'))
     crouched_spec = load_robot_file(crouched)
     assert (crouched_spec.walk_crouch_m, crouched_spec.trot_crouch_m) == (0.02, 0.015)
     assert spec_values(crouched_spec)["trot_crouch_m"] == 0.015  # written back
+    assert crouched_spec.brace_outward_m == 0.04 and spec_values(crouched_spec)["brace_outward_m"] == 0.04
     from contactnet.robots import robot_names
     from contactnet.robots.robot_file import registered_files
 
@@ -102,6 +104,8 @@ def test_a_robot_file_is_a_spec_and_loads_a_robot(tmp_path):
     (lambda t: t.replace('fall_base_height_m = 0.12\n',
                          'fall_base_height_m = 0.12\none_level_stance_abduction_rad = 0.4\n'),
      "one_level_stance_abduction_rad: expected a number from 0 to 0.3"),
+    (lambda t: t.replace('fall_base_height_m = 0.12\n', 'fall_base_height_m = 0.12\nbrace_outward_m = 0.5\n'),
+     "brace_outward_m: expected a number from 0 to 0.15"),
 ])
 def test_a_bad_robot_file_is_one_line_naming_the_field(tmp_path, change, message):
     path = tmp_path / "bad.toml"

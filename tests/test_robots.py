@@ -88,7 +88,7 @@ def test_a_cached_urdf_whose_meshes_are_gone_is_written_again(tmp_path):
     file"). Another installation gets its own file, and a file with dangling mesh paths is written again."""
     from dataclasses import replace
 
-    from contactnet.robots.description import write_pybullet_urdf
+    from contactnet.robots.sim_urdf import write_pybullet_urdf
 
     go2 = load_robot("go2", cache_dir=tmp_path)
     path = write_pybullet_urdf(go2.spec, go2.files, tmp_path)
@@ -116,7 +116,8 @@ def test_a_urdf_link_without_inertia_is_simulated_as_the_model_and_nothing_reach
     """A1's root link has no <inertial> block: pinocchio gives it no mass, PyBullet would give it 1 kg (and print a
     warning on stdout, spoiling --json). The simulated URDF gives it a negligible mass, so every engine simulates the
     model's mass, and the engine's own output goes to stderr."""
-    from contactnet.robots.description import NEGLIGIBLE_MASS_KG, Robot, links_without_inertia
+    from contactnet.robots.description import Robot
+    from contactnet.robots.sim_urdf import NEGLIGIBLE_MASS_KG, links_without_inertia
     from contactnet.sim.engines import make_simulator
     from contactnet.sim.world import SimConfig
     from contactnet.terrain import flat
@@ -144,7 +145,7 @@ def test_an_engine_that_simulates_another_mass_is_refused(robot):
 def test_the_cached_urdf_is_keyed_on_the_code_that_writes_it(tmp_path):
     from dataclasses import replace
 
-    from contactnet.robots.description import write_pybullet_urdf
+    from contactnet.robots.sim_urdf import write_pybullet_urdf
 
     solo = load_robot("solo12", cache_dir=tmp_path)
     path = write_pybullet_urdf(solo.spec, solo.files, tmp_path)

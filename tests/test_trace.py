@@ -22,6 +22,7 @@ from contactnet.jobs.trace import (
 )
 from contactnet.locomotion import Locomotion
 from contactnet.motion.gait import WALK
+from contactnet.motion.support_polygon import support_distance
 from contactnet.planning.heuristic import HeuristicPlanner
 from contactnet.sim.world import ENGINES, Push, SimConfig
 from contactnet.terrain import flat
@@ -86,7 +87,8 @@ def _walk(robot, engine: str, trace: LoopTrace | None, seconds: float = 1.2) -> 
 def test_a_traced_run_is_the_same_run_and_the_forces_add_up(robot, engine):
     """Traced or not, the same run to the last digit (with sensor noise on, and a push); the samples every 10 ms from
     0.2 s; the ground carries the robot's weight as measured and as planned, the push is there while it lasts, a
-    foot planned in swing is planned no force, and a foot on the flat ground has its ball's centre a radius up."""
+    foot planned in swing is planned no force, a foot on the flat ground has its ball's centre a radius up, and the
+    hold margin, there only while pushed, is positive with four feet down."""
     trace = LoopTrace(TraceConfig(every_ms=10, from_s=0.2))
     assert _walk(robot, engine, trace) == _walk(robot, engine, None)
     table = trace.table()
@@ -111,10 +113,13 @@ def test_a_traced_run_is_the_same_run_and_the_forces_add_up(robot, engine):
     assert swinging >= 10  # the walk stepped
     margin = table[:, col["push_hold_margin_m"]]
     assert np.all(np.isnan(margin[~pushed])) and np.all(np.isfinite(margin[pushed]))
-    assert np.all((margin[pushed] > 0.0) & (margin[pushed] < 0.3))  # 4 N is held (Solo12's feet: about 0.15 m out)
+    four = sum(table[:, col[f"{leg}_contact"]] for leg in ("FL", "FR", "HL", "HR")) == 4.0
+    assert np.all(margin[pushed] < 0.3) and (pushed & four).sum() >= 3 and (pushed & ~four).sum() >= 3
+    assert np.all(margin[pushed & four] > 0.0)  # 4 N (4.9 cm asked) is held on four feet (about 0.15 m out)
+    assert np.all(margin[pushed & ~four] < margin[pushed & four].max())  # a foot in the air: a smaller polygon
 
 
-def test_the_hold_margin_is_the_feet_reach_beyond_the_push_and_capture_point():
+def test_the_hold_margin_is_the_support_reach_beyond_the_push_and_capture_point():
     """``hold_margin`` against the numbers worked by hand: four feet at (+-0.1, +-0.1) m around a CoM 0.3 m up, 10 kg,
     a 10 N push along +y asks the centre of pressure 10 * 0.3 / (10 * 9.81) = 3.06 cm toward it; moving at 0.1 m/s
     along it asks 0.1 / sqrt(9.81 / 0.3) = 1.75 cm more; along the diagonal the corner reaches 0.1 sqrt(2)."""
@@ -131,7 +136,52 @@ def test_the_hold_margin_is_the_feet_reach_beyond_the_push_and_capture_point():
     assert hold_margin(diagonal, com, still, feet, 0.3, 10.0) == pytest.approx(0.1 * math.sqrt(2.0) - asked)
     assert hold_margin(np.array([0.0, 10.0]), com, still, feet[[1, 3]], 0.3, 10.0) == pytest.approx(-0.1 - asked)
     assert math.isnan(hold_margin(np.zeros(2), com, still, feet, 0.3, 10.0))
+    assert hold_margin(np.array([0.0, 10.0]), com, still, feet[[0, 3]], 0.3, 10.0) == pytest.approx(-asked)  # a
+    # diagonal pair: the line crosses it under the CoM, so no sideways push is held
+    beside = np.array([[0.1, 0.1], [0.2, 0.1]])  # the line misses them: minus the asked point's distance to them
+    assert hold_margin(np.array([0.0, 10.0]), com, still, beside, 0.3, 10.0) == pytest.approx(
+        -math.hypot(0.1, 0.1 - asked))
+    assert hold_margin(np.array([0.0, -10.0]), com, still, feet[[0, 2]], 0.3, 10.0) == pytest.approx(
+        -0.1 - asked)  # the feet all behind the push: beyond the hull on the wrong side
+
+
+def test_the_hold_margin_is_where_the_push_line_leaves_the_support_polygon():
+    """Go2's walk as it stood at 4.06 s on flat ground (feet from the CoM: front-left 0.293 m ahead and only 0.070 m
+    left, hind-left 0.245 m behind and 0.209 m left): a push along +y leaves the polygon on the edge between the left
+    feet, at 0.070 + (0.209 - 0.070) * 0.293 / 0.538 = 0.1457 m, not at the hind foot's 0.209 m; 60 N on 15 kg at
+    0.3 m asks 0.1223 m, 2.3 cm of margin."""
+    feet = np.array([[0.293, 0.070], [0.303, -0.140], [-0.245, 0.209], [-0.237, -0.197]])
+    com, still = np.array([0.0, 0.0, 0.3]), np.zeros(3)
+    edge = 0.070 + (0.209 - 0.070) * 0.293 / (0.293 + 0.245)
+    asked = 60.0 * 0.3 / (15.0 * 9.81)
+    assert hold_margin(np.array([0.0, 60.0]), com, still, feet, 0.3, 15.0) == pytest.approx(edge - asked)
+    right = -0.140 + (-0.197 + 0.140) * 0.303 / (0.303 + 0.237)  # along -y: the right feet's edge, 0.172 m
+    assert hold_margin(np.array([0.0, -60.0]), com, still, feet, 0.3, 15.0) == pytest.approx(-right - asked)
     assert math.isnan(hold_margin(np.array([0.0, 10.0]), com, still, feet[:0], 0.3, 10.0))
+
+
+def test_the_hold_margin_matches_a_walk_along_the_push_line():
+    """Against a slow reference: step along the push's line in 0.1 mm steps and take the last point inside the
+    feet's hull (``support_distance`` 0) and the first; the margin is the nearer of the two to the asked point, and
+    where the line misses the hull minus that point's distance to it (random stances of 3 and 4 feet, random pushes;
+    the CoM inside the hull or not)."""
+    rng = np.random.default_rng(7)
+    com, still = np.array([0.0, 0.0, 0.3]), np.zeros(3)
+    s = np.arange(-0.6, 0.6, 1e-4)
+    for case in range(40):
+        n = 3 + case % 2
+        feet = rng.uniform(-0.25, 0.25, (n, 2))
+        force = rng.uniform(-60.0, 60.0, 2)
+        along = force / np.hypot(*force)
+        asked = np.hypot(*force) * 0.3 / (15.0 * 9.81)
+        padded = np.vstack([feet, np.zeros((4 - n, 2))])
+        stance = np.arange(4) < n
+        inside = support_distance(s[:, None] * along, np.broadcast_to(padded, (len(s), 4, 2)), stance) == 0.0
+        margin = hold_margin(force, com, still, feet, 0.3, 15.0)
+        if inside.any():
+            assert margin == pytest.approx(min(s[inside].max() - asked, asked - s[inside].min()), abs=2e-4)
+        else:  # the line misses the hull: minus the asked point's distance to it
+            assert margin == pytest.approx(-float(support_distance(asked * along, padded, stance)))
 
 
 def test_simulate_writes_the_trace_and_its_plot(tmp_path, capsys):

@@ -41,7 +41,8 @@ class Check:
 
 def model_checks(robot, engine: str) -> list[Check]:  # noqa: ANN001 - a Robot
     """The simulated robot against the model, and the stance's geometry."""
-    from contactnet.robots.description import RobotDataError, links_without_inertia
+    from contactnet.robots.description import RobotDataError
+    from contactnet.robots.sim_urdf import links_without_inertia
     from contactnet.sim.engines import make_simulator
     from contactnet.sim.world import SimConfig
     from contactnet.terrain import flat

@@ -14,8 +14,9 @@ the legs swing against the base. ``push_*`` is the force applied to the base ove
 ``push_estimate_*`` the disturbance observer's estimate of it (``contactnet.planning.observer``; NaN without the
 observer) and ``plan_push_*`` the force the active plan was solved with. ``{leg}_x_m`` .. ``{leg}_z_m`` is each foot's
 ball centre as the controller saw it (with the CoM, the support a push must be held over). ``push_hold_margin_m`` is how
-far the feet on the ground reach beyond what holding the applied push in place asks (``hold_margin``; NaN without a
-push or with no foot down): below zero, no stance holds it and only a step does.
+far the support polygon of the feet on the ground reaches along the applied push beyond the centre of pressure that
+holding it in place asks (``hold_margin``; NaN without a push or with no foot down): below zero, no stance holds it
+and only a step does.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+import shapely
 
 from contactnet.atomic import atomic_write_bytes, atomic_write_text
 
@@ -86,19 +88,34 @@ def body_angular_velocity(model, data, q: np.ndarray, v: np.ndarray) -> np.ndarr
 
 def hold_margin(force_xy_n: np.ndarray, com_world: np.ndarray, com_vel_world: np.ndarray, feet_xy_world: np.ndarray,
                 com_height_m: float, mass_kg: float, gravity: float = 9.81) -> float:
-    """(m) How far the feet ``feet_xy_world`` (k, 2; those on the ground) reach along a horizontal push
-    ``force_xy_n`` (2,) beyond the centre of pressure that holding it in place asks: ``F h / (m g)`` toward the push
-    (the push held at the CoM, ``com_height_m`` above the ground) plus ``v / omega`` for the CoM's velocity along it
-    (the capture point, ``omega = sqrt(g / h)``), both from the CoM: the linear inverted pendulum's measure, the body's
-    rotation and the plan's changes of height left out. Below zero no stance on these feet holds the push and only a
-    step does. NaN without a push or without a foot."""
+    """(m) How far beyond the centre of pressure that holding a horizontal push ``force_xy_n`` (2,) in place asks the
+    support polygon of the feet ``feet_xy_world`` (k, 2; those on the ground) still reaches, along the push.
+
+    The asked point is ``F h / (m g)`` from the CoM toward the push (the push held at the CoM, ``com_height_m`` above
+    the ground) plus ``v / omega`` for the CoM's velocity along it (the capture point, ``omega = sqrt(g / h)``): the
+    linear inverted pendulum's measure, the body's rotation and the plan's changes of height left out. The margin is
+    the distance along the push's line from that point to where the line leaves the feet's convex hull (the centre of
+    pressure must lie on that line, the ground's reaction passing through the CoM, and inside the hull): not the
+    farthest foot's reach, which overstates it when the push points between two feet. Below zero (the point beyond
+    the hull, behind it, or the line missing a hull of one or two feet) no stance on these feet holds the push and
+    only a step does. NaN without a push or without a foot."""
     force = float(np.hypot(*force_xy_n))
     if force <= 0.0 or len(feet_xy_world) == 0 or com_height_m <= 0.0:
         return float("nan")
     along = np.asarray(force_xy_n, dtype=float) / force
-    reach = float(np.max((np.asarray(feet_xy_world, dtype=float) - com_world[:2]) @ along))
+    feet = np.asarray(feet_xy_world, dtype=float) - np.asarray(com_world, dtype=float)[:2]  # from the CoM
     asked = force * com_height_m / (mass_kg * gravity) + float(com_vel_world[:2] @ along) / math.sqrt(gravity / com_height_m)
-    return reach - asked
+    hull = shapely.MultiPoint(feet).convex_hull  # a polygon, or a segment or point for fewer feet in a line
+    reach_m = float(np.max(np.abs(feet))) * 2.0 + abs(asked) + 1.0  # the line's half-length: past every foot
+    line = shapely.LineString([-reach_m * along, reach_m * along])
+    crossing = hull.intersection(line)
+    if crossing.is_empty:
+        return -float(hull.distance(shapely.Point(asked * along)))
+    along_s = np.asarray(shapely.get_coordinates(crossing)) @ along  # where on the line (m from the CoM) it is inside
+    return float(min(along_s.max() - asked, asked - along_s.min()))
+
+
+MARGIN_FLOOR_CM = 15.0  # the plot's hold margin panel shows no lower (cm): the CSV has every value
 
 
 class LoopTrace:
@@ -210,8 +227,11 @@ def plot_table(table: np.ndarray, title: str = ""):  # noqa: ANN201 - a matplotl
         ax.plot(t, table[:, col[f"plan_push_f{axis}_n"]], colour, ls="--", label=f"planned with {axis}")
     ax.set_ylabel("push (N)")
     ax = axes[4]
-    ax.plot(t, 100.0 * table[:, col["push_hold_margin_m"]], "C2", label="feet's reach beyond the hold's need")
+    margin_cm = 100.0 * table[:, col["push_hold_margin_m"]]
+    ax.plot(t, margin_cm, "C2", label="support's reach along the push beyond the hold's need")
     ax.axhline(0.0, color="0.5", lw=0.8)
+    if np.isfinite(margin_cm).any() and np.nanmin(margin_cm) < -MARGIN_FLOOR_CM:  # one foot down: tens of cm below,
+        ax.set_ylim(bottom=-MARGIN_FLOOR_CM)  # which would flatten the rest
     ax.set_ylabel("hold margin (cm)")
     for leg_index, leg in enumerate(LEGS):
         ax = axes[5 + leg_index]

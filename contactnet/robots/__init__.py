@@ -17,9 +17,9 @@ from contactnet.robots.description import (
     RobotDescription,
     RobotFiles,
     RobotSpec,
-    write_pybullet_urdf,
 )
 from contactnet.robots.robot_file import ROBOT_FILES_ENV, is_robot_file, load_robot_file, registered_files
+from contactnet.robots.sim_urdf import write_pybullet_urdf
 
 _ROBOTS: dict[str, RobotSpec] = {}
 

@@ -19,7 +19,6 @@ Conventions used across contactnet (any robot):
 
 from __future__ import annotations
 
-import hashlib
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
@@ -30,8 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from contactnet.atomic import atomic_write_bytes
-from contactnet.paths import default_cache_dir
+from contactnet.robots.sim_urdf import write_pybullet_urdf
 
 if TYPE_CHECKING:
     from contactnet.terrain import Terrain
@@ -98,6 +96,9 @@ class RobotSpec:
     one_level_stance_abduction_rad: float = 0.0
     #: The gaits (by name) that take ``one_level_stance_abduction_rad``; None: every gait. Go2: the trot only.
     one_level_stance_gaits: tuple[str, ...] | None = None
+    #: On terrain of one level, how far beyond where it is a foot in the air on the push's side lands when bracing
+    #: puts it down (m, along the estimated push: ``BraceConfig.outward_m``); 0: where it is.
+    brace_outward_m: float = 0.0
     #: ControllerGains fields set on terrain of one level only, every gait (`Robot.for_terrain`), over
     #: ``controller_gains``. Go2: its legs' weight held (``leg_gravity``), measured to help there and not on heights.
     one_level_controller_gains: tuple[tuple[str, Any], ...] = ()
@@ -198,6 +199,7 @@ class RobotDescription:
     knee_pos_base: np.ndarray | None = None  #: (4, 3) knee joints in the nominal stance (None: not known)
     walk_crouch_m: float = 0.0  #: the walk's crouch on terrain of one level by default (RobotSpec.walk_crouch_m)
     trot_crouch_m: float = 0.0  #: the trot's (RobotSpec.trot_crouch_m)
+    brace_outward_m: float = 0.0  #: bracing's landing beyond a foot on the push's side (RobotSpec.brace_outward_m)
     #: (4, 3) the feet of the stance before ``RobotSpec.stance_abduction_rad`` turned them out (base frame, with
     #: the hips where the widened stance has them): each leg's upright position, the vertical plane its leg leans
     #: from; None: ``foot_nominal_base``.
@@ -260,119 +262,6 @@ def standing_joint_positions(srdf: Path, joint_names: tuple[str, ...], pose: str
                 raise RobotDataError(f"{srdf}: group_state {pose!r} lacks {missing}")
             return np.array([float(values[name]) for name in joint_names])
     raise RobotDataError(f"{srdf}: no group_state named {pose!r}")
-
-
-def write_pybullet_urdf(spec: RobotSpec, files: RobotFiles, cache_dir: Path | None = None,
-                        sphere_feet: bool = True) -> Path:
-    """Write (once) the URDF variant PyBullet simulates, and return its path.
-
-    Changes against the shipped URDF: mesh paths are absolute (a copy elsewhere cannot resolve
-    ``package://``); with ``sphere_feet`` (the default) the robot's ``collision_recipe`` replaces
-    collision shapes (typically the feet become balls of ``foot_radius_m``: mesh feet simulate about
-    half as fast). The file name carries a hash of the source, of the recipe's version and of the folder the mesh
-    paths point into, so a new example-robot-data version, a new recipe or another installation (another virtual
-    environment sharing the cache) makes a new file; a cached file whose meshes are gone (its environment was
-    deleted) is written again; writes are atomic. The hash also covers the code that writes the file (this
-    function, its helpers and the recipe's source), so a changed writer never reuses an old file.
-
-    A link without an ``<inertial>`` block (pinocchio: no mass) gets a negligible one (`NEGLIGIBLE_MASS_KG`): left
-    out, PyBullet would give it 1 kg and MuJoCo a mass from its geometry, and the simulated robot would not be the
-    model.
-    """
-    source = files.urdf.read_bytes()
-    recipe = f"{spec.name}-{'sphere' if sphere_feet else 'mesh'}-feet-{spec.recipe_version}".encode()
-    digest = hashlib.sha256(source + recipe + str(files.package_root.resolve()).encode()
-                            + _writer_source(spec)).hexdigest()[:12]
-    kind = "spherefeet" if sphere_feet else "meshfeet"
-    out = (cache_dir or default_cache_dir()) / "urdf" / f"{spec.name}_{kind}_{digest}.urdf"
-    if out.is_file() and _meshes_exist(out):
-        return out
-    root = ET.fromstring(source)
-    for mesh in root.iter("mesh"):
-        filename = mesh.get("filename", "")
-        if filename.startswith("package://"):
-            mesh.set("filename", str(files.package_root / filename[len("package://"):]))
-        elif filename.startswith("file://"):
-            mesh.set("filename", filename[len("file://"):])
-        elif filename and not Path(filename).is_absolute():  # relative to the URDF: absolute in the cached copy
-            mesh.set("filename", str(files.urdf.parent / filename))
-    _add_missing_inertia(root)
-    if sphere_feet and spec.collision_recipe is not None:
-        for link in root.iter("link"):
-            replacement = spec.collision_recipe(link.get("name", ""))
-            if replacement is None:
-                continue
-            if isinstance(replacement, list):  # the link's collisions, all of them
-                for collision in link.findall("collision"):
-                    link.remove(collision)
-                for shape, xyz, rpy in replacement:
-                    _set_collision(ET.SubElement(link, "collision"), shape, xyz, rpy)
-                continue
-            collision = link.find("collision")
-            if collision is None:
-                collision = ET.SubElement(link, "collision")
-            _set_collision(collision, *replacement)
-    atomic_write_bytes(out, ET.tostring(root, xml_declaration=True, encoding="utf-8"))
-    return out
-
-
-#: The mass given to a URDF link that has none (pinocchio's zero), kg; its inertia is that of a 1 cm ball of it.
-NEGLIGIBLE_MASS_KG = 1e-6
-
-
-def links_without_inertia(root: ET.Element) -> list[str]:
-    """The names of the URDF links (``root``: the ``<robot>`` element) that have no ``<inertial>`` block."""
-    return [link.get("name", "?") for link in root.iter("link") if link.find("inertial") is None]
-
-
-def _add_missing_inertia(root: ET.Element) -> None:
-    inertia = f"{0.4 * NEGLIGIBLE_MASS_KG * 0.01 ** 2:.3g}"
-    for link in root.iter("link"):
-        if link.find("inertial") is None:
-            inertial = ET.SubElement(link, "inertial")
-            ET.SubElement(inertial, "origin", xyz="0 0 0", rpy="0 0 0")
-            ET.SubElement(inertial, "mass", value=f"{NEGLIGIBLE_MASS_KG:g}")
-            ET.SubElement(inertial, "inertia", ixx=inertia, ixy="0", ixz="0", iyy=inertia, iyz="0", izz=inertia)
-
-
-def _writer_source(spec: RobotSpec) -> bytes:
-    """The source of the code that writes a robot's simulated URDF (part of the cached file's key)."""
-    import inspect
-
-    parts = [write_pybullet_urdf, _add_missing_inertia, _set_collision]
-    recipe = spec.collision_recipe
-    if recipe is not None:  # a function, or an object whose class says what it does and whose repr its numbers
-        parts += [recipe] if inspect.isfunction(recipe) else [type(recipe)]
-    text = [] if recipe is None or inspect.isfunction(recipe) else [repr(recipe)]
-    for part in parts:
-        try:
-            text.append(inspect.getsource(part))
-        except (OSError, TypeError):  # no source (e.g. built in a REPL): its qualified name
-            text.append(getattr(part, "__qualname__", repr(part)))
-    return "\n".join(text).encode()
-
-
-def _meshes_exist(urdf: Path) -> bool:
-    """Every mesh file a (generated) URDF names exists; False also for a file that does not parse."""
-    try:
-        root = ET.parse(urdf).getroot()
-    except (OSError, ET.ParseError):
-        return False
-    return all((urdf.parent / mesh.get("filename", "")).is_file() for mesh in root.iter("mesh"))
-
-
-def _set_collision(collision: ET.Element, shape: ET.Element, xyz: str, rpy: str = "0 0 0") -> None:
-    origin = collision.find("origin")
-    if origin is None:
-        origin = ET.SubElement(collision, "origin")
-    origin.set("xyz", xyz)
-    origin.set("rpy", rpy)
-    geometry = collision.find("geometry")
-    if geometry is None:
-        geometry = ET.SubElement(collision, "geometry")
-    for child in list(geometry):
-        geometry.remove(child)
-    geometry.append(shape)
 
 
 class Robot:
@@ -489,9 +378,13 @@ class Robot:
         return np.array([self.data.oMf[i].translation for i in self._foot_ids])
 
     def pybullet_urdf(self, sphere_feet: bool = True) -> Path:
-        """Path of the URDF PyBullet loads (generated once into the cache)."""
+        """Path of the URDF PyBullet loads (generated once into the cache: `contactnet.robots.sim_urdf`)."""
         return write_pybullet_urdf(self.spec, self.files, self.cache_dir, sphere_feet)
 
+
+#: The largest ``RobotSpec.brace_outward_m`` and ``BraceConfig.outward_m`` (m): a foot bracing puts down within its
+#: touchdown time moves no farther.
+MAX_BRACE_OUTWARD_M = 0.15
 
 #: The largest ``RobotSpec.stance_abduction_rad`` (rad): about 17 degrees.
 MAX_STANCE_ABDUCTION_RAD = 0.3
@@ -538,6 +431,9 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
     if not (math.isfinite(widen) and 0.0 <= widen <= MAX_STANCE_ABDUCTION_RAD):
         raise RobotDataError(f"{spec.name}: one_level_stance_abduction_rad must be from 0 to "
                              f"{MAX_STANCE_ABDUCTION_RAD} rad, got {widen!r}")
+    outward = spec.brace_outward_m
+    if not (math.isfinite(outward) and 0.0 <= outward <= MAX_BRACE_OUTWARD_M):
+        raise RobotDataError(f"{spec.name}: brace_outward_m must be from 0 to {MAX_BRACE_OUTWARD_M} m, got {outward!r}")
     gaits = spec.one_level_stance_gaits
     if gaits is not None and not (isinstance(gaits, tuple) and all(isinstance(g, str) and g for g in gaits)):
         raise RobotDataError(f"{spec.name}: one_level_stance_gaits must be None (every gait) or gait names, "
@@ -592,5 +488,6 @@ def describe(spec: RobotSpec, files: RobotFiles, model: Any) -> RobotDescription
         knee_pos_base=_frozen(knees_base),
         walk_crouch_m=float(spec.walk_crouch_m),
         trot_crouch_m=float(spec.trot_crouch_m),
+        brace_outward_m=float(spec.brace_outward_m),
         foot_upright_base=_frozen(upright_feet_base),
     )

@@ -78,6 +78,8 @@ SPEC = RobotSpec(
     # lost fewer feet into gaps (docs/results.md, "Go2's trot stands wider on terrain of one level").
     one_level_stance_abduction_rad=0.1,
     one_level_stance_gaits=("trot",),
+    # brace_outward_m stays 0: landing the foot bracing puts down 5 cm farther along the push held the 32.2 N push it
+    # was traced on and lost another (docs/results.md, "A foot braced outward, measured: not the default").
     collision_recipe=collision_recipe,
     recipe_version="sphere-feet-calf-cylinders-v2",
 )

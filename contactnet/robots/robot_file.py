@@ -24,6 +24,8 @@ read from them, as for the robots in modules::
     # stance_abduction_rad = 0.1 (each leg's abduction this much further out than the stance's: wider feet; default 0),
     # one_level_stance_abduction_rad = 0.1 (the same on terrain of one level only, instead; default 0),
     # one_level_stance_gaits = ["trot"] (the gaits that take it; default: every gait),
+    # brace_outward_m = 0.05 (on terrain of one level, a foot bracing puts down on the push's side lands this much
+    #   farther along the push; default 0),
     # [controller_gains] kp_swing = [900.0, 900.0, 900.0] ... (contactnet.motion.controller.ControllerGains),
     # [one_level_controller_gains] leg_gravity = 1.0 ... (the same, over them, on terrain of one level only)
     # [heights_controller_gains] fz_min_n = 0.98 ... (the same, over them, on terrain with heights only)
@@ -42,7 +44,12 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from contactnet.robots.description import MAX_STANCE_ABDUCTION_RAD, RobotDataError, RobotSpec
+from contactnet.robots.description import (
+    MAX_BRACE_OUTWARD_M,
+    MAX_STANCE_ABDUCTION_RAD,
+    RobotDataError,
+    RobotSpec,
+)
 
 #: The environment variable listing robot files (os.pathsep-separated) that every process registers.
 ROBOT_FILES_ENV = "CONTACTNET_ROBOT_FILES"
@@ -52,7 +59,7 @@ _REQUIRED = ("name", "description_dir", "urdf", "leg_prefixes", "joint_suffixes"
 _OPTIONAL = ("description", "srdf", "standing_pose", "torque_limit_nm", "standing_leg_joints_rad", "feet",
              "controller_gains", "size_scale", "walk_crouch_m", "trot_crouch_m", "stance_abduction_rad",
              "one_level_stance_abduction_rad", "one_level_stance_gaits", "one_level_controller_gains",
-             "heights_controller_gains")
+             "heights_controller_gains", "brace_outward_m")
 #: The tables of ControllerGains fields: every terrain, then over them on terrain of one level, with heights.
 _GAIN_TABLES = ("controller_gains", "one_level_controller_gains", "heights_controller_gains")
 _POSITIVE = ("foot_radius_m", "fz_max_n", "kin_threshold_m", "fall_base_height_m", "torque_limit_nm", "size_scale")
@@ -118,6 +125,9 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
     for name, depth in crouch.items():
         if isinstance(depth, bool) or not isinstance(depth, int | float) or not 0.0 <= depth < 1.0:
             raise bad(name, f"expected a number from 0 to 1 (m), got {depth!r}")
+    outward = values.get("brace_outward_m", 0.0)
+    if isinstance(outward, bool) or not isinstance(outward, int | float) or not 0.0 <= outward <= MAX_BRACE_OUTWARD_M:
+        raise bad("brace_outward_m", f"expected a number from 0 to {MAX_BRACE_OUTWARD_M} (m), got {outward!r}")
     widen, widen_one_level = values.get("stance_abduction_rad", 0.0), values.get("one_level_stance_abduction_rad", 0.0)
     for name, angle in (("stance_abduction_rad", widen), ("one_level_stance_abduction_rad", widen_one_level)):
         if isinstance(angle, bool) or not isinstance(angle, int | float) or not 0.0 <= angle <= MAX_STANCE_ABDUCTION_RAD:
@@ -169,6 +179,7 @@ def spec_from_values(values: dict[str, Any], path: Path) -> RobotSpec:
         stance_abduction_rad=float(widen),
         one_level_stance_abduction_rad=float(widen_one_level),
         one_level_stance_gaits=None if stance_gaits is None else tuple(stance_gaits),
+        brace_outward_m=float(outward),
     )
 
 
@@ -186,8 +197,8 @@ def spec_values(spec: RobotSpec) -> dict[str, Any]:
         if field.name in ("collision_recipe", "recipe_version", *_GAIN_TABLES) or value is None or value == "" \
                 or value == ():  # (the gains tables: as tables, below)
             continue
-        if field.name in ("walk_crouch_m", "trot_crouch_m", "stance_abduction_rad", "one_level_stance_abduction_rad") \
-                and value == 0.0:  # the default: not written
+        if field.name in ("walk_crouch_m", "trot_crouch_m", "stance_abduction_rad", "one_level_stance_abduction_rad",
+                          "brace_outward_m") and value == 0.0:  # the default: not written
             continue
         values[field.name] = list(value) if isinstance(value, tuple) else value
     values["feet"] = "sphere" if spec.collision_recipe is not None else "mesh"

@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from contactnet.robots.description import LEG_NAMES, RobotDataError, links_without_inertia
+from contactnet.robots.description import LEG_NAMES, RobotDataError
+from contactnet.robots.sim_urdf import links_without_inertia
 
 #: Solo12's numbers per metre of leg (0.32 m): the rule that sizes a drafted robot's thresholds.
 KIN_THRESHOLD_PER_LEG = 0.12 / 0.32
