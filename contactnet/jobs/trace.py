@@ -115,9 +115,6 @@ def hold_margin(force_xy_n: np.ndarray, com_world: np.ndarray, com_vel_world: np
     return float(min(along_s.max() - asked, asked - along_s.min()))
 
 
-MARGIN_FLOOR_CM = 15.0  # the plot's hold margin panel shows no lower (cm): the CSV has every value
-
-
 class LoopTrace:
     """The samples of one run (``run`` drives the loop and samples it; ``write_csv`` and ``plot`` write them)."""
 
@@ -192,6 +189,9 @@ class LoopTrace:
 
         plt.close(figure)
         return _written(path, lambda p: atomic_write_bytes(p, buffer.getvalue()))
+
+
+MARGIN_FLOOR_CM = 15.0  # the plot's hold margin panel shows no lower (cm): the CSV has every value
 
 
 def plot_table(table: np.ndarray, title: str = ""):  # noqa: ANN201 - a matplotlib Figure
