@@ -18,7 +18,6 @@ and the loop with ``robot.for_terrain(terrain)`` (``contactnet.robots.Robot.for_
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, replace
 
@@ -26,6 +25,7 @@ import numpy as np
 
 from contactnet.frames import rotate_xy
 from contactnet.motion.active_plan import ActivePlan
+from contactnet.motion.com_reference import ComReference
 from contactnet.motion.controller import ControllerGains, ControlTarget, SwingTrajectory, WholeBodyController
 from contactnet.motion.foot_hold import FootHold, FootHoldConfig
 from contactnet.motion.gait import GaitSpec
@@ -64,8 +64,7 @@ class LocomotionConfig:
     # At those re-solves a swing may get a new landing (contactnet.planning.retarget); None: never, as in the paper.
     retarget: RetargetConfig | None = None
     fall_check_every_ticks: int = 10
-    # The CoM reference integrates the commanded velocity within this distance of the measured CoM: after a push the
-    # optimizer brings the robot back toward its path (a little), not only stopping it where the push left it.
+    # The CoM reference integrates the commanded velocity within this distance of the measured CoM (motion.com_reference)
     ref_leash_m: float = 0.05
     mu: float = 0.6
     trajopt: TrajoptConfig = TrajoptConfig()
@@ -162,7 +161,7 @@ class Locomotion:
         self._last_target: ControlTarget | None = None
         self.start_xy = self._state.base_pos_world[:2].copy()
         com, _, _, _ = self.controller.kinematics(self._state.q_pinocchio(), self._state.v_pinocchio())
-        self.com_xy_ref = com[:2].copy()
+        self.com_ref = ComReference(com[:2], self.config.ref_leash_m, self.sim.config.dt_s)
         self.max_abs_yaw_rad, self.wall_time_s = 0.0, 0.0
         # The last step's legs, the tops under them and where they stood at lift-off.
         self._liftoff_tops: tuple[tuple[int, ...], np.ndarray, np.ndarray] | None = None
@@ -172,6 +171,7 @@ class Locomotion:
         if self.observer is not None:
             self.observer.reset()
         self._delivered, self._leg_sigma_m = np.zeros((4, 3)), np.full(4, np.inf)
+        self._still_xy = np.zeros(2)
 
     def set_command(self, vx: float, vy: float) -> None:
         """Commanded velocity (m/s) in the horizontal body frame of the reference heading."""
@@ -268,7 +268,7 @@ class Locomotion:
                 self._brace_touchdown(state, plan)
         self._last_target = target
         self.sim.step(tau)
-        self._advance_reference(self.controller.last_com[:2])
+        self.com_ref.advance(self.controller.last_com[:2], self._reference_vel_world())
         self.tick += 1
         self._state = state = self.sim.state(with_contacts=False)
         if self.tick % self.config.fall_check_every_ticks == 0:
@@ -277,20 +277,12 @@ class Locomotion:
         if not self.reached_goal and self.sim.reached_goal(state):
             self.reached_goal = True
 
-    def _advance_reference(self, com_xy: np.ndarray) -> None:
-        """Move the CoM reference path by one tick of commanded velocity, on a leash to the CoM (on Python
-        floats: this runs at 1 kHz)."""
-        dt = self.sim.config.dt_s
-        ref_x, ref_y = self.com_xy_ref.tolist()
-        vel_x, vel_y = self._vel_cmd_world.tolist()
-        com_x, com_y = com_xy.tolist()
-        ref_x, ref_y = ref_x + vel_x * dt, ref_y + vel_y * dt
-        lead_x, lead_y = ref_x - com_x, ref_y - com_y
-        distance = math.hypot(lead_x, lead_y)
-        leash = self.config.ref_leash_m
-        if distance > leash:
-            ref_x, ref_y = com_x + lead_x * (leash / distance), com_y + lead_y * (leash / distance)
-        self.com_xy_ref[0], self.com_xy_ref[1] = ref_x, ref_y
+    def _reference_vel_world(self) -> np.ndarray:
+        """(2,) the CoM reference's velocity: the command's, held still while the active plan's horizon is braced
+        (``BraceConfig.hold_reference``)."""
+        plan, brace = self.plan, self.config.brace
+        held = plan is not None and plan.braced and brace is not None and brace.hold_reference
+        return self._still_xy if held else self._vel_cmd_world
 
     # ---- planning --------------------------------------------------------------------------
     def _context(self, state: SimState) -> PlanningContext:
@@ -371,7 +363,7 @@ class Locomotion:
         )
         plan = ActivePlan(
             t0_s=t_now, plan_t0_s=t_now, steps=steps, contact=contact, foot_pos=foot_pos, solution=None, swings=swings,
-            tops_z=tops,
+            tops_z=tops, braced=braced,
         )
         previous = self.plan
         self.plan = plan
@@ -443,10 +435,10 @@ class Locomotion:
             x0=x0,
             contact=contact,
             foot_pos_world=foot_pos,
-            com_vel_ref_xy=self._vel_cmd_world.copy(),
+            com_vel_ref_xy=self._reference_vel_world().copy(),
             com_height_ref_m=np.mean(tops, axis=1) + self.com_height_ref_m,
             yaw_ref_rad=self.yaw_ref_rad,
-            com_xy_ref_start=self.com_xy_ref.copy(),
+            com_xy_ref_start=self.com_ref.xy_world.copy(),
             pitch_ref_rad=body_pitch(tops, self._front_to_hind_m),
             external_force_world=known_world, contact_normals_world=ground_normals(self.terrain, foot_pos),
         )

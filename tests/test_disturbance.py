@@ -333,6 +333,56 @@ def test_a_trot_pushed_from_the_side_braces_and_walks_on(robot):
     assert counts[True] >= 2 and counts[False] == 0
 
 
+def test_the_com_reference_moves_with_its_velocity_on_a_leash_to_the_com():
+    """``ComReference.advance``: one tick of the velocity, then back along the line to the CoM within the leash;
+    with no velocity it moves only when the CoM goes beyond the leash (a pushed body pulls it along)."""
+    from contactnet.motion.com_reference import ComReference
+
+    ref = ComReference(np.array([1.0, 2.0, 0.3]), leash_m=0.05, dt_s=0.001)
+    ref.advance(np.array([1.0, 2.0]), np.array([0.1, -0.2]))
+    assert np.allclose(ref.xy_world, [1.0001, 1.9998])
+    ref = ComReference(np.array([1.0, 2.0]), leash_m=0.05, dt_s=0.001)
+    for _ in range(1000):  # 1 s at 0.1 m/s with the CoM standing: 10 cm asked, the leash keeps 5
+        ref.advance(np.array([1.0, 2.0]), np.array([0.1, 0.0]))
+    assert np.allclose(ref.xy_world, [1.05, 2.0], atol=1e-12)
+    ref.advance(np.array([1.01, 2.02]), np.zeros(2))  # still, the CoM within the leash (4.5 cm): it stays
+    assert np.allclose(ref.xy_world, [1.05, 2.0], atol=1e-12)
+    ref.advance(np.array([0.9, 2.0]), np.zeros(2))  # the CoM pushed 15 cm from it: pulled to 5 cm of the CoM
+    assert np.allclose(ref.xy_world, [0.95, 2.0], atol=1e-12)
+    for leash in (0.0, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="leash"):
+            ComReference(np.zeros(2), leash, 0.001)
+
+
+def test_a_braced_robot_holds_its_com_still_and_walks_on_after_the_push(robot):
+    """Trot at 0.1 m/s pushed with 7.5 N from the side for 1 s: while it braces the CoM reference stands, so the body
+    stays over its four feet (measured: 0.2 mm along the command over the 1 s); with ``hold_reference=False`` the
+    reference goes on with the command and the body creeps 10 cm forward over feet that do not step. Both stand, and
+    the held robot walks on once the push is over."""
+    from contactnet.motion.gait import TROT
+    from contactnet.planning.brace import BraceConfig
+    from contactnet.sim.pybullet_world import Push
+
+    creep_m = {}
+    for hold in (True, False):
+        config = LocomotionConfig(brace=BraceConfig(hold_reference=hold))
+        with Locomotion(robot, flat(), TROT, HeuristicPlanner(TROT), config=config, vel_cmd_xy=(0.1, 0.0)) as loco:
+            loco.push(Push(1.5, 1.0, (0.0, -7.5, 0.0)))
+            braced_x = []
+            while loco.sim.t_s < 3.5 and not loco.done:
+                loco.advance(20)
+                if loco.plan.braced:
+                    braced_x.append(float(loco.controller.last_com[0]))
+            x_end = float(loco.controller.last_com[0])
+            summary = loco.summary()
+        assert not summary["fell"], summary["fall_reason"]
+        assert len(braced_x) >= 40  # braced for 0.8 s or more
+        creep_m[hold] = braced_x[-1] - braced_x[0]
+        if hold:
+            assert x_end - braced_x[-1] > 0.05  # walking on after the push (0.1 m/s for about 1 s)
+    assert abs(creep_m[True]) < 0.01 and creep_m[False] > 0.06, creep_m
+
+
 def test_a_push_as_the_trot_lifts_its_diagonal_puts_the_feet_down_again(robot):
     """7.5 N along +y for 1 s, starting just after a trot diagonal lifted off on flat ground: with bracing's
     touchdown the swinging feet come down on safe ground at once, the body gathers half the sideways speed it
@@ -437,7 +487,7 @@ def test_bracing_puts_a_foot_on_the_push_side_down_outward(robot):
         assert np.allclose(end[:2] - foot[:2], (outward_m or 0.0) * along, atol=1e-9)
     foot, end, _ = touchdown(0.02, -6.0)  # pushed from the left side: the left foot lands where it is
     assert np.allclose(end[:2], foot[:2], atol=1e-9)
-    assert robot.description.brace_outward_m == 0.0 and load_robot("go2").description.brace_outward_m == 0.0
+    assert robot.description.brace_outward_m == 0.0 and load_robot("go2").description.brace_outward_m == 0.05
     assert BraceConfig().outward_on(0.05, heights=False) == 0.05  # a robot's 5 cm
     assert BraceConfig().outward_on(0.05, heights=True) == 0.0
     assert BraceConfig(outward_m=0.03).outward_on(0.05, heights=True) == 0.03  # the loop's own, everywhere

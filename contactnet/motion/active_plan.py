@@ -28,6 +28,7 @@ class ActivePlan:
     touched: np.ndarray = field(default_factory=lambda: np.zeros(4, dtype=bool))  # swung legs that touched down
     solution_force_world: np.ndarray | None = None  # (3,) the external force `solution` was planned with (observer)
     braced_down: bool = False  # bracing put this step's swinging feet down early (contactnet.planning.brace)
+    braced: bool = False  # the horizon stands because of a push (contactnet.planning.brace)
 
     def node_at(self, t_s: float, node_dt_s: float) -> int:
         """The node (from ``plan_t0_s``) that ``t_s`` falls in."""

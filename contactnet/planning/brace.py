@@ -14,11 +14,12 @@ trot only). A step already under way when the estimate first reaches the thresho
 that is not safe ground, and feet about to lift stay down. Traced: a trot pushed sideways as its diagonal lifted
 gathered 0.4 m/s sideways in the 0.2 s that diagonal swung and then rolled over its four feet; with the touchdown
 it gathered 0.25 m/s and stood. A foot so put down on the push's side of the CoM can land ``outward_m`` farther
-along the push (the robot's ``brace_outward_m`` on terrain of one level by default; no robot shipped sets it), if
-that is safe ground: met as a front foot lifts, a side push asks a centre of pressure beyond the other three feet's
-triangle, and the foot that comes down is the one that can widen the support where it is asked (measured on Go2, not
-its default: docs/results.md). Once the estimate falls below the threshold the planner steps again, and the
-capture step (``contactnet.planning.capture``) takes the velocity the push left. Standing is always safe on the
+along the push (the robot's ``brace_outward_m`` on terrain of one level by default; Go2's 5 cm), if that is safe
+ground: met as a front foot lifts, a side push asks a centre of pressure beyond the other three feet's triangle, and
+the foot that comes down is the one that can widen the support where it is asked (measured on Go2: docs/results.md). While a horizon is braced the CoM reference stands still
+(``hold_reference``, ``contactnet.motion.com_reference``): going on with the command, it took the body over its
+standing feet (10 cm in a 1 s push at 0.1 m/s). Once the estimate falls below the threshold the planner steps again,
+and the capture step (``contactnet.planning.capture``) takes the velocity the push left. Standing is always safe on the
 terrain the feet already stand on, and a foot put down early lands on safe ground or where it stood, so bracing
 needs no other terrain check.
 """
@@ -56,8 +57,13 @@ class BraceConfig:
     min_remaining_s: float = 0.05  # fell 5 times of 8 with it, 6 without a touchdown and never with 0.04 s)
     # a foot so put down on the push's side of the CoM lands this far beyond where it is, along the estimated push
     # (m; if that is safe ground): a wider support where the push drives the centre of pressure. None: the robot's
-    # ``brace_outward_m`` (RobotSpec; 0 for the robots shipped)
+    # ``brace_outward_m`` (RobotSpec; Go2 0.05, Solo12 0)
     outward_m: float | None = None
+    # while a horizon is braced the CoM reference stands still: the command's velocity is not planned and the
+    # reference path does not move on with it (on its leash it follows only a body pushed away); False: the body
+    # creeps on over its standing feet at the command. Not for the rest of a step the touchdown put down (held then
+    # too, the trot pushed as its diagonal lifted, tested, tipped over)
+    hold_reference: bool = True
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.threshold_m_s2) and self.threshold_m_s2 >= 0.0):
