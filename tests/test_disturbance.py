@@ -349,7 +349,10 @@ def test_the_com_reference_moves_with_its_velocity_on_a_leash_to_the_com():
     assert np.allclose(ref.xy_world, [1.05, 2.0], atol=1e-12)
     ref.advance(np.array([0.9, 2.0]), np.zeros(2))  # the CoM pushed 15 cm from it: pulled to 5 cm of the CoM
     assert np.allclose(ref.xy_world, [0.95, 2.0], atol=1e-12)
-    for leash in (0.0, -0.1, float("nan")):
+    tied = ComReference(np.zeros(2), leash_m=0.0, dt_s=0.001)  # no leash: the reference is the CoM
+    tied.advance(np.array([0.3, -0.2]), np.array([0.1, 0.0]))
+    assert np.allclose(tied.xy_world, [0.3, -0.2], atol=1e-12)
+    for leash in (-0.1, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="leash"):
             ComReference(np.zeros(2), leash, 0.001)
 

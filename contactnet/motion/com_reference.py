@@ -18,8 +18,8 @@ class ComReference:
     """The CoM xy reference (world, m), advanced one tick at a time on a leash to the CoM."""
 
     def __init__(self, start_xy_world: np.ndarray, leash_m: float, dt_s: float):
-        if not (math.isfinite(leash_m) and leash_m > 0.0):
-            raise ValueError(f"the CoM reference's leash must be a finite number > 0 (m), got {leash_m!r}")
+        if not (math.isfinite(leash_m) and leash_m >= 0.0):  # 0: the reference is the CoM itself
+            raise ValueError(f"the CoM reference's leash must be a finite number >= 0 (m), got {leash_m!r}")
         self.xy_world = np.array(start_xy_world, dtype=float)[:2]  # (2,)
         self.leash_m, self.dt_s = float(leash_m), float(dt_s)
 
