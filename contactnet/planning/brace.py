@@ -18,7 +18,7 @@ along the push (the robot's ``brace_outward_m`` on terrain of one level by defau
 ground: met as a front foot lifts, a side push asks a centre of pressure beyond the other three feet's triangle, and
 the foot that comes down is the one that can widen the support where it is asked (measured on Go2: docs/results.md).
 While a horizon is braced the CoM reference stands still (``hold_reference``, ``contactnet.motion.com_reference``):
-going on with the command, it took the body over its standing feet (10 cm in a 1 s push at 0.1 m/s). Once the
+going on with the command, it took the body over its standing feet (9 cm in a 1 s push at 0.1 m/s). Once the
 estimate falls below the threshold the planner steps again, and the capture step (``contactnet.planning.capture``)
 takes the velocity the push left. Standing is always safe on the terrain the feet already stand on, and a foot put
 down early lands on safe ground or where it stood, so bracing needs no other terrain check.
