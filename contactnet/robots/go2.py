@@ -80,7 +80,7 @@ SPEC = RobotSpec(
     one_level_stance_gaits=("trot",),
     # On terrain of one level a foot that bracing puts down on the push's side lands 5 cm farther along the push: met
     # as a front foot lifted, a 32.2 N side push asked a centre of pressure beyond the other three feet; with the CoM
-    # reference held while braced (it had taken the body on over a stretched hind leg) none of 600 32.2 N pushes fell
+    # reference held while braced (it had taken the body on over a stretched hind leg) none of 800 32.2 N pushes fell
     # (docs/results.md, "Held still while braced (the default), and Go2's foot braced outward").
     brace_outward_m=0.05,
     collision_recipe=collision_recipe,
