@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from importlib.metadata import EntryPoint
@@ -75,10 +76,13 @@ def test_a_registered_terrain_is_resolved_by_name_and_cannot_take_a_shipped_name
 
 @pytest.fixture(scope="module")
 def plugin_path(tmp_path_factory) -> Path:
-    """``examples/plugin`` installed with pip into a folder of its own (no dependencies, no build isolation: offline)."""
+    """``examples/plugin`` installed with pip into a folder of its own (no dependencies, no build isolation: offline),
+    built from a copy: the build writes its ``build/`` and ``*.egg-info`` beside the sources, not into the checkout."""
+    source = tmp_path_factory.mktemp("plugin_source") / "plugin"
+    shutil.copytree(ROOT / "examples" / "plugin", source, ignore=shutil.ignore_patterns("build", "*.egg-info"))
     target = tmp_path_factory.mktemp("plugin")
     subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation", "--target",
-                    str(target), str(ROOT / "examples" / "plugin")], check=True, capture_output=True, timeout=300)
+                    str(target), str(source)], check=True, capture_output=True, timeout=300)
     return target
 
 
