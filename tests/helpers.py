@@ -140,8 +140,17 @@ def light(url: str) -> str:
     return url + ("&" if "?" in url else "?") + LIGHT_VIEW
 
 
+#: How long a check of a browser page's text waits for what the server already shows. On a busy machine (another
+#: browser test and a session on the second core) the first frames with the robot and the scene, drawn in software
+#: WebGL, held a page's main thread for 10-30 s after its session started (measured: `page.evaluate` answered after
+#: 9.8-13 s, and the panel then showed a status up to 25 s old and caught up within a second); a 30 s wait failed
+#: about one run in ten there, while the server said "standing" all along.
+PAGE_STALL_MS = 120_000
+
+
 def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
-    """A 1400 x 900 page of the viser client served at ``port`` (loopback, `light`), once it says "Connected"."""
+    """A 1400 x 900 page of the viser client served at ``port`` (loopback, `light`), once it says "Connected". (Its
+    session's first frames may still hold it for a while: `PAGE_STALL_MS`.)"""
     page = new_page(browser)
     page.goto(light(f"http://127.0.0.1:{port}/"))
     page.get_by_text("Connected").wait_for(timeout=90_000)

@@ -47,18 +47,20 @@ def test_go2s_walk_pushed_from_the_side_keeps_its_unloaded_front_foot_with_the_l
 @pytest.mark.slow
 @pytest.mark.parametrize("gait_name, push, until_s", [("trot", (43.941, -15.443, -28.2552), 44.9),
                                                       ("walk", (53.554, -20.855, -24.5338), 55.0)])
-def test_go2_pushed_toward_its_right_stands_as_shipped_and_falls_with_its_feedback_spread_once(gait_name, push, until_s):
+def test_go2_pushed_toward_its_right_stands_as_shipped_and_the_trot_falls_with_its_feedback_spread_once(gait_name, push, until_s):
     """Go2's two falls of 200 fresh pushes of 32.2 N (push seed 11: the trot's trial 1 as its diagonal lifted, the
     walk's trial 6): once braced, the roll correction asked the left feet to pull; clipped at the minimum load, their
     pull became a push that lifted the body, the next plan dropped it, and the body rolled over its right feet. As
     shipped (the wrench spread again over the other feet, ``unload_rounds`` 2 on terrain of one level) both stand;
-    spread once and clipped both fall. (The spread changes the walk before the push as well, and is not what saves
-    these two if switched on only at the push: docs/results.md, "Go2's feedback spread again".)"""
+    spread once and clipped both fall (checked here for the trot only: the walk's pair is 110 s of simulation, and
+    its clipped fall is in docs/results.md). (The spread changes the walk before the push as well, and is not what
+    saves these two if switched on only at the push: docs/results.md, "Go2's feedback spread again".)"""
     spread = _pushed("go2", "pybullet", 1.0, push, until_s, gait_name)
     assert ControllerGains.for_robot(_go2_on_one_level(gait_name).description).unload_rounds == 2
     assert not spread["fell"], spread["fall_reason"]
-    clipped = _pushed("go2", "pybullet", 1.0, push, until_s, gait_name, unload_rounds=0)
-    assert clipped["fell"] and "tilted" in clipped["fall_reason"]
+    if gait_name == "trot":
+        clipped = _pushed("go2", "pybullet", 1.0, push, until_s, gait_name, unload_rounds=0)
+        assert clipped["fell"] and "tilted" in clipped["fall_reason"]
 
 
 def _go2_on_one_level(gait_name: str):  # noqa: ANN201 - a Robot
