@@ -87,9 +87,13 @@ def test_compare_from_the_default_page_offers_narrow_stones(tool, page):
     # The difference, shown: the fixed gait's robot falls (simulate: at 9.6 s), ContactNet's walks on.
     page.evaluate("fetch('/api/settings', {method: 'POST', headers: {'Content-Type': 'application/json'},"
                   " body: JSON.stringify({speed: 2.0})})")
-    wait_for(lambda: app.state().compare and app.state().compare[0].fell, timeout=90, poll_s=0.25,
-             what="the fixed gait's robot to fall on narrow stones")
+    def fell_or_past_it() -> bool:  # bounded in simulated time: a busy machine runs the session slower than real time
+        state = app.state()
+        return bool(state.compare and state.compare[0].fell) or state.t_s > 15.0
+
+    wait_for(fell_or_past_it, timeout=600, poll_s=0.25, what="the fixed gait's robot to fall or 15 s on narrow stones")
     state = app.state()
+    assert state.compare and state.compare[0].fell, f"the fixed gait's robot still walks at t = {state.t_s:.1f} s"
     assert not state.fell and state.compare[0].planner == "fixed"
     page.locator("#tracks .track.bad").first.wait_for()  # its progress bar says it fell
     shot(page, "compare_narrow_stones")
