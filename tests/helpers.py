@@ -108,7 +108,10 @@ def chromium():
 
 
 #: How long a page's actions and waits may take (playwright's default is 30 s): a guard against a hang beside the
-#: software renderer of a loaded machine (CI runs the browser tests beside another worker), not a speed test.
+#: software renderer of a loaded machine (CI runs the browser tests beside another worker), not a speed test. When a
+#: session starts, its first frames with the robot and the scene, drawn in software WebGL, held a page's main thread
+#: 10-30 s on such a machine (measured: `page.evaluate` answered after 9.8-13 s, and the panel then showed a status up
+#: to 25 s old and caught up within a second): a wait of 30 s for the page's text failed about one run in ten there.
 BROWSER_TIMEOUT_MS = 90_000
 
 
@@ -140,17 +143,9 @@ def light(url: str) -> str:
     return url + ("&" if "?" in url else "?") + LIGHT_VIEW
 
 
-#: How long a check of a browser page's text waits for what the server already shows. On a busy machine (another
-#: browser test and a session on the second core) the first frames with the robot and the scene, drawn in software
-#: WebGL, held a page's main thread for 10-30 s after its session started (measured: `page.evaluate` answered after
-#: 9.8-13 s, and the panel then showed a status up to 25 s old and caught up within a second); a 30 s wait failed
-#: about one run in ten there, while the server said "standing" all along.
-PAGE_STALL_MS = 120_000
-
-
 def open_viser(browser, port: int):  # noqa: ANN001, ANN201 - playwright objects
     """A 1400 x 900 page of the viser client served at ``port`` (loopback, `light`), once it says "Connected". (Its
-    session's first frames may still hold it for a while: `PAGE_STALL_MS`.)"""
+    session's first frames may still hold it for a while: `BROWSER_TIMEOUT_MS`.)"""
     page = new_page(browser)
     page.goto(light(f"http://127.0.0.1:{port}/"))
     page.get_by_text("Connected").wait_for(timeout=90_000)

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 from helpers import (
     ARTIFACTS,
-    PAGE_STALL_MS,
     browser_marks,
     chromium,
     live_app,
@@ -63,7 +62,7 @@ def test_a_stand_by_choice_shows_in_the_3d_view_the_panel_and_the_gait_plot(live
     assert marks.stand_label.visible and marks.stand_outline.visible and marks.stand_label.text == STANDING
     assert app.session.view.snapshot.steps == 0  # standing, not stepping
     # in the page: the status panel's headline (viser draws the label above the robot in the canvas, not the DOM)
-    page.locator("strong", has_text=f"{STANDING} · ").first.wait_for(timeout=PAGE_STALL_MS)  # the first frames
+    page.locator("strong", has_text=f"{STANDING} · ").first.wait_for()  # BROWSER_TIMEOUT_MS: the first frames
     page.get_by_text("stood ").first.wait_for(timeout=30_000)  # the panel's counts
     stand_past = 9  # the gait plot's series: t, 4 legs, 4 legs planned, stand, stand planned
     plot = app.viewer.panel.plots.gait_plot

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from helpers import (
     ARTIFACTS,
-    PAGE_STALL_MS,
     browser_marks,
     camera_offset,
     chromium,
@@ -45,7 +44,7 @@ def page(live):
 
 
 def test_the_software_webgl_toast_closes_by_itself(live, page):
-    page.get_by_text("Software WebGL rendering").first.wait_for(state="hidden", timeout=PAGE_STALL_MS)
+    page.get_by_text("Software WebGL rendering").first.wait_for(state="hidden")  # BROWSER_TIMEOUT_MS
 
 
 def test_a_click_on_a_disk_names_it(live, page):
